@@ -1,0 +1,213 @@
+//! The commands behind the command line, as library functions that take plain arguments and
+//! write to a given output, so that they are testable without spawning the binary.
+
+use crate::dynamics::{settle, settle_many, SettleResult};
+use crate::error::{Error, Result};
+use crate::geometry::{xyzw, Orientation, Pair};
+use crate::packing::{self, points_csv};
+use crate::scenario::{parse_pairs, Scenario};
+use std::io::Write;
+use std::path::Path;
+
+fn write_err(path: &str) -> impl Fn(std::io::Error) -> Error + '_ {
+    move |e| Error::io(path, e)
+}
+
+/// `spherestep packing`: the compatibility report of a scenario's rotor and stator.
+pub fn packing_report(sc: &Scenario, json: bool, out: &mut dyn Write) -> Result<()> {
+    let r = packing::report(&sc.rotor, &sc.stator);
+    let w = write_err("<stdout>");
+    if json {
+        let s = serde_json::to_string_pretty(&r).map_err(|e| Error::Arg {
+            arg: "--json".into(),
+            expected: e.to_string(),
+        })?;
+        writeln!(out, "{s}").map_err(&w)?;
+        return Ok(());
+    }
+    writeln!(out, "scenario: {}", sc.name).map_err(&w)?;
+    writeln!(
+        out,
+        "rotor: {} magnets, minimum separation {:.3} deg",
+        r.rotor_magnets, r.rotor_min_separation_deg
+    )
+    .map_err(&w)?;
+    writeln!(
+        out,
+        "stator: {} coils, minimum separation {:.3} deg, cap radius about -Z {:.3} deg",
+        r.stator_coils, r.stator_min_separation_deg, r.stator_cap_radius_deg
+    )
+    .map_err(&w)?;
+    writeln!(
+        out,
+        "rotor center lengths: {} distinct (merged within {} deg)",
+        r.rotor_center_lengths_deg.len(),
+        packing::CENTER_LENGTH_TOL.0
+    )
+    .map_err(&w)?;
+    writeln!(out, "stator center lengths against the nearest rotor ones:").map_err(&w)?;
+    writeln!(
+        out,
+        "{:>12} {:>8} {:>14} {:>14}",
+        "stator_deg", "pairs", "rotor_deg", "mismatch_deg"
+    )
+    .map_err(&w)?;
+    for m in &r.stator_center_lengths {
+        writeln!(
+            out,
+            "{:>12.3} {:>8} {:>14.3} {:>14.3}",
+            m.stator_deg, m.stator_pairs, m.nearest_rotor_deg, m.mismatch_deg
+        )
+        .map_err(&w)?;
+    }
+    writeln!(out, "worst mismatch: {:.3} deg", r.worst_mismatch_deg).map_err(&w)?;
+    Ok(())
+}
+
+/// Regenerates the prototype's coordinate files (rotor.csv, stator.csv) into `dir`.
+pub fn write_prototype(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    for (name, p) in [
+        ("rotor.csv", packing::generate_prototype_rotor()),
+        ("stator.csv", packing::generate_prototype_stator()),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, points_csv(&p)).map_err(|e| Error::io(&path, e))?;
+    }
+    Ok(())
+}
+
+/// One settle result as a JSON object with the documented keys.
+pub fn settle_json(r: &SettleResult) -> serde_json::Value {
+    serde_json::json!({
+        "q": xyzw(&r.q),
+        "settle_time_s": r.settle_time_s,
+        "evaluations": r.evaluations,
+        "steps": r.steps,
+        "energy_j": r.energy_j,
+        "residual_torque_nm": r.residual_torque_nm,
+        "settled": r.settled,
+    })
+}
+
+/// Text form of an active set in files: `coil:magnet;coil:magnet`.
+pub fn active_text(active: &[Pair]) -> String {
+    active
+        .iter()
+        .map(|p| p.to_string())
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// `spherestep settle --pairs`: settles one active set and prints the result.
+pub fn settle_one(
+    sc: &Scenario,
+    pairs: &str,
+    from: &Orientation,
+    json: bool,
+    out: &mut dyn Write,
+) -> Result<SettleResult> {
+    let active = parse_pairs(pairs, "--pairs")?;
+    sc.check_active(&active, "--pairs")?;
+    let r = settle(&sc.torques, &active, from, sc.body, sc.settle);
+    let w = write_err("<stdout>");
+    if json {
+        writeln!(out, "{}", settle_json(&r)).map_err(&w)?;
+    } else {
+        let q = xyzw(&r.q);
+        writeln!(out, "active: {}", active_text(&active)).map_err(&w)?;
+        writeln!(
+            out,
+            "q (qx, qy, qz, qw): {:.9}, {:.9}, {:.9}, {:.9}",
+            q[0], q[1], q[2], q[3]
+        )
+        .map_err(&w)?;
+        writeln!(
+            out,
+            "settled: {}  at t = {:.6} s  ({} evaluations, {} steps)",
+            if r.settled { "yes" } else { "NO" },
+            r.settle_time_s,
+            r.evaluations,
+            r.steps
+        )
+        .map_err(&w)?;
+        writeln!(
+            out,
+            "energy: {:.9} J  residual torque: {:.3e} N m",
+            r.energy_j, r.residual_torque_nm
+        )
+        .map_err(&w)?;
+    }
+    Ok(r)
+}
+
+/// Header of the CSV written by `settle --sets`.
+pub const SETS_HEADER: [&str; 12] = [
+    "line",
+    "active",
+    "qx",
+    "qy",
+    "qz",
+    "qw",
+    "settle_time_s",
+    "evaluations",
+    "steps",
+    "energy_j",
+    "residual_torque_nm",
+    "settled",
+];
+
+/// Reads a sets file: one active set per non-empty line (`#` starts a comment), each checked.
+pub fn read_sets(sc: &Scenario, path: &Path) -> Result<Vec<Vec<Pair>>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mut sets = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let row = |e: Error| Error::Row {
+            file: path.to_path_buf(),
+            line: i + 1,
+            message: e.to_string(),
+        };
+        let set = parse_pairs(line, "active set").map_err(row)?;
+        sc.check_active(&set, "active set").map_err(row)?;
+        sets.push(set);
+    }
+    Ok(sets)
+}
+
+/// `spherestep settle --sets FILE`: settles every set in parallel, writes one CSV row per set,
+/// in the file's order.
+pub fn settle_sets(
+    sc: &Scenario,
+    sets: &[Vec<Pair>],
+    from: &Orientation,
+    out: &mut dyn Write,
+) -> Result<Vec<SettleResult>> {
+    let results = settle_many(&sc.torques, sets, from, sc.body, sc.settle);
+    let mut w = csv::Writer::from_writer(out);
+    let e = |e: csv::Error| Error::io("<output>", std::io::Error::other(e.to_string()));
+    w.write_record(SETS_HEADER).map_err(e)?;
+    for (k, (set, r)) in sets.iter().zip(&results).enumerate() {
+        let q = xyzw(&r.q);
+        w.write_record([
+            (k + 1).to_string(),
+            active_text(set),
+            q[0].to_string(),
+            q[1].to_string(),
+            q[2].to_string(),
+            q[3].to_string(),
+            r.settle_time_s.to_string(),
+            r.evaluations.to_string(),
+            r.steps.to_string(),
+            r.energy_j.to_string(),
+            r.residual_torque_nm.to_string(),
+            r.settled.to_string(),
+        ])
+        .map_err(e)?;
+    }
+    w.flush().map_err(|er| Error::io("<output>", er))?;
+    Ok(results)
+}

@@ -1,0 +1,56 @@
+//! The library's typed errors. Every message names where the problem is (file, field or
+//! argument) and what was expected, so the binary can print it as it is.
+
+use std::path::PathBuf;
+
+/// Errors of the spherestep library.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A scenario file's field holds a value that is not allowed.
+    #[error("{file}: field `{field}`: expected {expected}")]
+    Field {
+        file: PathBuf,
+        field: String,
+        expected: String,
+    },
+    /// A file could not be parsed at all (syntax, unknown key, wrong type).
+    #[error("{file}: {message}")]
+    Parse { file: PathBuf, message: String },
+    /// A command-line argument is malformed.
+    #[error("argument {arg}: expected {expected}")]
+    Arg { arg: String, expected: String },
+    /// A row of a CSV input file is malformed.
+    #[error("{file}: line {line}: {message}")]
+    Row {
+        file: PathBuf,
+        line: usize,
+        message: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Result with the library's error.
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    pub fn field(file: impl Into<PathBuf>, field: &str, expected: impl Into<String>) -> Self {
+        Error::Field {
+            file: file.into(),
+            field: field.to_string(),
+            expected: expected.into(),
+        }
+    }
+
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

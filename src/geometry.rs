@@ -1,0 +1,251 @@
+//! Geometry on the unit sphere and of rotations: angular distance, the paper's ROT[n, theta],
+//! numerically safe angle/axis extraction, and the small typed wrappers (degrees, radians, unit
+//! vectors, coil and magnet indices) that keep units and indices from being confused.
+
+use nalgebra::{Matrix3, Quaternion, Rotation3, Unit, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// A unit vector in R^3 (a point on the unit sphere).
+pub type UnitVec = Unit<Vector3<f64>>;
+/// An orientation, body to world, as a unit quaternion (q1, q2, q3, q4) = (vector, scalar).
+pub type Orientation = UnitQuaternion<f64>;
+
+/// An angle in degrees. Only converted to radians explicitly.
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd, Serialize, Deserialize, Default)]
+#[serde(transparent)]
+pub struct Degrees(pub f64);
+
+/// An angle in radians.
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd, Serialize, Deserialize, Default)]
+#[serde(transparent)]
+pub struct Radians(pub f64);
+
+impl Degrees {
+    pub fn to_radians(self) -> Radians {
+        Radians(self.0.to_radians())
+    }
+}
+
+impl Radians {
+    pub fn to_degrees(self) -> Degrees {
+        Degrees(self.0.to_degrees())
+    }
+}
+
+impl From<Degrees> for Radians {
+    fn from(d: Degrees) -> Self {
+        d.to_radians()
+    }
+}
+
+impl From<Radians> for Degrees {
+    fn from(r: Radians) -> Self {
+        r.to_degrees()
+    }
+}
+
+/// Index of a stator coil (0-based).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct CoilId(pub usize);
+
+/// Index of a rotor magnet (0-based).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct MagnetId(pub usize);
+
+impl fmt::Display for CoilId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+
+impl fmt::Display for MagnetId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+
+/// A pair: stator coil `coil` attracting rotor magnet `magnet`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct Pair {
+    pub coil: CoilId,
+    pub magnet: MagnetId,
+}
+
+impl Pair {
+    pub fn new(coil: usize, magnet: usize) -> Self {
+        Pair {
+            coil: CoilId(coil),
+            magnet: MagnetId(magnet),
+        }
+    }
+}
+
+impl fmt::Display for Pair {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}", self.coil, self.magnet)
+    }
+}
+
+/// Angular distance on the sphere, d(a, b) = acos(clamp(a . b, -1, 1)), in [0, pi].
+///
+/// Computed with atan2 of the cross and dot products, which is accurate also near 0 and pi.
+pub fn angular_distance(a: &UnitVec, b: &UnitVec) -> Radians {
+    Radians(a.cross(b).norm().atan2(a.dot(b)))
+}
+
+/// The paper's ROT[n, theta] = exp(theta N) as a rotation matrix.
+pub fn rot(n: &UnitVec, theta: Radians) -> Rotation3<f64> {
+    Rotation3::from_axis_angle(n, theta.0)
+}
+
+/// ROT[n, theta] as a unit quaternion.
+pub fn rot_q(n: &UnitVec, theta: Radians) -> Orientation {
+    UnitQuaternion::from_axis_angle(n, theta.0)
+}
+
+/// Angle theta(R) in [0, pi] of a rotation, computed from its quaternion (safe near 0 and pi).
+pub fn rotation_angle(q: &Orientation) -> Radians {
+    let v = q.imag().norm();
+    let w = q.w.abs();
+    Radians(2.0 * v.atan2(w))
+}
+
+/// Axis n(R) of a rotation (the direction of its positive rotation), or `None` for the identity
+/// (angle below 1e-12 rad), where the axis is undefined.
+pub fn rotation_axis(q: &Orientation) -> Option<UnitVec> {
+    let v = q.imag();
+    let n = v.norm();
+    if n < 1e-12 * 0.5 {
+        return None;
+    }
+    let sign = if q.w < 0.0 { -1.0 } else { 1.0 };
+    Some(Unit::new_unchecked(v * (sign / n)))
+}
+
+/// The paper's theta(R) = acos((tr R - 1)/2), evaluated safely: the matrix is converted to a
+/// quaternion first, so there is no division by ~0 near theta = 0 or pi.
+pub fn matrix_angle(r: &Matrix3<f64>) -> Radians {
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*r));
+    rotation_angle(&q)
+}
+
+/// Rotation angle of `q` about the signed axis `n`: the angle of the rotation, with the sign of
+/// the projection of its axis on `n`.
+pub fn signed_angle_about(q: &Orientation, n: &UnitVec) -> Radians {
+    match rotation_axis(q) {
+        None => Radians(0.0),
+        Some(a) => {
+            let th = rotation_angle(q).0;
+            if a.dot(n) >= 0.0 {
+                Radians(th)
+            } else {
+                Radians(-th)
+            }
+        }
+    }
+}
+
+/// Axis error of a rotation relative to the desired axis `n`: the angle between n(R) and n.
+/// For a rotation that turns backwards the error is measured against -n (so it is at most pi/2
+/// for a rotation about the right line); the identity has no axis and an error of 0.
+pub fn axis_error(q: &Orientation, n: &UnitVec) -> Radians {
+    match rotation_axis(q) {
+        None => Radians(0.0),
+        Some(a) => angular_distance(&a, n),
+    }
+}
+
+/// A unit vector from raw components, or `None` for a zero, non-finite vector.
+pub fn unit(v: Vector3<f64>) -> Option<UnitVec> {
+    let n = v.norm();
+    if !n.is_finite() || n < 1e-12 || v.iter().any(|c| !c.is_finite()) {
+        None
+    } else {
+        Some(Unit::new_normalize(v))
+    }
+}
+
+/// Quaternion from file components (qx, qy, qz, qw), normalised; `None` if zero or not finite.
+pub fn orientation_from_xyzw(x: f64, y: f64, z: f64, w: f64) -> Option<Orientation> {
+    let q = Quaternion::new(w, x, y, z);
+    let n = q.norm();
+    if !n.is_finite() || n < 1e-12 || [x, y, z, w].iter().any(|c| !c.is_finite()) {
+        None
+    } else {
+        Some(UnitQuaternion::from_quaternion(q))
+    }
+}
+
+/// File components (qx, qy, qz, qw) of an orientation, with qw >= 0 (the same rotation).
+pub fn xyzw(q: &Orientation) -> [f64; 4] {
+    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
+    [s * q.i, s * q.j, s * q.k, s * q.w]
+}
+
+/// Unit vector from spherical coordinates: azimuth phi, polar angle theta (paper 3.1).
+pub fn from_spherical(phi: Radians, theta: Radians) -> UnitVec {
+    Unit::new_normalize(Vector3::new(
+        phi.0.cos() * theta.0.sin(),
+        phi.0.sin() * theta.0.sin(),
+        theta.0.cos(),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    fn v(x: f64, y: f64, z: f64) -> UnitVec {
+        unit(Vector3::new(x, y, z)).unwrap()
+    }
+
+    #[test]
+    fn distance_is_accurate_near_zero_and_pi() {
+        let a = v(1.0, 0.0, 0.0);
+        let b = v(1.0, 1e-9, 0.0);
+        assert!((angular_distance(&a, &b).0 - 1e-9).abs() < 1e-18);
+        let c = v(-1.0, 1e-9, 0.0);
+        assert!((angular_distance(&a, &c).0 - (PI - 1e-9)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn rot_matches_paper_formula() {
+        let n = v(1.0, 2.0, 3.0);
+        let th = 0.7;
+        let nn = n.into_inner();
+        let nm = Matrix3::new(0.0, -nn.z, nn.y, nn.z, 0.0, -nn.x, -nn.y, nn.x, 0.0);
+        let paper = Matrix3::identity() + nm * th.sin() + nm * nm * (1.0 - th.cos());
+        let r = rot(&n, Radians(th));
+        assert!((r.matrix() - paper).norm() < 1e-14);
+        // theta(R) and n(R) recover them
+        assert!((matrix_angle(r.matrix()).0 - th).abs() < 1e-14);
+        let q = rot_q(&n, Radians(th));
+        assert!((rotation_axis(&q).unwrap().into_inner() - nn).norm() < 1e-14);
+    }
+
+    #[test]
+    fn angle_and_axis_are_safe_near_pi_and_zero() {
+        let n = v(0.0, 0.0, 1.0);
+        let q = rot_q(&n, Radians(PI - 1e-10));
+        assert!((rotation_angle(&q).0 - (PI - 1e-10)).abs() < 1e-12);
+        assert!(axis_error(&q, &n).0 < 1e-6);
+        let q = rot_q(&n, Radians(1e-9));
+        assert!((rotation_angle(&q).0 - 1e-9).abs() < 1e-20);
+        assert!(axis_error(&q, &n).0 < 1e-9);
+        assert_eq!(rotation_axis(&UnitQuaternion::identity()), None);
+        let q = rot_q(&n, Radians(-0.3));
+        assert!((signed_angle_about(&q, &n).0 + 0.3).abs() < 1e-14);
+    }
+
+    #[test]
+    fn bad_vectors_are_rejected() {
+        assert!(unit(Vector3::zeros()).is_none());
+        assert!(unit(Vector3::new(f64::NAN, 0.0, 1.0)).is_none());
+        assert!(orientation_from_xyzw(0.0, 0.0, 0.0, 0.0).is_none());
+        assert!(orientation_from_xyzw(0.0, f64::INFINITY, 0.0, 1.0).is_none());
+    }
+}

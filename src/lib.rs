@@ -1,0 +1,15 @@
+//! spherestep: commutation, motion planning, settling and hardware replay for spherical stepper
+//! motors (a ball rotor of permanent magnets turned by switching the electromagnets of a small
+//! stator cap). Conventions: ../shared/MODEL.md, summarised in the README.
+
+pub mod app;
+pub mod dynamics;
+pub mod error;
+pub mod geometry;
+pub mod packing;
+pub mod planfile;
+pub mod scenario;
+pub mod symmetry;
+pub mod torque;
+
+pub use error::{Error, Result};

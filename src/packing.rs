@@ -1,0 +1,381 @@
+//! Packings of points on the sphere: rotor magnets (body frame) and stator coils (world frame).
+//! A semi-regular packing is a rotation group, generator points and an optional cap; the
+//! built-in `prototype` reconstructs the paper's motor (80 magnets with octahedral symmetry,
+//! 16 coils from an icosahedral packing, one on -Z). The compatibility report compares "center
+//! lengths" (paper section 2.1).
+
+use crate::geometry::{angular_distance, unit, Degrees, Radians, UnitVec};
+use crate::symmetry::{orbit, Group};
+use nalgebra::Vector3;
+use serde::Serialize;
+
+/// Points on the unit sphere.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Packing {
+    pub points: Vec<UnitVec>,
+}
+
+/// A semi-regular packing: the union of the orbits of generator points under a group,
+/// optionally kept only inside a spherical cap.
+#[derive(Debug, Clone)]
+pub struct SemiRegular {
+    pub group: Group,
+    pub generators: Vec<UnitVec>,
+    pub cap: Option<Cap>,
+}
+
+/// A spherical cap: the points within `radius` of `center`.
+#[derive(Debug, Clone, Copy)]
+pub struct Cap {
+    pub center: UnitVec,
+    pub radius: Radians,
+}
+
+impl Cap {
+    pub fn contains(&self, p: &UnitVec) -> bool {
+        angular_distance(&self.center, p).0 <= self.radius.0 + 1e-9
+    }
+}
+
+impl SemiRegular {
+    /// The points: orbits in generator order, duplicates (shared by two orbits) removed.
+    pub fn points(&self) -> Packing {
+        let mut pts: Vec<UnitVec> = Vec::new();
+        for g in &self.generators {
+            for p in orbit(self.group, g) {
+                let inside = self.cap.as_ref().is_none_or(|c| c.contains(&p));
+                if inside && !pts.iter().any(|q| (q.into_inner() - p.into_inner()).norm() < 1e-9)
+                {
+                    pts.push(p);
+                }
+            }
+        }
+        Packing { points: pts }
+    }
+}
+
+impl Packing {
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Smallest angular distance between two points (pi for fewer than two points).
+    pub fn min_separation(&self) -> Radians {
+        let mut m = std::f64::consts::PI;
+        for (a, p) in self.points.iter().enumerate() {
+            for q in &self.points[a + 1..] {
+                m = m.min(angular_distance(p, q).0);
+            }
+        }
+        Radians(m)
+    }
+
+    /// The distinct "center lengths": pairwise angular distances, merged when within `tol` of
+    /// the previous one (sorted ascending), each with how many pairs share it.
+    pub fn center_lengths(&self, tol: Radians) -> Vec<(Radians, usize)> {
+        let mut d: Vec<f64> = Vec::new();
+        for (a, p) in self.points.iter().enumerate() {
+            for q in &self.points[a + 1..] {
+                d.push(angular_distance(p, q).0);
+            }
+        }
+        d.sort_by(f64::total_cmp);
+        let mut out: Vec<(f64, f64, usize)> = Vec::new(); // (first, sum, count)
+        for x in d {
+            match out.last_mut() {
+                Some((first, sum, n)) if x - *first <= tol.0 => {
+                    *sum += x;
+                    *n += 1;
+                }
+                _ => out.push((x, x, 1)),
+            }
+        }
+        out.into_iter()
+            .map(|(_, s, n)| (Radians(s / n as f64), n))
+            .collect()
+    }
+}
+
+/// One line of the compatibility report: a stator center length and the nearest rotor one.
+#[derive(Debug, Clone, Serialize)]
+pub struct CenterLengthMatch {
+    pub stator_deg: f64,
+    pub stator_pairs: usize,
+    pub nearest_rotor_deg: f64,
+    pub mismatch_deg: f64,
+}
+
+/// The packing report of `spherestep packing`.
+#[derive(Debug, Clone, Serialize)]
+pub struct PackingReport {
+    pub rotor_magnets: usize,
+    pub stator_coils: usize,
+    pub rotor_min_separation_deg: f64,
+    pub stator_min_separation_deg: f64,
+    pub stator_cap_radius_deg: f64,
+    pub rotor_center_lengths_deg: Vec<f64>,
+    pub stator_center_lengths: Vec<CenterLengthMatch>,
+    pub worst_mismatch_deg: f64,
+}
+
+/// Tolerance used to merge nearly equal center lengths in the report.
+pub const CENTER_LENGTH_TOL: Degrees = Degrees(0.05);
+
+/// Builds the compatibility report of a rotor and a stator packing.
+pub fn report(rotor: &Packing, stator: &Packing) -> PackingReport {
+    let tol = CENTER_LENGTH_TOL.to_radians();
+    let rl = rotor.center_lengths(tol);
+    let sl = stator.center_lengths(tol);
+    let matches: Vec<CenterLengthMatch> = sl
+        .iter()
+        .map(|(s, n)| {
+            let nearest = rl
+                .iter()
+                .map(|(r, _)| r.0)
+                .min_by(|a, b| (a - s.0).abs().total_cmp(&(b - s.0).abs()))
+                .unwrap_or(f64::NAN);
+            CenterLengthMatch {
+                stator_deg: s.0.to_degrees(),
+                stator_pairs: *n,
+                nearest_rotor_deg: nearest.to_degrees(),
+                mismatch_deg: (nearest - s.0).abs().to_degrees(),
+            }
+        })
+        .collect();
+    let down = unit(Vector3::new(0.0, 0.0, -1.0)).expect("constant");
+    let cap = stator
+        .points
+        .iter()
+        .map(|p| angular_distance(p, &down).0)
+        .fold(0.0, f64::max);
+    PackingReport {
+        rotor_magnets: rotor.len(),
+        stator_coils: stator.len(),
+        rotor_min_separation_deg: rotor.min_separation().0.to_degrees(),
+        stator_min_separation_deg: stator.min_separation().0.to_degrees(),
+        stator_cap_radius_deg: cap.to_degrees(),
+        rotor_center_lengths_deg: rl.iter().map(|(r, _)| r.0.to_degrees()).collect(),
+        worst_mismatch_deg: matches.iter().map(|m| m.mismatch_deg).fold(0.0, f64::max),
+        stator_center_lengths: matches,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The built-in prototype (a reconstruction: the paper does not publish coordinates).
+
+/// Rotor magnet coordinates of the built-in prototype, as generated by
+/// [`generate_prototype_rotor`] and kept in the repository for review.
+pub const PROTOTYPE_ROTOR_CSV: &str = include_str!("../scenarios/prototype/rotor.csv");
+/// Stator coil coordinates of the built-in prototype, from [`generate_prototype_stator`].
+pub const PROTOTYPE_STATOR_CSV: &str = include_str!("../scenarios/prototype/stator.csv");
+
+/// Parses a points CSV with header `x,y,z` (one unit vector per row).
+pub fn parse_points_csv(text: &str) -> Result<Packing, String> {
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .from_reader(text.as_bytes());
+    let mut pts = Vec::new();
+    for (i, rec) in rdr.records().enumerate() {
+        let rec = rec.map_err(|e| format!("row {}: {e}", i + 1))?;
+        if rec.len() != 3 {
+            return Err(format!("row {}: expected 3 columns x,y,z", i + 1));
+        }
+        let mut c = [0.0; 3];
+        for (k, f) in rec.iter().enumerate() {
+            c[k] = f
+                .trim()
+                .parse::<f64>()
+                .map_err(|_| format!("row {}: '{f}' is not a number", i + 1))?;
+        }
+        let u = unit(Vector3::new(c[0], c[1], c[2]))
+            .ok_or_else(|| format!("row {}: zero or non-finite vector", i + 1))?;
+        pts.push(u);
+    }
+    Ok(Packing { points: pts })
+}
+
+/// Writes a packing as the points CSV read by [`parse_points_csv`] (17 significant digits, so
+/// that the numbers read back exactly).
+pub fn points_csv(p: &Packing) -> String {
+    let mut s = String::from("x,y,z\n");
+    for u in &p.points {
+        s.push_str(&format!("{:.17e},{:.17e},{:.17e}\n", u.x, u.y, u.z));
+    }
+    s
+}
+
+/// The prototype rotor magnets (embedded coordinates).
+pub fn prototype_rotor() -> Packing {
+    parse_points_csv(PROTOTYPE_ROTOR_CSV).expect("embedded prototype rotor is valid")
+}
+
+/// The prototype stator coils (embedded coordinates).
+pub fn prototype_stator() -> Packing {
+    parse_points_csv(PROTOTYPE_STATOR_CSV).expect("embedded prototype stator is valid")
+}
+
+/// Number of stator coils in the prototype.
+pub const PROTOTYPE_COILS: usize = 16;
+
+/// Generates the prototype stator: the vertices, edge midpoints and face centres of an
+/// icosahedron with a vertex on -Z (an icosahedral semi-regular packing of 62 points), keeping
+/// the 16 nearest to -Z: the vertex on -Z, the 5 edge midpoints and 5 face centres around it,
+/// and the 5 midpoints of the edges of the vertex's pentagon. They fill a cap of 58.3 degrees
+/// (less than a hemisphere), 20.9 degrees apart at the least, room for 2 inch coils around a
+/// 12 inch ball.
+pub fn generate_prototype_stator() -> Packing {
+    let t = 2.0f64.atan(); // polar angle of a vertex next to the one on +Z
+    let v0 = Vector3::new(0.0, 0.0, 1.0);
+    let v1 = Vector3::new(t.sin(), 0.0, t.cos());
+    let a = 2.0 * std::f64::consts::PI / 5.0;
+    let v2 = Vector3::new(t.sin() * a.cos(), t.sin() * a.sin(), t.cos());
+    let u = |v: Vector3<f64>| unit(v).expect("constant");
+    let full = SemiRegular {
+        group: Group::I,
+        generators: vec![u(v0), u(v0 + v1), u(v0 + v1 + v2)],
+        cap: None,
+    }
+    .points();
+    let down = u(Vector3::new(0.0, 0.0, -1.0));
+    let mut pts = full.points;
+    // Sort by distance from -Z, then by azimuth, so that indices are stable and readable.
+    pts.sort_by(|p, q| {
+        let dp = angular_distance(p, &down).0;
+        let dq = angular_distance(q, &down).0;
+        let key = |d: f64| (d * 1e6).round();
+        key(dp)
+            .total_cmp(&key(dq))
+            .then(azimuth(p).total_cmp(&azimuth(q)))
+    });
+    pts.truncate(PROTOTYPE_COILS);
+    Packing { points: pts }
+}
+
+fn azimuth(p: &UnitVec) -> f64 {
+    let a = p.y.atan2(p.x);
+    let a = if a < -1e-9 { a + 2.0 * std::f64::consts::PI } else { a };
+    (a * 1e9).round() / 1e9
+}
+
+/// Generates the prototype rotor: 80 magnets with octahedral symmetry, the 8 cube vertices plus
+/// three generic 24-point orbits whose generators spread the 80 points as evenly as possible
+/// (they minimise a Riesz energy, sum of 1/|p - q|^s, from a fixed set of starting points; the
+/// most evenly spread result, largest minimum separation, is kept).
+pub fn generate_prototype_rotor() -> Packing {
+    let cube = unit(Vector3::new(1.0, 1.0, 1.0)).expect("constant");
+    let mut best: Option<(f64, Vec<UnitVec>)> = None;
+    // Deterministic starts: generators spread in the fundamental region near +Z.
+    for start in 0..12 {
+        let mut gens: Vec<UnitVec> = (0..3)
+            .map(|k| {
+                let i = (start * 3 + k) as f64;
+                let phi = 0.1 + (i * 0.618_033_988_749_895).fract() * std::f64::consts::FRAC_PI_2;
+                let theta = 0.15 + (i * 0.414_213_562_373_095).fract() * 0.8;
+                crate::geometry::from_spherical(Radians(phi), Radians(theta))
+            })
+            .collect();
+        relax_rotor(&cube, &mut gens);
+        let p = rotor_from_generators(&cube, &gens);
+        if p.len() != 80 {
+            continue;
+        }
+        let sep = p.min_separation().0;
+        if best.as_ref().is_none_or(|(b, _)| sep > *b + 1e-12) {
+            best = Some((sep, gens));
+        }
+    }
+    let (_, gens) = best.expect("at least one start gives 80 distinct magnets");
+    rotor_from_generators(&cube, &gens)
+}
+
+fn rotor_from_generators(cube: &UnitVec, gens: &[UnitVec]) -> Packing {
+    let mut all = vec![*cube];
+    all.extend_from_slice(gens);
+    SemiRegular {
+        group: Group::O,
+        generators: all,
+        cap: None,
+    }
+    .points()
+}
+
+/// Riesz-energy descent on the generators: the force on each generator from all other points
+/// (the energy gradient of the whole symmetric configuration is the orbit sum of equal copies).
+fn relax_rotor(cube: &UnitVec, gens: &mut [UnitVec]) {
+    for (s, iters) in [(4.0, 400), (12.0, 600)] {
+        let mut step = 0.02;
+        for _ in 0..iters {
+            let pts = rotor_from_generators(cube, gens);
+            let mut moved = 0.0f64;
+            for g in gens.iter_mut() {
+                let p = g.into_inner();
+                let mut f = Vector3::zeros();
+                let mut fmax = 0.0f64;
+                for q in &pts.points {
+                    let d = p - q.into_inner();
+                    let r2 = d.norm_squared();
+                    if r2 < 1e-18 {
+                        continue;
+                    }
+                    let w = 1.0 / r2.powf(s / 2.0 + 1.0);
+                    fmax = fmax.max(w * r2.sqrt());
+                    f += d * w;
+                }
+                let tangent = f - p * p.dot(&f);
+                let n = tangent.norm();
+                if n > 0.0 && fmax > 0.0 {
+                    let dx = tangent * (step / fmax.max(n));
+                    moved = moved.max(dx.norm());
+                    *g = UnitVec::new_normalize(p + dx);
+                }
+            }
+            step *= 0.995;
+            if moved < 1e-13 {
+                break;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_prototype_is_what_the_generators_make() {
+        let rotor = generate_prototype_rotor();
+        let stator = generate_prototype_stator();
+        assert_eq!(points_csv(&rotor), PROTOTYPE_ROTOR_CSV);
+        assert_eq!(points_csv(&stator), PROTOTYPE_STATOR_CSV);
+    }
+
+    #[test]
+    fn prototype_facts() {
+        let rotor = prototype_rotor();
+        let stator = prototype_stator();
+        assert_eq!(rotor.len(), 80);
+        assert_eq!(stator.len(), 16);
+        // one coil on -Z, all in a cap smaller than a hemisphere
+        assert!((stator.points[0].z + 1.0).abs() < 1e-12);
+        assert!(stator.points.iter().all(|p| p.z < -0.1));
+        // octahedral symmetry: every rotation of O maps the rotor onto itself
+        for g in Group::O.elements() {
+            for p in &rotor.points {
+                let q = g * p.into_inner();
+                assert!(rotor
+                    .points
+                    .iter()
+                    .any(|r| (r.into_inner() - q).norm() < 1e-9));
+            }
+        }
+        // evenly spread: 80 points cannot be more than ~25.6 degrees apart; ours are close
+        let sep = rotor.min_separation().0.to_degrees();
+        assert!(sep > 20.0 && sep < 25.7, "rotor separation {sep}");
+        let ssep = stator.min_separation().0.to_degrees();
+        assert!((ssep - 20.905).abs() < 0.01, "stator separation {ssep}");
+    }
+}

@@ -1,0 +1,496 @@
+//! Scenario files (TOML): which motor (rotor and stator packings, magnet wells), which body and
+//! damping, how to settle. Unknown keys are rejected; every value is checked, and an error names
+//! the file, the field and what was expected. Every section has defaults (the prototype).
+
+use crate::dynamics::{Body, SettleParams};
+use crate::error::{Error, Result};
+use crate::geometry::{unit, Degrees, Pair, UnitVec};
+use crate::packing::{self, Cap, Packing, SemiRegular};
+use crate::symmetry::Group;
+use crate::torque::{Interaction, MagnetTorques, TorqueTable, Well, WellShape};
+use nalgebra::Vector3;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// Defaults of the `[magnets]` section (see the README and scenarios/prototype.toml).
+pub const DEFAULT_STRENGTH_J: f64 = 0.25;
+pub const DEFAULT_WIDTH_DEG: f64 = 10.0;
+pub const DEFAULT_MAX_ATTRACTION_DEG: f64 = 30.0;
+/// Defaults of the `[body]` section.
+pub const DEFAULT_INERTIA_KG_M2: f64 = 0.023;
+pub const DEFAULT_DAMPING_NMS: f64 = 1.0;
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawScenario {
+    name: Option<String>,
+    description: Option<String>,
+    rotor: Option<RawPacking>,
+    stator: Option<RawPacking>,
+    magnets: Option<RawMagnets>,
+    body: Option<RawBody>,
+    settle: Option<RawSettle>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPacking {
+    preset: Option<String>,
+    points: Option<Vec<[f64; 3]>>,
+    file: Option<String>,
+    group: Option<Group>,
+    generators: Option<Vec<[f64; 3]>>,
+    cap_axis: Option<[f64; 3]>,
+    cap_deg: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum Shape {
+    Gaussian,
+    Cosine,
+    Table,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMagnets {
+    shape: Option<Shape>,
+    strength_j: Option<f64>,
+    width_deg: Option<f64>,
+    max_attraction_deg: Option<f64>,
+    table: Option<String>,
+    interaction: Option<Interaction>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum Inertia {
+    Scalar(f64),
+    Diagonal([f64; 3]),
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBody {
+    inertia_kg_m2: Option<Inertia>,
+    damping_nms: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSettle {
+    omega_tol: Option<f64>,
+    torque_tol: Option<f64>,
+    t_max_s: Option<f64>,
+    rtol: Option<f64>,
+    atol: Option<f64>,
+}
+
+/// A checked scenario: the motor, the body and the settle settings.
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    /// The file it came from (`<built-in>` for the prototype).
+    pub path: PathBuf,
+    pub name: String,
+    pub description: String,
+    pub rotor: Packing,
+    pub stator: Packing,
+    pub torques: MagnetTorques,
+    pub body: Body,
+    pub settle: SettleParams,
+}
+
+impl Scenario {
+    /// The built-in prototype with every default.
+    pub fn prototype() -> Scenario {
+        Scenario::from_toml("", Path::new("<built-in prototype>"))
+            .expect("the defaults form a valid scenario")
+    }
+
+    /// Reads and checks a scenario file.
+    pub fn load(path: &Path) -> Result<Scenario> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Scenario::from_toml(&text, path)
+    }
+
+    /// Parses and checks scenario text; `path` names the file in errors and anchors relative
+    /// paths (tables, point files).
+    pub fn from_toml(text: &str, path: &Path) -> Result<Scenario> {
+        let raw: RawScenario = toml::from_str(text).map_err(|e| Error::Parse {
+            file: path.to_path_buf(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        Scenario::from_raw(raw, path)
+    }
+
+    fn from_raw(raw: RawScenario, path: &Path) -> Result<Scenario> {
+        let ck = Checker { file: path };
+        let rotor = ck.packing(raw.rotor.unwrap_or_default(), "rotor")?;
+        let stator = ck.packing(raw.stator.unwrap_or_default(), "stator")?;
+        let well_and_interaction = ck.magnets(raw.magnets.unwrap_or_default())?;
+        let body = ck.body(raw.body.unwrap_or_default())?;
+        let settle = ck.settle(raw.settle.unwrap_or_default())?;
+        let name = raw.name.unwrap_or_else(|| {
+            path.file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "scenario".into())
+        });
+        let torques = MagnetTorques {
+            rotor: rotor.points.iter().map(|p| p.into_inner()).collect(),
+            stator: stator.points.iter().map(|p| p.into_inner()).collect(),
+            well: well_and_interaction.0,
+            interaction: well_and_interaction.1,
+        };
+        Ok(Scenario {
+            path: path.to_path_buf(),
+            name,
+            description: raw.description.unwrap_or_default(),
+            rotor,
+            stator,
+            torques,
+            body,
+            settle,
+        })
+    }
+
+    /// Checks an active set against this motor: indices in range, no coil used twice.
+    pub fn check_active(&self, active: &[Pair], arg: &str) -> Result<()> {
+        if active.is_empty() {
+            return Err(Error::Arg {
+                arg: arg.into(),
+                expected: "at least one coil:magnet pair".into(),
+            });
+        }
+        for (k, p) in active.iter().enumerate() {
+            if p.coil.0 >= self.stator.len() {
+                return Err(Error::Arg {
+                    arg: arg.into(),
+                    expected: format!(
+                        "coil index below {} (the stator's coil count), got {} in pair {p}",
+                        self.stator.len(),
+                        p.coil
+                    ),
+                });
+            }
+            if p.magnet.0 >= self.rotor.len() {
+                return Err(Error::Arg {
+                    arg: arg.into(),
+                    expected: format!(
+                        "magnet index below {} (the rotor's magnet count), got {} in pair {p}",
+                        self.rotor.len(),
+                        p.magnet
+                    ),
+                });
+            }
+            if active[..k].iter().any(|o| o.coil == p.coil) {
+                return Err(Error::Arg {
+                    arg: arg.into(),
+                    expected: format!("each coil at most once, got coil {} twice", p.coil),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Parses an active set written `coil:magnet,coil:magnet` (0-based) or with `;` separators.
+pub fn parse_pairs(text: &str, arg: &str) -> Result<Vec<Pair>> {
+    let bad = |what: &str| Error::Arg {
+        arg: arg.into(),
+        expected: format!("pairs written coil:magnet,coil:magnet (0-based integers), {what}"),
+    };
+    let mut out = Vec::new();
+    for item in text.split([',', ';']) {
+        let item = item.trim();
+        if item.is_empty() {
+            continue;
+        }
+        let (c, m) = item
+            .split_once(':')
+            .ok_or_else(|| bad(&format!("got '{item}'")))?;
+        let c = c.trim().parse::<usize>();
+        let m = m.trim().parse::<usize>();
+        match (c, m) {
+            (Ok(c), Ok(m)) => out.push(Pair::new(c, m)),
+            _ => return Err(bad(&format!("got '{item}'"))),
+        }
+    }
+    if out.is_empty() {
+        return Err(bad("got nothing"));
+    }
+    Ok(out)
+}
+
+/// Parses `x,y,z` into a unit vector (normalised; zero and NaN refused).
+pub fn parse_axis(text: &str, arg: &str) -> Result<UnitVec> {
+    let v = parse_numbers::<3>(text, arg, "x,y,z")?;
+    unit(Vector3::new(v[0], v[1], v[2])).ok_or_else(|| Error::Arg {
+        arg: arg.into(),
+        expected: format!("a non-zero, finite vector x,y,z, got '{text}'"),
+    })
+}
+
+/// Parses `qx,qy,qz,qw` into an orientation (normalised; zero and NaN refused).
+pub fn parse_orientation(text: &str, arg: &str) -> Result<crate::geometry::Orientation> {
+    let v = parse_numbers::<4>(text, arg, "qx,qy,qz,qw")?;
+    crate::geometry::orientation_from_xyzw(v[0], v[1], v[2], v[3]).ok_or_else(|| Error::Arg {
+        arg: arg.into(),
+        expected: format!("a non-zero, finite quaternion qx,qy,qz,qw, got '{text}'"),
+    })
+}
+
+fn parse_numbers<const N: usize>(text: &str, arg: &str, form: &str) -> Result<[f64; N]> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let bad = || Error::Arg {
+        arg: arg.into(),
+        expected: format!("{N} numbers {form}, got '{text}'"),
+    };
+    if parts.len() != N {
+        return Err(bad());
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(&parts) {
+        *o = p.parse::<f64>().map_err(|_| bad())?;
+    }
+    Ok(out)
+}
+
+/// Field checks with the file name at hand.
+struct Checker<'a> {
+    file: &'a Path,
+}
+
+impl Checker<'_> {
+    fn err(&self, field: &str, expected: impl Into<String>) -> Error {
+        Error::field(self.file, field, expected)
+    }
+
+    fn positive(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
+        match v {
+            None => Ok(default),
+            Some(x) if x.is_finite() && x > 0.0 => Ok(x),
+            Some(x) => Err(self.err(field, format!("a finite number > 0, got {x}"))),
+        }
+    }
+
+    fn non_negative(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
+        match v {
+            None => Ok(default),
+            Some(x) if x.is_finite() && x >= 0.0 => Ok(x),
+            Some(x) => Err(self.err(field, format!("a finite number >= 0, got {x}"))),
+        }
+    }
+
+    fn unit(&self, field: &str, v: [f64; 3]) -> Result<UnitVec> {
+        unit(Vector3::new(v[0], v[1], v[2])).ok_or_else(|| {
+            self.err(
+                field,
+                format!("a non-zero, finite vector, got [{}, {}, {}]", v[0], v[1], v[2]),
+            )
+        })
+    }
+
+    fn relative(&self, p: &str) -> PathBuf {
+        let p = Path::new(p);
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.file
+                .parent()
+                .map(|d| d.join(p))
+                .unwrap_or_else(|| p.to_path_buf())
+        }
+    }
+
+    fn packing(&self, raw: RawPacking, section: &str) -> Result<Packing> {
+        let given = [
+            raw.preset.is_some(),
+            raw.points.is_some(),
+            raw.file.is_some(),
+            raw.group.is_some(),
+        ]
+        .iter()
+        .filter(|b| **b)
+        .count();
+        if given > 1 {
+            return Err(self.err(
+                section,
+                "only one of preset, points, file or group (+ generators)",
+            ));
+        }
+        if raw.generators.is_some() && raw.group.is_none() {
+            return Err(self.err(&format!("{section}.generators"), "a `group` beside them"));
+        }
+        if (raw.cap_axis.is_some() || raw.cap_deg.is_some()) && raw.group.is_none() {
+            return Err(self.err(&format!("{section}.cap_deg"), "a `group` beside it"));
+        }
+        let pk = if let Some(points) = raw.points {
+            let mut pts = Vec::with_capacity(points.len());
+            for (i, p) in points.iter().enumerate() {
+                pts.push(self.unit(&format!("{section}.points[{i}]"), *p)?);
+            }
+            Packing { points: pts }
+        } else if let Some(file) = raw.file {
+            let path = self.relative(&file);
+            let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+            packing::parse_points_csv(&text).map_err(|m| {
+                self.err(
+                    &format!("{section}.file"),
+                    format!("a CSV of x,y,z unit vectors in {}: {m}", path.display()),
+                )
+            })?
+        } else if let Some(group) = raw.group {
+            let gens = raw.generators.ok_or_else(|| {
+                self.err(
+                    &format!("{section}.generators"),
+                    "a list of generator points [[x, y, z], ...] for the group",
+                )
+            })?;
+            let mut generators = Vec::new();
+            for (i, g) in gens.iter().enumerate() {
+                generators.push(self.unit(&format!("{section}.generators[{i}]"), *g)?);
+            }
+            let cap = match raw.cap_deg {
+                None => None,
+                Some(deg) => {
+                    if !(deg.is_finite() && deg > 0.0 && deg <= 180.0) {
+                        return Err(self.err(
+                            &format!("{section}.cap_deg"),
+                            format!("an angle in (0, 180] degrees, got {deg}"),
+                        ));
+                    }
+                    let axis = self.unit(
+                        &format!("{section}.cap_axis"),
+                        raw.cap_axis.unwrap_or([0.0, 0.0, -1.0]),
+                    )?;
+                    Some(Cap {
+                        center: axis,
+                        radius: Degrees(deg).to_radians(),
+                    })
+                }
+            };
+            SemiRegular {
+                group,
+                generators,
+                cap,
+            }
+            .points()
+        } else {
+            match raw.preset.as_deref().unwrap_or("prototype") {
+                "prototype" if section == "rotor" => packing::prototype_rotor(),
+                "prototype" => packing::prototype_stator(),
+                other => {
+                    return Err(self.err(
+                        &format!("{section}.preset"),
+                        format!("\"prototype\" (the only preset), got \"{other}\""),
+                    ))
+                }
+            }
+        };
+        if pk.is_empty() {
+            return Err(self.err(section, "at least one point"));
+        }
+        Ok(pk)
+    }
+
+    fn magnets(&self, raw: RawMagnets) -> Result<(Well, Interaction)> {
+        let shape = raw.shape.unwrap_or(Shape::Gaussian);
+        let max_deg = raw
+            .max_attraction_deg
+            .unwrap_or(DEFAULT_MAX_ATTRACTION_DEG);
+        if !(max_deg.is_finite() && max_deg > 0.0 && max_deg <= 180.0) {
+            return Err(self.err(
+                "magnets.max_attraction_deg",
+                format!("an angle in (0, 180] degrees, got {max_deg}"),
+            ));
+        }
+        let strength = self.positive("magnets.strength_j", raw.strength_j, DEFAULT_STRENGTH_J)?;
+        if shape != Shape::Table && raw.table.is_some() {
+            return Err(self.err("magnets.table", "no table unless shape = \"table\""));
+        }
+        let shape = match shape {
+            Shape::Gaussian => {
+                let w = self.positive("magnets.width_deg", raw.width_deg, DEFAULT_WIDTH_DEG)?;
+                WellShape::Gaussian {
+                    strength_j: strength,
+                    width: Degrees(w).to_radians(),
+                }
+            }
+            Shape::Cosine => WellShape::Cosine {
+                strength_j: strength,
+            },
+            Shape::Table => {
+                let file = raw.table.ok_or_else(|| {
+                    self.err(
+                        "magnets.table",
+                        "a path to a CSV of angle_deg,torque_nm rows when shape = \"table\"",
+                    )
+                })?;
+                let path = self.relative(&file);
+                WellShape::Table(read_table(&path).map_err(|m| {
+                    self.err(
+                        "magnets.table",
+                        format!("a torque curve in {}: {m}", path.display()),
+                    )
+                })?)
+            }
+        };
+        Ok((
+            Well {
+                shape,
+                max_attraction: Degrees(max_deg).to_radians(),
+            },
+            raw.interaction.unwrap_or_default(),
+        ))
+    }
+
+    fn body(&self, raw: RawBody) -> Result<Body> {
+        let inertia = match raw.inertia_kg_m2 {
+            None => Vector3::repeat(DEFAULT_INERTIA_KG_M2),
+            Some(Inertia::Scalar(x)) => {
+                Vector3::repeat(self.positive("body.inertia_kg_m2", Some(x), 0.0)?)
+            }
+            Some(Inertia::Diagonal(d)) => {
+                let mut v = Vector3::zeros();
+                for k in 0..3 {
+                    v[k] = self.positive(&format!("body.inertia_kg_m2[{k}]"), Some(d[k]), 0.0)?;
+                }
+                v
+            }
+        };
+        let damping = self.non_negative("body.damping_nms", raw.damping_nms, DEFAULT_DAMPING_NMS)?;
+        Ok(Body { inertia, damping })
+    }
+
+    fn settle(&self, raw: RawSettle) -> Result<SettleParams> {
+        let d = SettleParams::default();
+        Ok(SettleParams {
+            omega_tol: self.positive("settle.omega_tol", raw.omega_tol, d.omega_tol)?,
+            torque_tol: self.positive("settle.torque_tol", raw.torque_tol, d.torque_tol)?,
+            t_max: self.positive("settle.t_max_s", raw.t_max_s, d.t_max)?,
+            rtol: self.positive("settle.rtol", raw.rtol, d.rtol)?,
+            atol: self.positive("settle.atol", raw.atol, d.atol)?,
+        })
+    }
+}
+
+/// Reads a torque table CSV: header `angle_deg,torque_nm`, then rows.
+fn read_table(path: &Path) -> std::result::Result<TorqueTable, String> {
+    let mut rdr = csv::Reader::from_path(path).map_err(|e| e.to_string())?;
+    let mut rows = Vec::new();
+    for (i, rec) in rdr.records().enumerate() {
+        let rec = rec.map_err(|e| format!("row {}: {e}", i + 1))?;
+        if rec.len() != 2 {
+            return Err(format!("row {}: expected 2 columns angle_deg,torque_nm", i + 1));
+        }
+        let num = |k: usize| {
+            rec[k]
+                .trim()
+                .parse::<f64>()
+                .map_err(|_| format!("row {}: '{}' is not a number", i + 1, &rec[k]))
+        };
+        rows.push((num(0)?, num(1)?));
+    }
+    TorqueTable::from_rows(&rows)
+}

@@ -1,0 +1,394 @@
+//! Magnet torques: the pair potential wells (gaussian, cosine, measured table) with their
+//! cut-off at the maximum attraction distance, the "pairs" and "coils" interactions, and the
+//! [`TorqueModel`] trait through which the dynamics sees them (so that another physical model,
+//! e.g. dipoles, can be added without touching the integrator).
+
+use crate::geometry::{Orientation, Pair, Radians};
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// What the dynamics needs from a torque model.
+pub trait TorqueModel: Sync {
+    /// World-frame torque on the rotor (N m) and potential energy (J) at orientation `r`
+    /// (body-to-world rotation matrix) with the active set `active`.
+    fn torque_energy(&self, r: &Matrix3<f64>, active: &[Pair]) -> (Vector3<f64>, f64);
+
+    /// World-frame torque only (the hot path of the integrator).
+    fn torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
+        self.torque_energy(r, active).0
+    }
+}
+
+/// Shape of a pair's potential well U(d).
+#[derive(Debug, Clone, PartialEq)]
+pub enum WellShape {
+    /// U = -k exp(-d^2 / (2 sigma^2)): a sharp well (custom-wound coils).
+    Gaussian { strength_j: f64, width: Radians },
+    /// U = -k cos d: a broad well (off-the-shelf coils).
+    Cosine { strength_j: f64 },
+    /// g(d) = -U'(d) read from a measured or computed curve, linearly interpolated.
+    Table(TorqueTable),
+}
+
+/// A torque curve g(d): angles (radians, ascending, starting at 0) and torques (N m, >= 0).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TorqueTable {
+    d: Vec<f64>,
+    g: Vec<f64>,
+    /// integral of g from 0 to d[i]
+    cum: Vec<f64>,
+}
+
+impl TorqueTable {
+    /// Builds a table from (degrees, N m) rows; the error says which row is wrong and why.
+    pub fn from_rows(rows: &[(f64, f64)]) -> Result<Self, String> {
+        if rows.len() < 2 {
+            return Err("expected at least two rows (angle_deg, torque_nm)".into());
+        }
+        if rows[0].0 != 0.0 {
+            return Err(format!(
+                "row 1: expected the first angle to be 0 degrees, got {}",
+                rows[0].0
+            ));
+        }
+        for (i, &(d, g)) in rows.iter().enumerate() {
+            if !d.is_finite() || !g.is_finite() {
+                return Err(format!("row {}: expected finite numbers", i + 1));
+            }
+            if g < 0.0 {
+                return Err(format!(
+                    "row {}: expected a torque >= 0 (an attraction), got {g}",
+                    i + 1
+                ));
+            }
+            if i > 0 && d <= rows[i - 1].0 {
+                return Err(format!(
+                    "row {}: expected angles strictly increasing, got {d} after {}",
+                    i + 1,
+                    rows[i - 1].0
+                ));
+            }
+            if d > 180.0 {
+                return Err(format!("row {}: expected an angle <= 180 degrees", i + 1));
+            }
+        }
+        let d: Vec<f64> = rows.iter().map(|r| r.0.to_radians()).collect();
+        let g: Vec<f64> = rows.iter().map(|r| r.1).collect();
+        let mut cum = vec![0.0; d.len()];
+        for i in 1..d.len() {
+            cum[i] = cum[i - 1] + 0.5 * (g[i] + g[i - 1]) * (d[i] - d[i - 1]);
+        }
+        Ok(TorqueTable { d, g, cum })
+    }
+
+    fn segment(&self, d: f64) -> Option<usize> {
+        if d > *self.d.last()? {
+            return None;
+        }
+        // last index i with self.d[i] <= d, capped so that i + 1 exists
+        let i = self.d.partition_point(|&x| x <= d).saturating_sub(1);
+        Some(i.min(self.d.len() - 2))
+    }
+
+    /// g(d), 0 beyond the table.
+    pub fn g(&self, d: f64) -> f64 {
+        match self.segment(d) {
+            None => 0.0,
+            Some(i) => {
+                let t = (d - self.d[i]) / (self.d[i + 1] - self.d[i]);
+                self.g[i] + t * (self.g[i + 1] - self.g[i])
+            }
+        }
+    }
+
+    /// Integral of g from 0 to d (constant beyond the table).
+    fn integral(&self, d: f64) -> f64 {
+        match self.segment(d) {
+            None => *self.cum.last().unwrap_or(&0.0),
+            Some(i) => {
+                let x = d - self.d[i];
+                let slope = (self.g[i + 1] - self.g[i]) / (self.d[i + 1] - self.d[i]);
+                self.cum[i] + self.g[i] * x + 0.5 * slope * x * x
+            }
+        }
+    }
+
+    /// Slope of g at 0 (used for g(d)/sin d as d -> 0).
+    fn slope0(&self) -> f64 {
+        (self.g[1] - self.g[0]) / (self.d[1] - self.d[0])
+    }
+}
+
+/// How coils attract magnets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Interaction {
+    /// Only the paired magnet of an active pair is attracted (the paper's model).
+    #[default]
+    Pairs,
+    /// An energised coil attracts every rotor magnet within the maximum attraction distance.
+    Coils,
+}
+
+/// A pair potential: its shape and the maximum distance of attraction (g = 0 beyond it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Well {
+    pub shape: WellShape,
+    pub max_attraction: Radians,
+}
+
+impl Well {
+    /// Potential U(d) in J, continuous, constant beyond the cut-off.
+    pub fn potential(&self, d: f64) -> f64 {
+        let d = d.min(self.max_attraction.0);
+        match &self.shape {
+            WellShape::Gaussian { strength_j, width } => {
+                -strength_j * (-d * d / (2.0 * width.0 * width.0)).exp()
+            }
+            WellShape::Cosine { strength_j } => -strength_j * d.cos(),
+            WellShape::Table(t) => t.integral(d) - t.integral(self.max_attraction.0),
+        }
+    }
+
+    /// Torque magnitude g(d) = -U'(d) >= 0, in N m (0 beyond the cut-off).
+    pub fn g(&self, d: f64) -> f64 {
+        if d > self.max_attraction.0 {
+            return 0.0;
+        }
+        match &self.shape {
+            WellShape::Gaussian { strength_j, width } => {
+                let s2 = width.0 * width.0;
+                strength_j * d / s2 * (-d * d / (2.0 * s2)).exp()
+            }
+            WellShape::Cosine { strength_j } => strength_j * d.sin(),
+            WellShape::Table(t) => t.g(d),
+        }
+    }
+
+    /// g(d) / sin d, with its limit at d -> 0 (no NaN when aligned); 0 beyond the cut-off and
+    /// at the antipode, where the direction of the pull is undefined.
+    #[inline]
+    pub fn g_over_sin(&self, d: f64, sin_d: f64) -> f64 {
+        if d > self.max_attraction.0 {
+            return 0.0;
+        }
+        const SMALL: f64 = 1e-7;
+        match &self.shape {
+            WellShape::Gaussian { strength_j, width } => {
+                let s2 = width.0 * width.0;
+                let d_over_sin = if sin_d < SMALL {
+                    if d > 1.0 {
+                        return 0.0;
+                    }
+                    1.0 + d * d / 6.0
+                } else {
+                    d / sin_d
+                };
+                strength_j / s2 * d_over_sin * (-d * d / (2.0 * s2)).exp()
+            }
+            WellShape::Cosine { strength_j } => {
+                if sin_d < SMALL && d > 1.0 {
+                    0.0
+                } else {
+                    *strength_j
+                }
+            }
+            WellShape::Table(t) => {
+                if sin_d < SMALL {
+                    if d > 1.0 {
+                        0.0
+                    } else {
+                        t.slope0()
+                    }
+                } else {
+                    t.g(d) / sin_d
+                }
+            }
+        }
+    }
+
+    /// Stiffness dg/dd at d = 0 (N m / rad): how hard a single aligned pair holds.
+    pub fn stiffness(&self) -> f64 {
+        match &self.shape {
+            WellShape::Gaussian { strength_j, width } => strength_j / (width.0 * width.0),
+            WellShape::Cosine { strength_j } => *strength_j,
+            WellShape::Table(t) => t.slope0(),
+        }
+    }
+}
+
+/// The motor as the torque model sees it: rotor magnets (body frame), stator coils (world
+/// frame), the pair well and the interaction.
+#[derive(Debug, Clone)]
+pub struct MagnetTorques {
+    pub rotor: Vec<Vector3<f64>>,
+    pub stator: Vec<Vector3<f64>>,
+    pub well: Well,
+    pub interaction: Interaction,
+}
+
+impl MagnetTorques {
+    /// Torque (world) and energy of one coil attracting one magnet at world position `p`.
+    #[inline]
+    fn pair(&self, p: &Vector3<f64>, s: &Vector3<f64>) -> (Vector3<f64>, f64) {
+        let x = p.cross(s);
+        let sin_d = x.norm();
+        let d = sin_d.atan2(p.dot(s));
+        (x * self.well.g_over_sin(d, sin_d), self.well.potential(d))
+    }
+
+    #[inline]
+    fn pair_torque(&self, p: &Vector3<f64>, s: &Vector3<f64>) -> Vector3<f64> {
+        let x = p.cross(s);
+        let sin_d = x.norm();
+        let d = sin_d.atan2(p.dot(s));
+        x * self.well.g_over_sin(d, sin_d)
+    }
+
+    /// World positions of all magnets at `r` (used by callers that need the whole picture).
+    pub fn magnet_positions(&self, q: &Orientation) -> Vec<Vector3<f64>> {
+        let r = q.to_rotation_matrix();
+        self.rotor.iter().map(|m| r * m).collect()
+    }
+
+    /// The distinct coils of an active set, in order of first appearance.
+    fn coils(active: &[Pair]) -> impl Iterator<Item = usize> + '_ {
+        active
+            .iter()
+            .enumerate()
+            .filter(|(k, p)| !active[..*k].iter().any(|o| o.coil == p.coil))
+            .map(|(_, p)| p.coil.0)
+    }
+}
+
+impl TorqueModel for MagnetTorques {
+    fn torque_energy(&self, r: &Matrix3<f64>, active: &[Pair]) -> (Vector3<f64>, f64) {
+        let mut tau = Vector3::zeros();
+        let mut u = 0.0;
+        match self.interaction {
+            Interaction::Pairs => {
+                for pr in active {
+                    let p = r * self.rotor[pr.magnet.0];
+                    let (t, e) = self.pair(&p, &self.stator[pr.coil.0]);
+                    tau += t;
+                    u += e;
+                }
+            }
+            Interaction::Coils => {
+                for c in Self::coils(active) {
+                    let s = self.stator[c];
+                    for m in &self.rotor {
+                        let (t, e) = self.pair(&(r * m), &s);
+                        tau += t;
+                        u += e;
+                    }
+                }
+            }
+        }
+        (tau, u)
+    }
+
+    fn torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
+        let mut tau = Vector3::zeros();
+        match self.interaction {
+            Interaction::Pairs => {
+                for pr in active {
+                    let p = r * self.rotor[pr.magnet.0];
+                    tau += self.pair_torque(&p, &self.stator[pr.coil.0]);
+                }
+            }
+            Interaction::Coils => {
+                for c in Self::coils(active) {
+                    let s = self.stator[c];
+                    for m in &self.rotor {
+                        tau += self.pair_torque(&(r * m), &s);
+                    }
+                }
+            }
+        }
+        tau
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wells() -> Vec<Well> {
+        let table = TorqueTable::from_rows(&[
+            (0.0, 0.0),
+            (5.0, 0.4),
+            (10.0, 0.6),
+            (20.0, 0.5),
+            (30.0, 0.0),
+        ])
+        .unwrap();
+        vec![
+            Well {
+                shape: WellShape::Gaussian {
+                    strength_j: 0.2,
+                    width: Radians(0.17),
+                },
+                max_attraction: Radians(0.5),
+            },
+            Well {
+                shape: WellShape::Cosine { strength_j: 0.3 },
+                max_attraction: Radians(0.5),
+            },
+            Well {
+                shape: WellShape::Table(table),
+                max_attraction: Radians(0.5),
+            },
+        ]
+    }
+
+    #[test]
+    fn g_is_minus_the_derivative_of_u() {
+        for w in wells() {
+            for i in 1..49 {
+                let d = i as f64 * 0.01 + 0.0005;
+                let h = 1e-6;
+                let du = (w.potential(d + h) - w.potential(d - h)) / (2.0 * h);
+                assert!((w.g(d) + du).abs() < 1e-6, "{:?} at {d}", w.shape);
+                assert!(w.g(d) >= 0.0);
+                assert!((w.g_over_sin(d, d.sin()) * d.sin() - w.g(d)).abs() < 1e-12);
+            }
+            // cut-off: no torque, constant potential
+            assert_eq!(w.g(0.6), 0.0);
+            assert_eq!(w.potential(0.6), w.potential(0.7));
+            // aligned: a finite factor equal to the stiffness
+            let f = w.g_over_sin(0.0, 0.0);
+            assert!(f.is_finite());
+            assert!((f - w.stiffness()).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn pair_torque_pulls_the_magnet_towards_its_coil() {
+        let w = wells().remove(0);
+        let m = MagnetTorques {
+            rotor: vec![Vector3::new(0.0, 0.2f64.sin(), -0.2f64.cos())],
+            stator: vec![Vector3::new(0.0, 0.0, -1.0)],
+            well: w.clone(),
+            interaction: Interaction::Pairs,
+        };
+        let (t, e) = m.torque_energy(&Matrix3::identity(), &[Pair::new(0, 0)]);
+        // p x s points along -x here; turning about it moves p towards s
+        assert!(t.x < 0.0 && t.y.abs() < 1e-15 && t.z.abs() < 1e-15);
+        assert!((t.norm() - w.g(0.2)).abs() < 1e-12);
+        assert!((e - w.potential(0.2)).abs() < 1e-15);
+        let p = m.rotor[0];
+        let moved = p + t.cross(&p) * 1e-3;
+        assert!(moved.normalize().dot(&m.stator[0]) > p.dot(&m.stator[0]));
+    }
+
+    #[test]
+    fn bad_tables_are_rejected_with_the_row() {
+        let e = TorqueTable::from_rows(&[(0.0, 0.0), (5.0, -1.0)]).unwrap_err();
+        assert!(e.contains("row 2"), "{e}");
+        let e = TorqueTable::from_rows(&[(0.0, 0.0), (5.0, 1.0), (5.0, 1.0)]).unwrap_err();
+        assert!(e.contains("row 3") && e.contains("increasing"), "{e}");
+        let e = TorqueTable::from_rows(&[(1.0, 0.0), (5.0, 1.0)]).unwrap_err();
+        assert!(e.contains("0 degrees"), "{e}");
+    }
+}
