@@ -449,6 +449,11 @@ pub fn cumulative(q0: &Orientation, qk: &Orientation, n: &UnitVec) -> (Radians, 
     step_measure(q0, qk, n)
 }
 
+/// The rotation axis of a step's rotation ΔR (`None` for no rotation).
+pub fn rotation_axis_of_step(d: &Orientation) -> Option<UnitVec> {
+    crate::geometry::rotation_axis(d)
+}
+
 /// Unsigned angle of a rotation between two orientations.
 pub fn angle_between(a: &Orientation, b: &Orientation) -> Radians {
     rotation_angle(&(b * a.inverse()))
