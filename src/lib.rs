@@ -3,6 +3,7 @@
 //! stator cap). Conventions: ../shared/MODEL.md, summarised in the README.
 
 pub mod app;
+pub mod batch;
 pub mod commutation;
 pub mod dynamics;
 pub mod error;

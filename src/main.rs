@@ -92,6 +92,24 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run many scenarios (plans and sweeps) in parallel: one CSV each, plus summary.csv.
+    Batch {
+        /// Scenario files or folders of them.
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Worker threads (default: all cores). Output is the same for any number.
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Run part I of N (0-based), e.g. 0/3; merge with a later run using --resume.
+        #[arg(long)]
+        shard: Option<String>,
+        /// Skip scenarios whose output is up to date; merge finished shard parts.
+        #[arg(long)]
+        resume: bool,
+    },
     /// Regenerate the built-in prototype's coordinate files from their generators.
     Prototype {
         /// Folder to write rotor.csv and stator.csv into.
@@ -195,6 +213,42 @@ fn run(cli: Cli) -> Result<()> {
                     "{} steps: max deviation {:.3} deg, final deviation {:.3} deg, {} unsettled",
                     s.steps, s.max_deviation_deg, s.final_deviation_deg, s.unsettled_steps
                 )?;
+            }
+        }
+        Command::Batch {
+            inputs,
+            out: out_dir,
+            jobs,
+            shard,
+            resume,
+        } => {
+            if jobs == Some(0) {
+                anyhow::bail!("argument --jobs: expected a number of threads >= 1, got 0");
+            }
+            let opts = spherestep::batch::BatchOptions {
+                out: out_dir,
+                jobs,
+                shard: shard
+                    .as_deref()
+                    .map(spherestep::batch::Shard::parse)
+                    .transpose()?,
+                resume,
+                progress: true,
+            };
+            let files = spherestep::batch::collect_inputs(&inputs)?;
+            let report = spherestep::batch::run_batch(&files, &opts)?;
+            writeln!(
+                out,
+                "{} computed, {} up to date, {} failed",
+                report.ran.len(),
+                report.skipped.len(),
+                report.failed.len()
+            )?;
+            for (name, err) in &report.failed {
+                eprintln!("spherestep: scenario {name} failed: {err}");
+            }
+            if !report.failed.is_empty() {
+                anyhow::bail!("{} scenario(s) failed", report.failed.len());
             }
         }
         Command::Prototype { out: dir } => {

@@ -34,6 +34,50 @@ pub(crate) struct RawScenario {
     body: Option<RawBody>,
     settle: Option<RawSettle>,
     plan: Option<RawPlan>,
+    sweep: Option<RawSweep>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSweep {
+    axes: Option<AxesSpec>,
+    axis_count: Option<usize>,
+    angles_deg: Option<Vec<f64>>,
+    schemes: Option<Vec<String>>,
+    models: Option<Vec<String>>,
+    keep_plans: Option<bool>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum AxesSpec {
+    Named(String),
+    List(Vec<[f64; 3]>),
+}
+
+/// A sweep: many planning cases from one scenario (axes x angles x schemes x models).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sweep {
+    pub axes: Vec<UnitVec>,
+    pub angles: Vec<Radians>,
+    pub schemes: Vec<Scheme>,
+    /// (model, pairs per step)
+    pub models: Vec<(StepModel, usize)>,
+    /// Also write each case's plan CSV.
+    pub keep_plans: bool,
+}
+
+/// `count` axes spread evenly over the whole sphere (a Fibonacci lattice), deterministic.
+pub fn sphere_axes(count: usize) -> Vec<UnitVec> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..count)
+        .map(|k| {
+            let z = 1.0 - (2.0 * k as f64 + 1.0) / count as f64;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = golden * k as f64;
+            UnitVec::new_normalize(Vector3::new(r * phi.cos(), r * phi.sin(), z))
+        })
+        .collect()
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -125,6 +169,8 @@ pub struct Scenario {
     pub settle: SettleParams,
     /// Planning settings of the `[plan]` section (command-line options override them).
     pub plan: PlanSettings,
+    /// The `[sweep]` section, if any: many cases instead of one plan.
+    pub sweep: Option<Sweep>,
 }
 
 impl Scenario {
@@ -158,6 +204,10 @@ impl Scenario {
         let body = ck.body(raw.body.unwrap_or_default())?;
         let settle = ck.settle(raw.settle.unwrap_or_default())?;
         let plan = ck.plan(raw.plan.unwrap_or_default())?;
+        let sweep = match raw.sweep {
+            None => None,
+            Some(sw) => Some(ck.sweep(sw, &plan)?),
+        };
         let name = raw.name.unwrap_or_else(|| {
             path.file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
@@ -179,6 +229,7 @@ impl Scenario {
             body,
             settle,
             plan,
+            sweep,
         })
     }
 
@@ -588,6 +639,116 @@ impl Checker<'_> {
                 raw.angle_tolerance_deg,
                 Degrees(0.5).to_radians(),
             )?,
+        })
+    }
+
+    fn sweep(&self, raw: RawSweep, plan: &PlanSettings) -> Result<Sweep> {
+        let axes = match (raw.axes, raw.axis_count) {
+            (None, None) => vec![plan.axis],
+            (Some(AxesSpec::Named(n)), count) if n == "sphere" => {
+                let c = count.unwrap_or(500);
+                if c == 0 || c > 100_000 {
+                    return Err(self.err(
+                        "sweep.axis_count",
+                        format!("a number of axes from 1 to 100000, got {c}"),
+                    ));
+                }
+                sphere_axes(c)
+            }
+            (Some(AxesSpec::Named(n)), _) => {
+                return Err(self.err(
+                    "sweep.axes",
+                    format!("\"sphere\" or a list of [x, y, z] axes, got \"{n}\""),
+                ))
+            }
+            (Some(AxesSpec::List(list)), None) => {
+                let mut v = Vec::new();
+                for (i, a) in list.iter().enumerate() {
+                    v.push(self.unit(&format!("sweep.axes[{i}]"), *a)?);
+                }
+                if v.is_empty() {
+                    return Err(self.err("sweep.axes", "at least one axis"));
+                }
+                v
+            }
+            (None, Some(_)) | (Some(AxesSpec::List(_)), Some(_)) => {
+                return Err(self.err("sweep.axis_count", "axes = \"sphere\" beside it"))
+            }
+        };
+        let angles = match raw.angles_deg {
+            None => vec![plan.angle],
+            Some(list) if list.is_empty() => {
+                return Err(self.err("sweep.angles_deg", "at least one angle"))
+            }
+            Some(list) => {
+                let mut v = Vec::new();
+                for (i, a) in list.iter().enumerate() {
+                    if !(a.is_finite() && *a > 0.0 && *a <= 3600.0) {
+                        return Err(self.err(
+                            &format!("sweep.angles_deg[{i}]"),
+                            format!("a target angle in (0, 3600] degrees, got {a}"),
+                        ));
+                    }
+                    v.push(Degrees(*a).to_radians());
+                }
+                v
+            }
+        };
+        let schemes = match raw.schemes {
+            None => vec![plan.scheme],
+            Some(list) if list.is_empty() => {
+                return Err(self.err("sweep.schemes", "at least one scheme"))
+            }
+            Some(list) => {
+                let mut v = Vec::new();
+                for (i, n) in list.iter().enumerate() {
+                    v.push(Scheme::from_name(n).ok_or_else(|| {
+                        self.err(
+                            &format!("sweep.schemes[{i}]"),
+                            format!(
+                                "one of min-axis-error, max-angle, weighted, search, got \"{n}\""
+                            ),
+                        )
+                    })?);
+                }
+                v
+            }
+        };
+        let models = match raw.models {
+            None => vec![(plan.model, plan.pairs_per_step)],
+            Some(list) if list.is_empty() => {
+                return Err(self.err("sweep.models", "at least one model"))
+            }
+            Some(list) => {
+                let mut v = Vec::new();
+                for (i, n) in list.iter().enumerate() {
+                    let field = format!("sweep.models[{i}]");
+                    let bad = || {
+                        self.err(
+                            &field,
+                            format!("\"pivot\" or \"dynamic:K\" (K pairs per step), got \"{n}\""),
+                        )
+                    };
+                    let m = match n.split_once(':') {
+                        None if n == "pivot" => (StepModel::Pivot, 2),
+                        None if n == "dynamic" => (StepModel::Dynamic, 2),
+                        Some(("dynamic", k)) => {
+                            (StepModel::Dynamic, k.parse::<usize>().map_err(|_| bad())?)
+                        }
+                        _ => return Err(bad()),
+                    };
+                    check_pairs_per_step(m.0, m.1).map_err(|e| self.err(&field, e))?;
+                    v.push(m);
+                }
+                v
+            }
+        };
+        Ok(Sweep {
+            axes,
+            angles,
+            schemes,
+            models,
+            keep_plans: raw.keep_plans.unwrap_or(false),
         })
     }
 

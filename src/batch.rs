@@ -1,0 +1,627 @@
+//! Batch runs: a folder of scenarios in, a folder of CSVs out. Plain scenarios give a plan CSV,
+//! sweeps (a `[sweep]` section) one row per case; `summary.csv` has one row per scenario.
+//! Output is identical for any number of jobs; `--shard I/N` computes a stable, disjoint part
+//! (plain scenarios by their index, sweep cases by theirs) and a later run with `--resume`
+//! over the same output folder merges the parts into exactly the single-machine result.
+//! Files are written atomically, and a content hash beside each lets `--resume` skip finished
+//! work. A failing scenario is reported by name while the others still run.
+
+use crate::app::motor;
+use crate::commutation::StepModel;
+use crate::error::{Error, Result};
+use crate::geometry::UnitVec;
+use crate::output::write_atomic;
+use crate::planfile::{parse_plan, write_plan, PlanRow};
+use crate::planner::{max_axis_error_deg, plan, PlanSettings};
+use crate::scenario::Scenario;
+use rayon::prelude::*;
+use sha2::{Digest, Sha256};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// How to run a batch.
+#[derive(Debug, Clone)]
+pub struct BatchOptions {
+    pub out: PathBuf,
+    /// Worker threads (default: all cores).
+    pub jobs: Option<usize>,
+    /// Run only part I of N.
+    pub shard: Option<Shard>,
+    /// Skip work whose output exists with a matching content hash; merge shard parts.
+    pub resume: bool,
+    /// Show a progress bar (only drawn on a terminal).
+    pub progress: bool,
+}
+
+/// Part `index` of `count` (0-based).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+impl Shard {
+    /// Parses `I/N` with 0 <= I < N.
+    pub fn parse(text: &str) -> Result<Shard> {
+        let bad = || Error::Arg {
+            arg: "--shard".into(),
+            expected: format!("I/N with 0 <= I < N (e.g. 0/3), got '{text}'"),
+        };
+        let (i, n) = text.split_once('/').ok_or_else(bad)?;
+        let (i, n) = (
+            i.trim().parse::<usize>().map_err(|_| bad())?,
+            n.trim().parse::<usize>().map_err(|_| bad())?,
+        );
+        if n == 0 || i >= n {
+            return Err(bad());
+        }
+        Ok(Shard { index: i, count: n })
+    }
+
+    fn takes(&self, k: usize) -> bool {
+        k % self.count == self.index
+    }
+
+    fn suffix(&self) -> String {
+        format!("shard-{}-of-{}", self.index, self.count)
+    }
+}
+
+/// What a batch did.
+#[derive(Debug, Clone, Default)]
+pub struct BatchReport {
+    /// Scenario names computed now.
+    pub ran: Vec<String>,
+    /// Scenario names skipped by --resume (output up to date) or merged from shard parts.
+    pub skipped: Vec<String>,
+    /// (scenario file or name, error) for each failure.
+    pub failed: Vec<(String, String)>,
+}
+
+/// The header of a sweep CSV.
+pub const SWEEP_HEADER: [&str; 13] = [
+    "case",
+    "scheme",
+    "model",
+    "pairs_per_step",
+    "axis_x",
+    "axis_y",
+    "axis_z",
+    "angle_deg",
+    "steps",
+    "final_angle_deg",
+    "max_axis_error_deg",
+    "reached",
+    "total_settle_time_s",
+];
+
+/// The header of summary.csv.
+pub const SUMMARY_HEADER: [&str; 13] = [
+    "name",
+    "kind",
+    "cases",
+    "axis",
+    "angle_deg",
+    "scheme",
+    "model",
+    "pairs_per_step",
+    "steps",
+    "final_angle_deg",
+    "max_axis_error_deg",
+    "reached",
+    "total_settle_time_s",
+];
+
+/// The scenario files named by the arguments: folders give their `*.toml` files; all sorted.
+pub fn collect_inputs(args: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for a in args {
+        if a.is_dir() {
+            let rd = std::fs::read_dir(a).map_err(|e| Error::io(a, e))?;
+            for e in rd {
+                let p = e.map_err(|e| Error::io(a, e))?.path();
+                if p.extension().is_some_and(|x| x == "toml") && p.is_file() {
+                    files.push(p);
+                }
+            }
+        } else {
+            files.push(a.clone());
+        }
+    }
+    files.sort();
+    files.dedup();
+    Ok(files)
+}
+
+/// One planning case of a scenario.
+#[derive(Debug, Clone)]
+struct Case {
+    index: usize,
+    settings: PlanSettings,
+}
+
+fn model_name(m: StepModel) -> &'static str {
+    match m {
+        StepModel::Pivot => "pivot",
+        StepModel::Dynamic => "dynamic",
+    }
+}
+
+/// The cases of a scenario, in their fixed order (models, schemes, angles, axes).
+fn cases(sc: &Scenario) -> Vec<Case> {
+    let Some(sw) = &sc.sweep else {
+        return vec![Case {
+            index: 0,
+            settings: sc.plan.clone(),
+        }];
+    };
+    let mut out = Vec::new();
+    for &(model, pairs) in &sw.models {
+        for &scheme in &sw.schemes {
+            for &angle in &sw.angles {
+                for axis in &sw.axes {
+                    out.push(Case {
+                        index: out.len(),
+                        settings: PlanSettings {
+                            axis: *axis,
+                            angle,
+                            scheme,
+                            model,
+                            pairs_per_step: pairs,
+                            ..sc.plan.clone()
+                        },
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The content hash of a scenario's work: program version, the scenario as loaded (points,
+/// wells, settings) and which part of it.
+fn content_hash(sc: &Scenario, text: &str, part: &str) -> String {
+    let mut h = Sha256::new();
+    h.update(env!("CARGO_PKG_VERSION").as_bytes());
+    h.update(text.as_bytes());
+    h.update(format!("{:?}", sc.torques).as_bytes());
+    h.update(format!("{:?}{:?}{:?}{:?}", sc.body, sc.settle, sc.plan, sc.sweep).as_bytes());
+    h.update(part.as_bytes());
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+fn hash_path(csv: &Path) -> PathBuf {
+    let mut s = csv.as_os_str().to_owned();
+    s.push(".hash");
+    PathBuf::from(s)
+}
+
+fn up_to_date(csv: &Path, hash: &str) -> bool {
+    csv.is_file() && std::fs::read_to_string(hash_path(csv)).is_ok_and(|h| h.trim() == hash)
+}
+
+/// Writes a result and then its hash (a killed run leaves at worst a result without a hash,
+/// which --resume recomputes).
+fn write_with_hash(csv: &Path, bytes: &[u8], hash: &str) -> Result<()> {
+    write_atomic(csv, bytes)?;
+    write_atomic(&hash_path(csv), format!("{hash}\n").as_bytes())
+}
+
+struct Job {
+    name: String,
+    file: PathBuf,
+    scenario: Scenario,
+    cases: Vec<Case>,
+    /// Where the result goes (the whole CSV or this shard's part).
+    csv: PathBuf,
+    hash: String,
+}
+
+/// The result of one case.
+struct Outcome {
+    rows: Vec<PlanRow>,
+    reached: bool,
+    seconds: f64,
+}
+
+/// Runs a batch. Progress goes to `progress` when set; the report says what ran and failed.
+pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport> {
+    std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
+    remove_stale_temporaries(&opts.out);
+    let mut report = BatchReport::default();
+    let mut jobs: Vec<Job> = Vec::new();
+    let mut names: BTreeMap<String, PathBuf> = BTreeMap::new();
+    let mut plain_index = 0usize;
+    let mut loaded: Vec<(String, PathBuf, Scenario, String)> = Vec::new();
+    for file in inputs {
+        let text = match std::fs::read_to_string(file) {
+            Ok(t) => t,
+            Err(e) => {
+                report
+                    .failed
+                    .push((file.display().to_string(), Error::io(file, e).to_string()));
+                continue;
+            }
+        };
+        let sc = match Scenario::from_toml(&text, file) {
+            Ok(s) => s,
+            Err(e) => {
+                report
+                    .failed
+                    .push((file.display().to_string(), e.to_string()));
+                continue;
+            }
+        };
+        if let Some(other) = names.get(&sc.name) {
+            report.failed.push((
+                file.display().to_string(),
+                format!(
+                    "{}: field `name`: expected a name not used by {} already, got \"{}\"",
+                    file.display(),
+                    other.display(),
+                    sc.name
+                ),
+            ));
+            continue;
+        }
+        names.insert(sc.name.clone(), file.clone());
+        loaded.push((sc.name.clone(), file.clone(), sc, text));
+    }
+    for (name, file, sc, text) in loaded {
+        let all = cases(&sc);
+        let whole = opts.out.join(format!("{name}.csv"));
+        let whole_hash = content_hash(&sc, &text, "whole");
+        let (csv, hash, mine) = match (opts.shard, &sc.sweep) {
+            (None, _) => (whole, whole_hash, all),
+            (Some(sh), None) => {
+                let k = plain_index;
+                plain_index += 1;
+                if !sh.takes(k) {
+                    continue;
+                }
+                (whole, whole_hash, all)
+            }
+            (Some(sh), Some(_)) => {
+                let part = opts.out.join(format!("{name}.{}.csv", sh.suffix()));
+                let hash = content_hash(&sc, &text, &sh.suffix());
+                let mine = all.into_iter().filter(|c| sh.takes(c.index)).collect();
+                (part, hash, mine)
+            }
+        };
+        if opts.resume {
+            if up_to_date(&csv, &hash) {
+                report.skipped.push(name);
+                continue;
+            }
+            if opts.shard.is_none() && sc.sweep.is_some() {
+                match merge_parts(&opts.out, &name, &sc, &text)? {
+                    Some(bytes) => {
+                        write_with_hash(&csv, &bytes, &hash)?;
+                        report.skipped.push(name);
+                        continue;
+                    }
+                    None => {}
+                }
+            }
+        }
+        jobs.push(Job {
+            name,
+            file,
+            scenario: sc,
+            cases: mine,
+            csv,
+            hash,
+        });
+    }
+
+    let total: usize = jobs.iter().map(|j| j.cases.len()).sum();
+    let bar = if opts.progress {
+        indicatif::ProgressBar::new(total as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} cases, {elapsed} ({eta} left)",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    // Scenarios in parallel, and each scenario's cases in parallel within it; a scenario's
+    // file is written as soon as its last case is done.
+    let compute = || -> Vec<(f64, Result<()>)> {
+        jobs.par_iter()
+            .map(|job| {
+                let outcomes: Vec<Outcome> = job
+                    .cases
+                    .par_iter()
+                    .map(|case| {
+                        let t = Instant::now();
+                        let p = plan(&motor(&job.scenario), &case.settings);
+                        bar.inc(1);
+                        Outcome {
+                            rows: p.rows,
+                            reached: p.reached,
+                            seconds: t.elapsed().as_secs_f64(),
+                        }
+                    })
+                    .collect();
+                let seconds = outcomes.iter().map(|o| o.seconds).sum();
+                (seconds, write_job(job, &outcomes, &opts.out))
+            })
+            .collect()
+    };
+    let results = match opts.jobs {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| Error::Arg {
+                arg: "--jobs".into(),
+                expected: format!("a usable number of threads: {e}"),
+            })?
+            .install(compute),
+        None => compute(),
+    };
+    bar.finish_and_clear();
+
+    let mut timing = String::from("name,compute_time_s\n");
+    for (job, (seconds, written)) in jobs.iter().zip(results) {
+        match written {
+            Ok(()) => {
+                report.ran.push(job.name.clone());
+                timing.push_str(&format!("{},{seconds:.3}\n", job.name));
+            }
+            Err(e) => report
+                .failed
+                .push((job.file.display().to_string(), e.to_string())),
+        }
+    }
+    if opts.shard.is_none() {
+        let sums = summary_csv(inputs, &opts.out, &mut report)?;
+        write_atomic(&opts.out.join("summary.csv"), sums.as_bytes())?;
+        if !jobs.is_empty() {
+            write_atomic(&opts.out.join("timing.csv"), timing.as_bytes())?;
+        }
+    }
+    Ok(report)
+}
+
+fn remove_stale_temporaries(dir: &Path) {
+    if let Ok(rd) = std::fs::read_dir(dir) {
+        for e in rd.flatten() {
+            let n = e.file_name().to_string_lossy().into_owned();
+            if n.starts_with('.') && n.ends_with(".tmp") {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+    }
+}
+
+fn csv_err(e: csv::Error) -> Error {
+    Error::io("<csv>", std::io::Error::other(e.to_string()))
+}
+
+fn sweep_record(c: &Case, o: &Outcome) -> Vec<String> {
+    let s = &c.settings;
+    vec![
+        c.index.to_string(),
+        s.scheme.name().to_string(),
+        model_name(s.model).to_string(),
+        s.pairs_per_step.to_string(),
+        s.axis.x.to_string(),
+        s.axis.y.to_string(),
+        s.axis.z.to_string(),
+        s.angle.0.to_degrees().to_string(),
+        o.rows.len().saturating_sub(1).to_string(),
+        o.rows
+            .last()
+            .map(|r| r.cum_angle_deg)
+            .unwrap_or(0.0)
+            .to_string(),
+        max_axis_error_deg(&o.rows).to_string(),
+        o.reached.to_string(),
+        o.rows
+            .iter()
+            .map(|r| r.settle_time_s)
+            .sum::<f64>()
+            .to_string(),
+    ]
+}
+
+fn write_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
+    match &job.scenario.sweep {
+        None => {
+            let o = outcomes.first().ok_or_else(|| Error::Arg {
+                arg: job.name.clone(),
+                expected: "one plan".into(),
+            })?;
+            let mut buf = Vec::new();
+            write_plan(&o.rows, &mut buf)?;
+            write_with_hash(&job.csv, &buf, &job.hash)
+        }
+        Some(sw) => {
+            let mut w = csv::Writer::from_writer(Vec::new());
+            w.write_record(SWEEP_HEADER).map_err(csv_err)?;
+            for (c, o) in job.cases.iter().zip(outcomes) {
+                w.write_record(sweep_record(c, o)).map_err(csv_err)?;
+                if sw.keep_plans {
+                    let mut buf = Vec::new();
+                    write_plan(&o.rows, &mut buf)?;
+                    let p = out.join(&job.name).join(format!(
+                        "case-{}-{}-{}{}.csv",
+                        c.index,
+                        c.settings.scheme.name(),
+                        model_name(c.settings.model),
+                        c.settings.pairs_per_step
+                    ));
+                    write_atomic(&p, &buf)?;
+                }
+            }
+            let bytes = w
+                .into_inner()
+                .map_err(|e| Error::io(&job.csv, e.into_error()))?;
+            write_with_hash(&job.csv, &bytes, &job.hash)
+        }
+    }
+}
+
+/// Merges the shard parts of a sweep, when a complete, up-to-date set of them is present.
+fn merge_parts(out: &Path, name: &str, sc: &Scenario, text: &str) -> Result<Option<Vec<u8>>> {
+    let prefix = format!("{name}.shard-");
+    let mut counts: Vec<usize> = Vec::new();
+    if let Ok(rd) = std::fs::read_dir(out) {
+        for e in rd.flatten() {
+            let n = e.file_name().to_string_lossy().into_owned();
+            if let Some(rest) = n.strip_prefix(&prefix).and_then(|r| r.strip_suffix(".csv")) {
+                if let Some((_, c)) = rest.split_once("-of-") {
+                    if let Ok(c) = c.parse::<usize>() {
+                        if !counts.contains(&c) {
+                            counts.push(c);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    counts.sort();
+    for count in counts {
+        let parts: Vec<(PathBuf, Shard)> = (0..count)
+            .map(|index| {
+                let sh = Shard { index, count };
+                (out.join(format!("{name}.{}.csv", sh.suffix())), sh)
+            })
+            .collect();
+        if !parts
+            .iter()
+            .all(|(p, sh)| up_to_date(p, &content_hash(sc, text, &sh.suffix())))
+        {
+            continue;
+        }
+        let mut rows: Vec<(usize, csv::StringRecord)> = Vec::new();
+        for (p, _) in &parts {
+            let mut rdr = csv::Reader::from_path(p).map_err(csv_err)?;
+            for rec in rdr.records() {
+                let rec = rec.map_err(csv_err)?;
+                let case = rec
+                    .get(0)
+                    .and_then(|c| c.parse::<usize>().ok())
+                    .ok_or_else(|| Error::Row {
+                        file: p.clone(),
+                        line: 0,
+                        message: "column `case`: expected a case number".into(),
+                    })?;
+                rows.push((case, rec));
+            }
+        }
+        rows.sort_by_key(|r| r.0);
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.write_record(SWEEP_HEADER).map_err(csv_err)?;
+        for (_, r) in rows {
+            w.write_record(&r).map_err(csv_err)?;
+        }
+        return Ok(Some(
+            w.into_inner().map_err(|e| Error::io(out, e.into_error()))?,
+        ));
+    }
+    Ok(None)
+}
+
+fn axis_text(a: &UnitVec) -> String {
+    format!("{:.4};{:.4};{:.4}", a.x, a.y, a.z)
+}
+
+/// summary.csv, built from the output files (so that a merged run gives the same summary).
+fn summary_csv(inputs: &[PathBuf], out: &Path, report: &mut BatchReport) -> Result<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(SUMMARY_HEADER).map_err(csv_err)?;
+    let failed: Vec<String> = report.failed.iter().map(|f| f.0.clone()).collect();
+    for file in inputs {
+        if failed.contains(&file.display().to_string()) {
+            continue;
+        }
+        let Ok(sc) = Scenario::load(file) else {
+            continue;
+        };
+        let csv = out.join(format!("{}.csv", sc.name));
+        let Ok(text) = std::fs::read_to_string(&csv) else {
+            continue;
+        };
+        let rec: Vec<String> = match &sc.sweep {
+            None => {
+                let rows = parse_plan(&text, &csv)?;
+                let s = &sc.plan;
+                let fin = rows.last().map(|r| r.cum_angle_deg).unwrap_or(0.0);
+                let reached = fin >= (s.angle.0 - s.angle_tolerance.0).to_degrees();
+                vec![
+                    sc.name.clone(),
+                    "plan".into(),
+                    "1".into(),
+                    axis_text(&s.axis),
+                    s.angle.0.to_degrees().to_string(),
+                    s.scheme.name().into(),
+                    model_name(s.model).into(),
+                    s.pairs_per_step.to_string(),
+                    rows.len().saturating_sub(1).to_string(),
+                    fin.to_string(),
+                    max_axis_error_deg(&rows).to_string(),
+                    reached.to_string(),
+                    rows.iter()
+                        .map(|r| r.settle_time_s)
+                        .sum::<f64>()
+                        .to_string(),
+                ]
+            }
+            Some(sw) => {
+                let mut rdr = csv::Reader::from_reader(text.as_bytes());
+                let (mut n, mut reached, mut steps) = (0usize, 0usize, 0usize);
+                let (mut worst, mut settle, mut min_final) = (0.0f64, 0.0f64, f64::INFINITY);
+                for r in rdr.records() {
+                    let r = r.map_err(csv_err)?;
+                    let num =
+                        |k: usize| r.get(k).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+                    n += 1;
+                    steps += num(8) as usize;
+                    min_final = min_final.min(num(9));
+                    worst = worst.max(num(10));
+                    if r.get(11) == Some("true") {
+                        reached += 1;
+                    }
+                    settle += num(12);
+                }
+                let join = |v: Vec<String>| v.join(";");
+                vec![
+                    sc.name.clone(),
+                    "sweep".into(),
+                    n.to_string(),
+                    format!("{} axes", sw.axes.len()),
+                    join(
+                        sw.angles
+                            .iter()
+                            .map(|a| a.0.to_degrees().to_string())
+                            .collect(),
+                    ),
+                    join(sw.schemes.iter().map(|s| s.name().to_string()).collect()),
+                    join(
+                        sw.models
+                            .iter()
+                            .map(|m| model_name(m.0).to_string())
+                            .collect(),
+                    ),
+                    join(sw.models.iter().map(|m| m.1.to_string()).collect()),
+                    steps.to_string(),
+                    if n == 0 {
+                        "0".into()
+                    } else {
+                        min_final.to_string()
+                    },
+                    worst.to_string(),
+                    format!("{reached}/{n}"),
+                    settle.to_string(),
+                ]
+            }
+        };
+        w.write_record(rec).map_err(csv_err)?;
+    }
+    let bytes = w.into_inner().map_err(|e| Error::io(out, e.into_error()))?;
+    String::from_utf8(bytes).map_err(|e| Error::io(out, std::io::Error::other(e.to_string())))
+}

@@ -1,0 +1,265 @@
+//! Batch runs: identical bytes for any --jobs, shards that merge into the full run, no
+//! half-written files after a kill and --resume completing it, a broken scenario reported by
+//! name while the good ones finish.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A folder of small scenarios: three plans and a 24-axis sweep over two schemes.
+fn scenarios(dir: &Path) -> PathBuf {
+    let s = dir.join("scen");
+    std::fs::create_dir_all(&s).unwrap();
+    for (name, axis) in [
+        ("a-z", "[0, 0, 1]"),
+        ("b-y", "[0, 1, 0]"),
+        ("c-xy", "[1, 1, 0]"),
+    ] {
+        std::fs::write(
+            s.join(format!("{name}.toml")),
+            format!("[plan]\naxis = {axis}\nangle_deg = 60\n"),
+        )
+        .unwrap();
+    }
+    std::fs::write(
+        s.join("d-sweep.toml"),
+        "[plan]\nangle_deg = 45\n[sweep]\naxes = \"sphere\"\naxis_count = 24\nschemes = [\"weighted\", \"search\"]\n",
+    )
+    .unwrap();
+    s
+}
+
+fn batch(args: &[&str]) -> std::process::Output {
+    Command::new(common::bin())
+        .arg("batch")
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// Every file below `dir` (relative path -> bytes), timing.csv left out (wall time).
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
+                if rel != "timing.csv" {
+                    out.insert(rel, std::fs::read(&p).unwrap());
+                }
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn jobs_1_and_2_give_identical_bytes() {
+    let t = tempfile::tempdir().unwrap();
+    let s = scenarios(t.path());
+    let (o1, o2) = (t.path().join("o1"), t.path().join("o2"));
+    let r1 = batch(&[
+        s.to_str().unwrap(),
+        "--out",
+        o1.to_str().unwrap(),
+        "--jobs",
+        "1",
+    ]);
+    let r2 = batch(&[
+        s.to_str().unwrap(),
+        "--out",
+        o2.to_str().unwrap(),
+        "--jobs",
+        "2",
+    ]);
+    assert!(r1.status.success() && r2.status.success());
+    let (f1, f2) = (files(&o1), files(&o2));
+    assert_eq!(f1, f2);
+    // four scenario CSVs with their hashes, and the summary
+    assert_eq!(f1.len(), 9, "{:?}", f1.keys());
+    let summary = String::from_utf8(f1["summary.csv"].clone()).unwrap();
+    assert_eq!(summary.lines().count(), 5);
+    assert!(summary.contains("\nd-sweep,sweep,48,24 axes,45,weighted;search,pivot,2,"));
+    let sweep = String::from_utf8(f1["d-sweep.csv"].clone()).unwrap();
+    assert_eq!(sweep.lines().count(), 49);
+    assert!(o1.join("timing.csv").is_file());
+}
+
+#[test]
+fn shards_merge_into_the_full_run() {
+    let t = tempfile::tempdir().unwrap();
+    let s = scenarios(t.path());
+    let full = t.path().join("full");
+    let parts = t.path().join("parts");
+    assert!(
+        batch(&[s.to_str().unwrap(), "--out", full.to_str().unwrap()])
+            .status
+            .success()
+    );
+    for i in 0..3 {
+        let sh = format!("{i}/3");
+        let r = batch(&[
+            s.to_str().unwrap(),
+            "--out",
+            parts.to_str().unwrap(),
+            "--shard",
+            &sh,
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    }
+    // the shards are disjoint: each plan once, the sweep in three parts
+    let before = files(&parts);
+    assert!(!before.contains_key("summary.csv"));
+    assert!(before.contains_key("d-sweep.shard-0-of-3.csv"));
+    assert!(!before.contains_key("d-sweep.csv"));
+    let rows: usize = (0..3)
+        .map(|i| {
+            String::from_utf8(before[&format!("d-sweep.shard-{i}-of-3.csv")].clone())
+                .unwrap()
+                .lines()
+                .count()
+                - 1
+        })
+        .sum();
+    assert_eq!(rows, 48);
+    // merging: a plain run with --resume over the same folder
+    let r = batch(&[
+        s.to_str().unwrap(),
+        "--out",
+        parts.to_str().unwrap(),
+        "--resume",
+    ]);
+    assert!(r.status.success());
+    assert!(String::from_utf8_lossy(&r.stdout).starts_with("0 computed, 4 up to date"));
+    let merged: BTreeMap<String, Vec<u8>> = files(&parts)
+        .into_iter()
+        .filter(|(k, _)| !k.contains(".shard-"))
+        .collect();
+    assert_eq!(merged, files(&full));
+}
+
+#[test]
+fn a_killed_run_leaves_no_half_written_csv_and_resume_completes_it() {
+    let t = tempfile::tempdir().unwrap();
+    let s = scenarios(t.path());
+    // a heavier sweep (seconds), so that the kill lands while it runs
+    std::fs::write(
+        s.join("e-big.toml"),
+        "[plan]\nangle_deg = 90\nmodel = \"dynamic\"\n[sweep]\naxes = \"sphere\"\naxis_count = 300\nschemes = [\"weighted\"]\n",
+    )
+    .unwrap();
+    let out = t.path().join("out");
+    let mut child = Command::new(common::bin())
+        .args([
+            "batch",
+            s.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--jobs",
+            "1",
+        ])
+        .spawn()
+        .unwrap();
+    // kill it as soon as the first scenario's file is there
+    let start = std::time::Instant::now();
+    while !out.join("a-z.csv").exists() && start.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(out.join("a-z.csv").exists());
+    // whatever is there is whole: every CSV parses with the right column count
+    for (name, bytes) in files(&out) {
+        if name.ends_with(".csv") {
+            let mut rdr = csv::Reader::from_reader(bytes.as_slice());
+            let width = rdr.headers().unwrap().len();
+            for r in rdr.records() {
+                assert_eq!(r.unwrap().len(), width, "{name}");
+            }
+        }
+    }
+    assert!(
+        !out.join("e-big.csv").exists(),
+        "the big sweep cannot have finished"
+    );
+    // resume: the rest is computed, nothing finished is redone, and it equals a fresh run
+    let r = batch(&[
+        s.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--resume",
+    ]);
+    assert!(r.status.success());
+    assert!(out.join("e-big.csv").is_file());
+    let fresh = t.path().join("fresh");
+    assert!(
+        batch(&[s.to_str().unwrap(), "--out", fresh.to_str().unwrap()])
+            .status
+            .success()
+    );
+    let resumed: BTreeMap<_, _> = files(&out)
+        .into_iter()
+        .filter(|(k, _)| !k.ends_with(".tmp"))
+        .collect();
+    assert_eq!(resumed, files(&fresh));
+    // a second resume computes nothing
+    let r = batch(&[
+        s.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--resume",
+    ]);
+    assert!(String::from_utf8_lossy(&r.stdout).starts_with("0 computed, 5 up to date"));
+}
+
+#[test]
+fn a_broken_scenario_is_reported_by_name_and_the_rest_finish() {
+    let t = tempfile::tempdir().unwrap();
+    let s = scenarios(t.path());
+    std::fs::write(s.join("broken.toml"), "[plan]\naxis = [0, 0, 0]\n").unwrap();
+    let out = t.path().join("out");
+    let r = batch(&[s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(r.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        err.contains("broken.toml") && err.contains("plan.axis"),
+        "{err}"
+    );
+    for n in ["a-z", "b-y", "c-xy", "d-sweep"] {
+        assert!(out.join(format!("{n}.csv")).is_file(), "{n} must finish");
+    }
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    assert_eq!(summary.lines().count(), 5);
+}
+
+#[test]
+fn bad_shard_and_jobs_arguments_are_refused() {
+    let t = tempfile::tempdir().unwrap();
+    let s = scenarios(t.path());
+    let out = t.path().join("out");
+    for bad in ["3/3", "1-3", "x/2", "0/0"] {
+        let r = batch(&[
+            s.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--shard",
+            bad,
+        ]);
+        assert_eq!(r.status.code(), Some(1));
+        assert!(String::from_utf8_lossy(&r.stderr).contains("--shard"));
+    }
+    let r = batch(&[
+        s.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--jobs",
+        "0",
+    ]);
+    assert_eq!(r.status.code(), Some(1));
+}
