@@ -95,8 +95,13 @@ impl Link {
         let Some(port) = self.port.as_mut() else {
             return Ok(());
         };
-        let r = port.write_all(frame).and_then(|()| port.flush());
-        r.map_err(|e| self.io_err("writing", e))
+        if let Err(e) = port.write_all(frame) {
+            return Err(self.io_err("writing", e));
+        }
+        // serialport reports a failed drain as a bare "flush failed"; unplugging (or closing
+        // the far end) during it is the usual cause.
+        port.flush()
+            .map_err(|e| self.io_err("draining the written frame", e))
     }
 
     /// Reads until `done(bytes so far)` says the reply is complete, or the timeout passes.

@@ -744,8 +744,9 @@ impl Runner<'_> {
     /// The replay proper; returns whether the user quit. The caller switches all off after.
     fn drive(&mut self, s: &Schedule) -> Result<bool, RelayError> {
         self.check_stop()?;
-        self.board.all_off()?;
+        let r = self.board.all_off();
         self.emit(None, "all-off", None, None)?;
+        r?;
         for e in &s.entries {
             self.next_step = if e.hold { e.step + 1 } else { e.step };
             if self.mode == Mode::Step {
@@ -762,7 +763,7 @@ impl Runner<'_> {
             let action_step = Some(e.step);
             for sw in &e.switches {
                 self.check_stop()?;
-                self.board.set(sw.channel, sw.on)?;
+                let r = self.board.set(sw.channel, sw.on);
                 if sw.on {
                     let t = self.now();
                     self.on_since.insert(sw.channel, (sw.coil, t, e.step));
@@ -774,11 +775,14 @@ impl Runner<'_> {
                     (false, true) => "on",
                     (false, false) => "off",
                 };
+                // Log what went out even when the board then failed to answer.
                 self.emit(action_step, action, Some(sw.coil), Some(sw.channel))?;
+                r?;
             }
             if self.verify {
-                let states = self.board.read_states()?;
+                let states = self.board.read_states();
                 self.emit(action_step, "read", None, None)?;
+                let states = states?;
                 if let Some(states) = states {
                     let got: Vec<Channel> = states
                         .iter()
