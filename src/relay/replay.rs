@@ -826,3 +826,90 @@ impl Runner<'_> {
         Ok(false)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Pair;
+    use nalgebra::UnitQuaternion;
+
+    fn row(step: usize, active: &[(usize, usize)], settle: f64) -> PlanRow {
+        PlanRow {
+            step,
+            pivot: None,
+            new: Vec::new(),
+            active: active.iter().map(|&(c, m)| Pair::new(c, m)).collect(),
+            q: UnitQuaternion::identity(),
+            step_angle_deg: 0.0,
+            step_axis_error_deg: 0.0,
+            cum_angle_deg: 0.0,
+            cum_axis_error_deg: 0.0,
+            settle_time_s: settle,
+        }
+    }
+
+    #[test]
+    fn dwell_is_settle_times_factor_at_least_the_floor() {
+        let s = RelaySettings::default();
+        assert_eq!(
+            dwell(&row(0, &[], 0.1), &s, None),
+            Duration::from_millis(200)
+        );
+        assert_eq!(
+            dwell(&row(0, &[], 1.0), &s, None),
+            Duration::from_millis(1500)
+        );
+        let fixed = Some(Duration::from_millis(7));
+        assert_eq!(
+            dwell(&row(0, &[], 1.0), &s, fixed),
+            Duration::from_millis(7)
+        );
+    }
+
+    #[test]
+    fn resume_re_energises_the_step_before() {
+        let rows = [
+            row(0, &[(0, 1), (1, 2)], 0.1),
+            row(1, &[(0, 1), (2, 3)], 0.1),
+            row(2, &[(2, 3), (3, 4)], 0.1),
+        ];
+        let s = RelaySettings::default();
+        let sc = schedule(&rows, &s, BoardKind::Lcus, 8, 16, None, 2, Mode::Realtime).unwrap();
+        assert_eq!(sc.entries.len(), 2);
+        let hold = &sc.entries[0];
+        assert!(hold.hold && hold.step == 1);
+        let on: Vec<u16> = hold.switches.iter().map(|w| w.channel.0).collect();
+        assert_eq!(on, [1, 3]);
+        let step = &sc.entries[1];
+        assert_eq!(
+            step.switches,
+            [
+                Switch {
+                    coil: CoilId(3),
+                    channel: Channel(4),
+                    on: true
+                },
+                Switch {
+                    coil: CoilId(0),
+                    channel: Channel(1),
+                    on: false
+                },
+            ]
+        );
+        assert_eq!(step.peak, 3);
+        let e = schedule(&rows, &s, BoardKind::Lcus, 8, 16, None, 3, Mode::Realtime).unwrap_err();
+        assert!(e.to_string().contains("--from-step"), "{e}");
+    }
+
+    #[test]
+    fn resume_step_reads_the_last_done_row() {
+        let dir = std::env::temp_dir().join(format!("spherestep-log-{}", std::process::id()));
+        std::fs::write(
+            &dir,
+            "t_s,step,action,coil,channel,bytes\n0.000,0,start,,,\n0.2,0,done,,,\n0.2,1,on,2,3,A0 03 01 A4\n",
+        )
+        .unwrap();
+        assert_eq!(resume_step(&dir).unwrap(), 1);
+        let _ = std::fs::remove_file(&dir);
+    }
+}
