@@ -12,6 +12,7 @@ pub mod output;
 pub mod packing;
 pub mod planfile;
 pub mod planner;
+pub mod relay;
 pub mod scenario;
 pub mod simulate;
 pub mod symmetry;

@@ -110,6 +110,44 @@ enum Command {
         #[arg(long)]
         resume: bool,
     },
+    /// Replay a plan on a relay board: switch each step's coils, wait, all off at the end
+    /// (and on error or Ctrl-C). Settings come from the scenario's [relay] section or --map.
+    Replay {
+        /// Plan CSV (as written by `plan`).
+        plan: PathBuf,
+        /// Scenario file (TOML) with the coil count and [relay] settings (default: prototype).
+        scenario: Option<PathBuf>,
+        /// Serial device, e.g. /dev/ttyUSB0 (not needed with --dry-run).
+        #[arg(long, required_unless_present = "dry_run")]
+        port: Option<String>,
+        /// Board protocol: lcus, kmtronic, numato or modbus (default: relay.board).
+        #[arg(long)]
+        board: Option<spherestep::relay::BoardKind>,
+        /// Baud rate (default: relay.baud, else the vendor's).
+        #[arg(long)]
+        baud: Option<u32>,
+        /// realtime (switch, wait the dwell) or step (wait for Enter; q quits).
+        #[arg(long, default_value = "realtime")]
+        mode: spherestep::relay::replay::Mode,
+        /// Fixed dwell per step, ms (default: settle time x relay.dwell_factor, at least the floor).
+        #[arg(long)]
+        dwell_ms: Option<u64>,
+        /// First step to replay (the step before is re-energised first to hold the ball).
+        #[arg(long, default_value_t = 0)]
+        from_step: usize,
+        /// Print the frames and timing; open no port.
+        #[arg(long)]
+        dry_run: bool,
+        /// Append a CSV of what was sent when (flushed per step).
+        #[arg(long)]
+        log: Option<PathBuf>,
+        /// Read the relays back after each step; stop (all off) on a mismatch.
+        #[arg(long)]
+        verify: bool,
+        /// TOML map file with the [relay] keys at the top (replaces the scenario's section).
+        #[arg(long)]
+        map: Option<PathBuf>,
+    },
     /// Regenerate the built-in prototype's coordinate files from their generators.
     Prototype {
         /// Folder to write rotor.csv and stator.csv into.
@@ -250,6 +288,43 @@ fn run(cli: Cli) -> Result<()> {
             if !report.failed.is_empty() {
                 anyhow::bail!("{} scenario(s) failed", report.failed.len());
             }
+        }
+        Command::Replay {
+            plan,
+            scenario,
+            port,
+            board,
+            baud,
+            mode,
+            dwell_ms,
+            from_step,
+            dry_run,
+            log,
+            verify,
+            map,
+        } => {
+            use spherestep::relay::replay::{self, Mode, ReplayOptions};
+            use std::sync::{atomic::AtomicBool, atomic::Ordering, Arc};
+            let stop = Arc::new(AtomicBool::new(false));
+            let flag = stop.clone();
+            ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
+                .context("installing the Ctrl-C/SIGTERM handler")?;
+            let opts = ReplayOptions {
+                plan,
+                scenario,
+                map,
+                port,
+                board,
+                baud,
+                mode,
+                dwell_ms,
+                from_step,
+                dry_run,
+                log,
+                verify,
+            };
+            let input = (mode == Mode::Step && !dry_run).then(replay::stdin_lines);
+            replay::run(&opts, stop, input, &mut out)?;
         }
         Command::Prototype { out: dir } => {
             app::write_prototype(&dir)?;

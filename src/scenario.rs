@@ -35,6 +35,7 @@ pub(crate) struct RawScenario {
     settle: Option<RawSettle>,
     plan: Option<RawPlan>,
     sweep: Option<RawSweep>,
+    relay: Option<crate::relay::RelayConfig>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -171,6 +172,8 @@ pub struct Scenario {
     pub plan: PlanSettings,
     /// The `[sweep]` section, if any: many cases instead of one plan.
     pub sweep: Option<Sweep>,
+    /// Relay board, coil map and replay limits (`[relay]`, see `crate::relay::config`).
+    pub relay: crate::relay::RelaySettings,
 }
 
 impl Scenario {
@@ -208,6 +211,11 @@ impl Scenario {
             None => None,
             Some(sw) => Some(ck.sweep(sw, &plan)?),
         };
+        let relay = crate::relay::RelaySettings::from_config(
+            raw.relay.unwrap_or_default(),
+            path,
+            "relay.",
+        )?;
         let name = raw.name.unwrap_or_else(|| {
             path.file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
@@ -230,6 +238,7 @@ impl Scenario {
             settle,
             plan,
             sweep,
+            relay,
         })
     }
 

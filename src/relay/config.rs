@@ -1,0 +1,288 @@
+//! Replay settings: the `[relay]` section of a scenario, or the same keys at the top of a small
+//! TOML map file (`replay --map FILE`). Which relay channel drives which stator coil, the board,
+//! its serial settings, and the safety limits. Unknown keys are refused; every value is checked
+//! and an error names the file and the field.
+
+use super::{BoardKind, Channel};
+use crate::error::{Error, Result};
+use crate::geometry::CoilId;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Duration;
+
+/// Default limit on coils on at once: the supply gives 100 W at 24 V; at about 1 A per coil
+/// (25 W) that is four coils. Set it from your coils' measured current.
+pub const DEFAULT_MAX_COILS_ON: usize = 4;
+/// Default limit on one coil's continuous on-time, s.
+pub const DEFAULT_MAX_ON_TIME_S: f64 = 10.0;
+/// Default dwell: the predicted settle time times this factor...
+pub const DEFAULT_DWELL_FACTOR: f64 = 1.5;
+/// ...but at least this long, ms (relays take a few ms to close, the ball longer to settle).
+pub const DEFAULT_DWELL_FLOOR_MS: f64 = 200.0;
+/// Default Modbus slave address.
+pub const DEFAULT_SLAVE_ADDRESS: u8 = 1;
+/// Default reply timeout, ms.
+pub const DEFAULT_TIMEOUT_MS: f64 = 1000.0;
+
+/// The order of the two halves of a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum SwitchOrder {
+    /// The new coils go on before the released ones go off: the ball stays held (default).
+    #[default]
+    MakeBeforeBreak,
+    /// The released coils go off first: fewer coils on at once, the ball briefly less held.
+    BreakBeforeMake,
+}
+
+/// The `[relay]` section as written (every key optional).
+#[derive(Debug, Default, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RelayConfig {
+    /// lcus, kmtronic, numato or modbus (`--board` overrides).
+    pub board: Option<String>,
+    /// Baud rate (`--baud` overrides); default the vendor's.
+    pub baud: Option<i64>,
+    /// Modbus slave address 1..=247.
+    pub slave_address: Option<i64>,
+    /// Channels on the board; default 8 (lcus, kmtronic) or 16 (numato, modbus).
+    pub channels: Option<i64>,
+    /// How long to wait for a board's reply, ms.
+    pub timeout_ms: Option<f64>,
+    /// Most coils on at once.
+    pub max_coils_on: Option<i64>,
+    /// Longest continuous on-time of one coil, s.
+    pub max_on_time_s: Option<f64>,
+    /// Dwell = predicted settle time x this factor...
+    pub dwell_factor: Option<f64>,
+    /// ...and at least this many ms.
+    pub dwell_floor_ms: Option<f64>,
+    /// "make-before-break" (default) or "break-before-make".
+    pub order: Option<SwitchOrder>,
+    /// Coil (0-based, as a key) to channel (1-based): `[relay.map]` with `0 = 1`, `1 = 2`, ...
+    /// Without it, coil i is on channel i + 1.
+    pub map: Option<BTreeMap<String, i64>>,
+}
+
+/// Which channel drives which coil.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CoilMap {
+    /// Coil i on channel i + 1.
+    Default,
+    /// Only the listed coils are driven.
+    Explicit(BTreeMap<CoilId, Channel>),
+}
+
+impl CoilMap {
+    /// The channel driving `coil`, if any.
+    pub fn channel(&self, coil: CoilId) -> Option<Channel> {
+        match self {
+            CoilMap::Default => u16::try_from(coil.0 + 1).ok().map(Channel),
+            CoilMap::Explicit(m) => m.get(&coil).copied(),
+        }
+    }
+}
+
+/// Checked replay settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RelaySettings {
+    pub board: Option<BoardKind>,
+    pub baud: Option<u32>,
+    pub slave_address: u8,
+    pub channels: Option<u16>,
+    pub timeout: Duration,
+    pub max_coils_on: usize,
+    pub max_on_time: Duration,
+    pub dwell_factor: f64,
+    pub dwell_floor: Duration,
+    pub order: SwitchOrder,
+    pub map: CoilMap,
+}
+
+impl Default for RelaySettings {
+    fn default() -> Self {
+        RelaySettings::from_config(RelayConfig::default(), Path::new("<defaults>"), "")
+            .expect("the defaults are valid")
+    }
+}
+
+impl RelaySettings {
+    /// Checks a `[relay]` section; `prefix` is how fields are named in errors (`relay.` in a
+    /// scenario, empty in a map file).
+    pub fn from_config(raw: RelayConfig, file: &Path, prefix: &str) -> Result<RelaySettings> {
+        let err = |field: &str, expected: String| {
+            Error::field(file, &format!("{prefix}{field}"), expected)
+        };
+        let int = |field: &str, v: Option<i64>, lo: i64, hi: i64| -> Result<Option<i64>> {
+            match v {
+                Some(x) if x < lo || x > hi => {
+                    Err(err(field, format!("an integer in {lo}..={hi}, got {x}")))
+                }
+                v => Ok(v),
+            }
+        };
+        let positive = |field: &str, v: Option<f64>, default: f64| -> Result<f64> {
+            match v {
+                None => Ok(default),
+                Some(x) if x.is_finite() && x > 0.0 => Ok(x),
+                Some(x) => Err(err(field, format!("a finite number > 0, got {x}"))),
+            }
+        };
+        let board = match raw.board.as_deref() {
+            None => None,
+            Some(s) => Some(s.parse::<BoardKind>().map_err(|m| err("board", m))?),
+        };
+        let baud = int("baud", raw.baud, 1, 4_000_000)?.map(|b| b as u32);
+        let slave_address = int("slave_address", raw.slave_address, 1, 247)?
+            .map_or(DEFAULT_SLAVE_ADDRESS, |a| a as u8);
+        let channels = int(
+            "channels",
+            raw.channels,
+            1,
+            i64::from(super::modbus::MAX_CHANNELS),
+        )?
+        .map(|c| c as u16);
+        if let (Some(b), Some(c)) = (board, channels) {
+            if c > b.max_channels() {
+                return Err(err(
+                    "channels",
+                    format!(
+                        "at most {} for a {b} board, got {c}{}",
+                        b.max_channels(),
+                        if b == BoardKind::Lcus {
+                            " (16 coils need a bigger board, e.g. numato or modbus, or two boards)"
+                        } else {
+                            ""
+                        }
+                    ),
+                ));
+            }
+        }
+        let timeout = positive("timeout_ms", raw.timeout_ms, DEFAULT_TIMEOUT_MS)?;
+        let max_coils_on = int("max_coils_on", raw.max_coils_on, 1, 1000)?
+            .map_or(DEFAULT_MAX_COILS_ON, |m| m as usize);
+        let max_on_time = positive("max_on_time_s", raw.max_on_time_s, DEFAULT_MAX_ON_TIME_S)?;
+        let dwell_factor = positive("dwell_factor", raw.dwell_factor, DEFAULT_DWELL_FACTOR)?;
+        let dwell_floor_ms = match raw.dwell_floor_ms {
+            None => DEFAULT_DWELL_FLOOR_MS,
+            Some(x) if x.is_finite() && x >= 0.0 => x,
+            Some(x) => {
+                return Err(err(
+                    "dwell_floor_ms",
+                    format!("a finite number >= 0, got {x}"),
+                ))
+            }
+        };
+        let map = match raw.map {
+            None => CoilMap::Default,
+            Some(m) => {
+                let mut out = BTreeMap::new();
+                let mut used: BTreeMap<Channel, CoilId> = BTreeMap::new();
+                for (k, v) in m {
+                    let field = format!("map.{k}");
+                    let coil = k.trim().parse::<usize>().map(CoilId).map_err(|_| {
+                        err(
+                            &field,
+                            format!("a coil index (0, 1, ...) as the key, got '{k}'"),
+                        )
+                    })?;
+                    let ch = int(&field, Some(v), 1, i64::from(u16::MAX))?
+                        .map(|c| Channel(c as u16))
+                        .unwrap_or(Channel(1));
+                    if let Some(other) = used.insert(ch, coil) {
+                        return Err(err(
+                            &field,
+                            format!(
+                                "a channel no other coil uses, got {ch}, already coil {other}'s"
+                            ),
+                        ));
+                    }
+                    out.insert(coil, ch);
+                }
+                CoilMap::Explicit(out)
+            }
+        };
+        Ok(RelaySettings {
+            board,
+            baud,
+            slave_address,
+            channels,
+            timeout: Duration::from_secs_f64(timeout / 1000.0),
+            max_coils_on,
+            max_on_time: Duration::from_secs_f64(max_on_time),
+            dwell_factor,
+            dwell_floor: Duration::from_secs_f64(dwell_floor_ms / 1000.0),
+            order: raw.order.unwrap_or_default(),
+            map,
+        })
+    }
+
+    /// Parses relay settings written as a TOML map file (the `[relay]` keys at the top level).
+    pub fn from_map_toml(text: &str, path: &Path) -> Result<RelaySettings> {
+        let raw: RelayConfig = toml::from_str(text).map_err(|e| Error::Parse {
+            file: path.to_path_buf(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        RelaySettings::from_config(raw, path, "")
+    }
+
+    /// Reads a TOML map file.
+    pub fn load_map(path: &Path) -> Result<RelaySettings> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        RelaySettings::from_map_toml(&text, path)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_and_map() {
+        let s = RelaySettings::default();
+        assert_eq!(s.map.channel(CoilId(0)), Some(Channel(1)));
+        assert_eq!(s.map.channel(CoilId(15)), Some(Channel(16)));
+        assert_eq!(s.order, SwitchOrder::MakeBeforeBreak);
+        let s = RelaySettings::from_map_toml(
+            "board = \"numato\"\norder = \"break-before-make\"\n[map]\n0 = 3\n5 = 1\n",
+            Path::new("m.toml"),
+        )
+        .unwrap();
+        assert_eq!(s.board, Some(BoardKind::Numato));
+        assert_eq!(s.order, SwitchOrder::BreakBeforeMake);
+        assert_eq!(s.map.channel(CoilId(5)), Some(Channel(1)));
+        assert_eq!(s.map.channel(CoilId(1)), None);
+    }
+
+    #[test]
+    fn errors_name_file_and_field() {
+        let e = RelaySettings::from_map_toml("[map]\n0 = 1\n1 = 1\n", Path::new("m.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("m.toml") && e.contains("map.1"), "{e}");
+        let e =
+            RelaySettings::from_map_toml("board = \"lcus\"\nchannels = 16\n", Path::new("m.toml"))
+                .unwrap_err()
+                .to_string();
+        assert!(e.contains("`channels`") && e.contains("at most 8"), "{e}");
+        let e = RelaySettings::from_map_toml("bord = \"lcus\"\n", Path::new("m.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("m.toml") && e.contains("bord"), "{e}");
+        let e = RelaySettings::from_map_toml("slave_address = 300\n", Path::new("m.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("slave_address") && e.contains("1..=247"), "{e}");
+        let e = crate::scenario::Scenario::from_toml(
+            "[relay]\nmax_coils_on = 0\n",
+            Path::new("s.toml"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("s.toml") && e.contains("`relay.max_coils_on`"),
+            "{e}"
+        );
+    }
+}

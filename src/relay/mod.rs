@@ -1,0 +1,328 @@
+//! Relay boards that switch the stator coils: one driver per board type behind one trait
+//! (`RelayBoard`, in the spirit of the crelay project), the serial link they talk over, the
+//! coil-to-channel map and replay settings (`[relay]` in a scenario, or a `--map` file), and the
+//! hardware replay of a plan (`replay`). Channels are numbered from 1, as printed on the boards;
+//! each driver converts to its own wire numbering.
+
+pub mod config;
+pub mod kmtronic;
+pub mod lcus;
+pub mod link;
+pub mod modbus;
+pub mod numato;
+pub mod replay;
+
+pub use config::{CoilMap, RelayConfig, RelaySettings, SwitchOrder};
+pub use link::Link;
+
+use crate::geometry::CoilId;
+use std::fmt;
+use std::path::PathBuf;
+use std::str::FromStr;
+use std::time::Duration;
+
+/// A relay channel as printed on the board: 1-based.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Channel(pub u16);
+
+impl fmt::Display for Channel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+
+/// The supported board types.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BoardKind {
+    /// CH340 "LCUS-1/2/4/8" USB relay boards: 4-byte frames `A0 ch op sum`, no read-back.
+    Lcus,
+    /// KMTronic USB relay boards: 3-byte frames `FF ch op`, status read on 1/2/4/8-relay boards.
+    Kmtronic,
+    /// Numato Lab USB relay modules: ASCII commands (`relay on 0\r`), read-back.
+    Numato,
+    /// Modbus RTU relay boards: coils written with function 05/0F, read with 01, CRC16.
+    Modbus,
+}
+
+impl BoardKind {
+    pub const ALL: [BoardKind; 4] = [
+        BoardKind::Lcus,
+        BoardKind::Kmtronic,
+        BoardKind::Numato,
+        BoardKind::Modbus,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            BoardKind::Lcus => "lcus",
+            BoardKind::Kmtronic => "kmtronic",
+            BoardKind::Numato => "numato",
+            BoardKind::Modbus => "modbus",
+        }
+    }
+
+    /// The most channels one board of this type can drive.
+    pub fn max_channels(self) -> u16 {
+        match self {
+            BoardKind::Lcus => lcus::MAX_CHANNELS,
+            BoardKind::Kmtronic => kmtronic::MAX_CHANNELS,
+            BoardKind::Numato => numato::MAX_CHANNELS,
+            BoardKind::Modbus => modbus::MAX_CHANNELS,
+        }
+    }
+
+    /// The channel count assumed when the settings give none.
+    pub fn default_channels(self) -> u16 {
+        match self {
+            BoardKind::Lcus | BoardKind::Kmtronic => 8,
+            BoardKind::Numato | BoardKind::Modbus => 16,
+        }
+    }
+
+    /// The vendors' default baud rate.
+    pub fn default_baud(self) -> u32 {
+        match self {
+            BoardKind::Numato => 19200,
+            _ => 9600,
+        }
+    }
+}
+
+impl fmt::Display for BoardKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for BoardKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        BoardKind::ALL
+            .into_iter()
+            .find(|k| k.name().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| format!("expected lcus, kmtronic, numato or modbus, got '{s}'"))
+    }
+}
+
+/// Errors of the relay drivers and of a replay.
+#[derive(Debug, thiserror::Error)]
+pub enum RelayError {
+    /// A scenario, map or plan file is wrong (the message names file and field).
+    #[error(transparent)]
+    Input(#[from] crate::Error),
+    /// The serial port could not be opened.
+    #[error("cannot open serial port {port}: {message} (is the board plugged in, and are you in the `dialout` group?)")]
+    Open { port: String, message: String },
+    /// Reading or writing the port failed.
+    #[error("serial port {port}: {op} failed: {source}")]
+    Port {
+        port: String,
+        op: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The other end of the port went away (unplugged board, closed pseudo-terminal).
+    #[error("serial port {port}: the board end closed the connection while {op}")]
+    Closed { port: String, op: &'static str },
+    /// The board did not answer in time.
+    #[error("{board} board on {port}: no complete reply within {} ms (got {got} bytes: {})", timeout.as_millis(), hex(partial))]
+    NoReply {
+        board: BoardKind,
+        port: String,
+        timeout: Duration,
+        got: usize,
+        partial: Vec<u8>,
+    },
+    /// The board answered something the protocol does not allow.
+    #[error("{board} board: unexpected reply {}: expected {expected}", hex(got))]
+    BadReply {
+        board: BoardKind,
+        expected: String,
+        got: Vec<u8>,
+    },
+    /// A Modbus slave answered with an exception.
+    #[error("modbus slave {slave}: exception {code:#04x} ({}) to function {function:#04x}", modbus::exception_name(*code))]
+    ModbusException { slave: u8, function: u8, code: u8 },
+    /// A channel outside the board.
+    #[error("{board} board: channel {channel} is outside its channels 1..={count}")]
+    ChannelOutOfRange {
+        board: BoardKind,
+        channel: Channel,
+        count: u16,
+    },
+    /// More channels configured than one board of this type has.
+    #[error("{board} boards have at most {max} channels, the settings ask for {count}{hint}")]
+    TooManyChannels {
+        board: BoardKind,
+        count: u16,
+        max: u16,
+        hint: &'static str,
+    },
+    /// `--verify` on a board (or channel count) that cannot report its relays.
+    #[error("{board} board: {reason}; replay without --verify")]
+    NoReadBack { board: BoardKind, reason: String },
+    /// The read-back after a step differs from what was switched.
+    #[error(
+        "verify after step {step}: expected channels on [{}], the board reports [{}]",
+        list(expected),
+        list(got)
+    )]
+    Mismatch {
+        step: usize,
+        expected: Vec<Channel>,
+        got: Vec<Channel>,
+    },
+    /// The plan uses a coil that no relay channel drives.
+    #[error("plan step {step} uses coil {coil}, which {reason}")]
+    Unmapped {
+        step: usize,
+        coil: CoilId,
+        reason: String,
+    },
+    /// Too many coils would be on at once (supply limit).
+    #[error("step {step} would have {count} coils on at once ({coils}), over the limit of {max} (relay.max_coils_on; the supply is 24 V, 100 W)")]
+    TooManyOn {
+        step: usize,
+        count: usize,
+        max: usize,
+        coils: String,
+    },
+    /// One coil would stay on longer than allowed (heat).
+    #[error("coil {coil} (channel {channel}) {when} {:.3} s, over the limit of {:.3} s (relay.max_on_time_s)", on.as_secs_f64(), max.as_secs_f64())]
+    OnTooLong {
+        coil: CoilId,
+        channel: Channel,
+        when: String,
+        on: Duration,
+        max: Duration,
+    },
+    /// Ctrl-C, SIGTERM or SIGHUP.
+    #[error("interrupted by a signal")]
+    Interrupted,
+    /// Standard input closed while waiting for Enter in step mode.
+    #[error("standard input closed while waiting for Enter")]
+    InputClosed,
+    /// Writing the replay log failed.
+    #[error("log {path}: {source}")]
+    Log {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// Bad arguments (for example a --from-step past the plan's end).
+    #[error("argument {arg}: expected {expected}")]
+    Arg { arg: String, expected: String },
+    /// The replay stopped on an error; every coil was switched off afterwards.
+    #[error("{cause}; all coils switched off; resume with --from-step {resume}")]
+    Stopped {
+        cause: Box<RelayError>,
+        resume: usize,
+    },
+    /// The replay finished but the final all-off failed.
+    #[error("the replay finished, but switching all coils off FAILED: {0}; the coils may still be on: cut the coil supply")]
+    EndOffFailed(Box<RelayError>),
+    /// The replay stopped and switching everything off failed too.
+    #[error("{cause}; then switching all coils off FAILED: {off}; the coils may still be on: cut the coil supply")]
+    OffFailed {
+        cause: Box<RelayError>,
+        off: Box<RelayError>,
+    },
+}
+
+impl RelayError {
+    /// The error that started it all (through `Stopped` and `OffFailed`).
+    pub fn root(&self) -> &RelayError {
+        match self {
+            RelayError::Stopped { cause, .. } | RelayError::OffFailed { cause, .. } => cause.root(),
+            e => e,
+        }
+    }
+}
+
+/// Bytes as upper-case hex pairs separated by spaces: `A0 01 01 A2`.
+pub fn hex(bytes: &[u8]) -> String {
+    bytes
+        .iter()
+        .map(|b| format!("{b:02X}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn list(chs: &[Channel]) -> String {
+    chs.iter()
+        .map(|c| c.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// One relay board: the interface every driver implements.
+pub trait RelayBoard: Send {
+    /// Which protocol this is.
+    fn kind(&self) -> BoardKind;
+    /// How many channels the board has (as configured).
+    fn channel_count(&self) -> u16;
+    /// Switches one channel on or off.
+    fn set(&mut self, channel: Channel, on: bool) -> Result<(), RelayError>;
+    /// Switches every channel off.
+    fn all_off(&mut self) -> Result<(), RelayError>;
+    /// Whether `read_states` can work with this board and channel count; `Err` says why not.
+    fn read_back(&self) -> Result<(), RelayError> {
+        Err(RelayError::NoReadBack {
+            board: self.kind(),
+            reason: "this board type cannot report its relay states".into(),
+        })
+    }
+    /// The state of channels 1..=count (index 0 is channel 1); `None` in a dry run.
+    fn read_states(&mut self) -> Result<Option<Vec<bool>>, RelayError> {
+        self.read_back()?;
+        Ok(None)
+    }
+    /// The frames written since the last call, in order (for the log and the dry-run listing).
+    fn take_sent(&mut self) -> Vec<Vec<u8>>;
+}
+
+/// Checks a channel against a board's count.
+pub(crate) fn check_channel(
+    board: BoardKind,
+    channel: Channel,
+    count: u16,
+) -> Result<(), RelayError> {
+    if channel.0 == 0 || channel.0 > count {
+        return Err(RelayError::ChannelOutOfRange {
+            board,
+            channel,
+            count,
+        });
+    }
+    Ok(())
+}
+
+/// Opens the driver for `kind` with `channels` channels over `link`; refuses a channel count the
+/// board type cannot have.
+pub fn connect(
+    kind: BoardKind,
+    channels: u16,
+    slave_address: u8,
+    link: Link,
+) -> Result<Box<dyn RelayBoard>, RelayError> {
+    let max = kind.max_channels();
+    if channels == 0 || channels > max {
+        return Err(RelayError::TooManyChannels {
+            board: kind,
+            count: channels,
+            max,
+            hint: if kind == BoardKind::Lcus {
+                " (LCUS-1/2/4/8: for 16 coils use a 16-channel numato or modbus board, or map the coils the plan uses onto channels 1..=8)"
+            } else {
+                ""
+            },
+        });
+    }
+    Ok(match kind {
+        BoardKind::Lcus => Box::new(lcus::Lcus::new(link, channels)),
+        BoardKind::Kmtronic => Box::new(kmtronic::Kmtronic::new(link, channels)),
+        BoardKind::Numato => Box::new(numato::Numato::new(link, channels)),
+        BoardKind::Modbus => Box::new(modbus::Modbus::new(link, channels, slave_address)),
+    })
+}

@@ -1,0 +1,220 @@
+//! Safety of the hardware replay on a pseudo-terminal: limits refused before any byte is sent,
+//! the board end closing mid-replay gives a clear error (not a hang), and `--from-step`
+//! resumes where the log stopped.
+
+mod relay_support;
+
+use relay_support::*;
+use spherestep::relay::replay::{self, Mode};
+use spherestep::relay::RelayError;
+
+#[test]
+fn too_many_coils_refused_before_any_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = plan(dir.path(), "p.csv", &["0:1;1:2", "0:1;1:2;2:3"], 0.1);
+    let sc = scenario(dir.path(), "board = \"lcus\"\nmax_coils_on = 2");
+    let (mut board, computer) = pty();
+    let (r, _) = run(&options(&plan, &sc), link(&computer));
+    let e = r.unwrap_err();
+    assert!(
+        matches!(
+            e,
+            RelayError::TooManyOn {
+                step: 1,
+                count: 3,
+                max: 2,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("coils 0, 1, 2"), "{e}");
+    assert!(leftover(&mut board).is_empty(), "bytes were sent");
+}
+
+#[test]
+fn make_before_break_counts_the_overlap() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = short_plan(dir.path());
+    // Two coils per step, but three during a make-before-break transition.
+    let sc = scenario(dir.path(), "board = \"lcus\"\nmax_coils_on = 2");
+    let (mut board, computer) = pty();
+    let (r, _) = run(&options(&plan, &sc), link(&computer));
+    assert!(matches!(
+        r,
+        Err(RelayError::TooManyOn {
+            step: 1,
+            count: 3,
+            ..
+        })
+    ));
+    assert!(leftover(&mut board).is_empty(), "bytes were sent");
+    // Break-before-make keeps it at two.
+    let sc = scenario(
+        dir.path(),
+        "board = \"lcus\"\nmax_coils_on = 2\norder = \"break-before-make\"",
+    );
+    replay::prepare(&options(&plan, &sc)).unwrap();
+}
+
+#[test]
+fn on_time_refused_before_any_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    // Coil 0 stays on through all three steps: 3 x max(0.1 s x 1.5, 2 s floor) = 6 s > 5 s.
+    let plan = plan(dir.path(), "p.csv", &["0:1;1:2", "0:1;2:3", "0:1;3:4"], 0.1);
+    let sc = scenario(
+        dir.path(),
+        "board = \"modbus\"\nmax_on_time_s = 5\ndwell_floor_ms = 2000",
+    );
+    let mut opts = options(&plan, &sc);
+    opts.dwell_ms = None;
+    let (mut board, computer) = pty();
+    let (r, _) = run(&opts, link(&computer));
+    let e = r.unwrap_err();
+    assert!(matches!(e, RelayError::OnTooLong { .. }), "{e}");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("coil 0 (channel 1) would stay on from step 0 through step 2 for 6.000 s"),
+        "{msg}"
+    );
+    assert!(leftover(&mut board).is_empty(), "bytes were sent");
+    // Step mode cannot know the waits in advance: it is guarded while waiting instead.
+    opts.mode = Mode::Step;
+    replay::prepare(&opts).unwrap();
+}
+
+#[test]
+fn unmapped_or_missing_channel_refused_before_any_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = plan(dir.path(), "p.csv", &["0:1;9:2"], 0.1);
+    // Coil 9 is channel 10 by default, past an LCUS board's 8.
+    let sc = scenario(dir.path(), "board = \"lcus\"");
+    let (mut board, computer) = pty();
+    let (r, _) = run(&options(&plan, &sc), link(&computer));
+    let msg = r.unwrap_err().to_string();
+    assert!(
+        msg.contains("coil 9, which is mapped to channel 10, but the lcus board has 8 channels")
+            && msg.contains("at most 8"),
+        "{msg}"
+    );
+    // A map that does not drive coil 9.
+    let map = dir.path().join("map.toml");
+    std::fs::write(&map, "board = \"numato\"\n[map]\n0 = 1\n1 = 2\n").unwrap();
+    let mut opts = options(&plan, &sc);
+    opts.map = Some(map);
+    let (r, _) = run(&opts, link(&computer));
+    let msg = r.unwrap_err().to_string();
+    assert!(
+        msg.contains("coil 9, which no relay channel drives"),
+        "{msg}"
+    );
+    assert!(leftover(&mut board).is_empty(), "bytes were sent");
+}
+
+const ALL_OFF_16: [u8; 11] = [
+    0x01, 0x0F, 0x00, 0x00, 0x00, 0x10, 0x02, 0x00, 0x00, 0xE2, 0x20,
+];
+
+#[test]
+fn board_closing_mid_replay_is_a_clear_error_and_the_log_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = short_plan(dir.path());
+    let sc = scenario(dir.path(), "board = \"modbus\"");
+    let log = dir.path().join("replay.csv");
+    let mut opts = options(&plan, &sc);
+    opts.log = Some(log.clone());
+
+    // The slave answers the all-off and step 0, then goes away on step 1's first frame.
+    let (board, computer) = pty();
+    let slave = modbus_slave(board, 4, |k| if k == 3 { Act::Close } else { Act::Answer });
+    let (r, _) = run(&opts, link(&computer));
+    let (got, _) = slave.join().unwrap();
+    assert_eq!(got[3], [0x01, 0x05, 0x00, 0x02, 0xFF, 0x00, 0x2D, 0xFA]);
+    let e = r.unwrap_err();
+    // Closed while waiting for the reply, or while draining the frame (a race we do not
+    // control); either way the all-off after it finds the port closed and says so.
+    assert!(
+        matches!(
+            e.root(),
+            RelayError::Closed { .. } | RelayError::Port { .. }
+        ),
+        "{e}"
+    );
+    let msg = e.to_string();
+    assert!(
+        msg.contains(
+            "switching all coils off FAILED: serial port pty: the board end closed the connection"
+        ),
+        "{msg}"
+    );
+    assert_eq!(replay::resume_step(&log).unwrap(), 1);
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.contains(",1,on,2,3,01 05 00 02 FF 00 2D FA\n"),
+        "{text}"
+    );
+    drop(computer);
+
+    // Resume at step 1 on a fresh board: step 0's coils are re-energised first.
+    opts.from_step = replay::resume_step(&log).unwrap();
+    let expected: Vec<Vec<u8>> = vec![
+        ALL_OFF_16.to_vec(),
+        vec![0x01, 0x05, 0x00, 0x00, 0xFF, 0x00, 0x8C, 0x3A], // hold step 0: channel 1
+        vec![0x01, 0x05, 0x00, 0x01, 0xFF, 0x00, 0xDD, 0xFA], // hold step 0: channel 2
+        vec![0x01, 0x05, 0x00, 0x02, 0xFF, 0x00, 0x2D, 0xFA], // step 1: channel 3 on
+        vec![0x01, 0x05, 0x00, 0x01, 0x00, 0x00, 0x9C, 0x0A], // step 1: channel 2 off
+        vec![0x01, 0x05, 0x00, 0x03, 0xFF, 0x00, 0x7C, 0x3A], // step 2: channel 4 on
+        vec![0x01, 0x05, 0x00, 0x00, 0x00, 0x00, 0xCD, 0xCA], // step 2: channel 1 off
+        ALL_OFF_16.to_vec(),
+    ];
+    let (board, computer) = pty();
+    let slave = modbus_slave(board, expected.len(), |_| Act::Answer);
+    let (r, _) = run(&opts, link(&computer));
+    let (got, _board) = slave.join().unwrap();
+    let summary = r.unwrap();
+    assert_eq!(got, expected);
+    assert_eq!(summary.steps_done, 2);
+    assert_eq!(replay::resume_step(&log).unwrap(), 3);
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.starts_with("t_s,step,action,coil,channel,bytes\n"),
+        "{text}"
+    );
+    assert_eq!(text.matches(",start,").count(), 2, "{text}");
+    assert!(
+        text.contains(",0,hold,0,1,01 05 00 00 FF 00 8C 3A\n"),
+        "{text}"
+    );
+}
+
+#[test]
+fn step_mode_waits_for_enter_and_quits_on_q() {
+    let dir = tempfile::tempdir().unwrap();
+    let sc = scenario(dir.path(), "board = \"lcus\"\nchannels = 4");
+    let mut opts = options(&short_plan(dir.path()), &sc);
+    opts.mode = Mode::Step;
+    let (tx, rx) = std::sync::mpsc::channel();
+    // Enter for step 0, then q before step 1 (queued up front: no timing involved).
+    tx.send(String::new()).unwrap();
+    tx.send("q".to_string()).unwrap();
+    let (board, computer) = pty();
+    let expected = [
+        0xA0, 0x01, 0x00, 0xA1, 0xA0, 0x02, 0x00, 0xA2, 0xA0, 0x03, 0x00, 0xA3, 0xA0, 0x04, 0x00,
+        0xA4, // all off
+        0xA0, 0x01, 0x01, 0xA2, 0xA0, 0x02, 0x01, 0xA3, // step 0
+        0xA0, 0x01, 0x00, 0xA1, 0xA0, 0x02, 0x00, 0xA2, 0xA0, 0x03, 0x00, 0xA3, 0xA0, 0x04, 0x00,
+        0xA4, // all off after q
+    ];
+    let listener = listen(board, expected.len());
+    let prep = replay::prepare(&opts).unwrap();
+    let mut out = Vec::new();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let summary = replay::execute(&opts, &prep, link(&computer), stop, Some(rx), &mut out).unwrap();
+    let (got, mut board) = listener.join().unwrap();
+    assert_eq!(got, expected);
+    assert!(leftover(&mut board).is_empty());
+    assert!(summary.quit);
+    assert_eq!(summary.next_step, 1);
+    let text = String::from_utf8(out).unwrap();
+    assert!(text.contains("resume with --from-step 1"), "{text}");
+}
