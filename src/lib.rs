@@ -11,5 +11,6 @@ pub mod planfile;
 pub mod scenario;
 pub mod symmetry;
 pub mod torque;
+pub mod view;
 
 pub use error::{Error, Result};
