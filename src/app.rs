@@ -1,11 +1,15 @@
 //! The commands behind the command line, as library functions that take plain arguments and
 //! write to a given output, so that they are testable without spawning the binary.
 
+use crate::commutation::{Motor, StepModel};
 use crate::dynamics::{settle, settle_many, SettleResult};
 use crate::error::{Error, Result};
-use crate::geometry::{xyzw, Orientation, Pair};
+use crate::geometry::{xyzw, Degrees, Orientation, Pair};
+use crate::output::write_atomic;
 use crate::packing::{self, points_csv};
-use crate::scenario::{parse_pairs, Scenario};
+use crate::planfile::write_plan;
+use crate::planner::{plan, Plan, PlanSettings, Scheme};
+use crate::scenario::{check_pairs_per_step, parse_axis, parse_orientation, parse_pairs, Scenario};
 use std::io::Write;
 use std::path::Path;
 
@@ -210,4 +214,128 @@ pub fn settle_sets(
     }
     w.flush().map_err(|er| Error::io("<output>", er))?;
     Ok(results)
+}
+
+/// Command-line overrides of a scenario's `[plan]` section.
+#[derive(Debug, Clone, Default)]
+pub struct PlanOverrides {
+    pub axis: Option<String>,
+    pub angle_deg: Option<f64>,
+    pub scheme: Option<String>,
+    pub model: Option<String>,
+    pub pairs: Option<usize>,
+    pub from: Option<String>,
+}
+
+/// Applies command-line overrides to plan settings, checking each.
+pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
+    let mut s = sc.plan.clone();
+    if let Some(a) = &o.axis {
+        s.axis = parse_axis(a, "--axis")?;
+    }
+    if let Some(a) = o.angle_deg {
+        if !(a.is_finite() && a > 0.0 && a <= 3600.0) {
+            return Err(Error::Arg {
+                arg: "--angle".into(),
+                expected: format!("a target angle in (0, 3600] degrees, got {a}"),
+            });
+        }
+        s.angle = Degrees(a).to_radians();
+    }
+    if let Some(n) = &o.scheme {
+        s.scheme = Scheme::from_name(n).ok_or_else(|| Error::Arg {
+            arg: "--scheme".into(),
+            expected: format!("one of min-axis-error, max-angle, weighted, search, got '{n}'"),
+        })?;
+    }
+    if let Some(m) = &o.model {
+        s.model = match m.as_str() {
+            "pivot" => StepModel::Pivot,
+            "dynamic" => StepModel::Dynamic,
+            _ => {
+                return Err(Error::Arg {
+                    arg: "--model".into(),
+                    expected: format!("pivot or dynamic, got '{m}'"),
+                })
+            }
+        };
+        if o.pairs.is_none() && s.model == StepModel::Pivot {
+            s.pairs_per_step = 2;
+        }
+    }
+    if let Some(k) = o.pairs {
+        s.pairs_per_step = k;
+    }
+    check_pairs_per_step(s.model, s.pairs_per_step).map_err(|m| Error::Arg {
+        arg: "--pairs".into(),
+        expected: m,
+    })?;
+    if let Some(f) = &o.from {
+        s.start = parse_orientation(f, "--from")?;
+    }
+    Ok(s)
+}
+
+/// The motor view of a scenario that commutation needs.
+pub fn motor(sc: &Scenario) -> Motor<'_> {
+    Motor {
+        torques: &sc.torques,
+        body: sc.body,
+        settle: sc.settle,
+    }
+}
+
+/// `spherestep plan`: plans, writes the CSV (atomically) when asked, prints the summary.
+pub fn plan_command(
+    sc: &Scenario,
+    settings: &PlanSettings,
+    out_file: Option<&Path>,
+    json: bool,
+    out: &mut dyn Write,
+) -> Result<Plan> {
+    let p = plan(&motor(sc), settings);
+    if let Some(path) = out_file {
+        let mut buf = Vec::new();
+        write_plan(&p.rows, &mut buf)?;
+        write_atomic(path, &buf)?;
+    }
+    let s = p.summary(settings);
+    let w = write_err("<stdout>");
+    if json {
+        writeln!(
+            out,
+            "{}",
+            serde_json::to_string(&s).map_err(|e| Error::Arg {
+                arg: "--json".into(),
+                expected: e.to_string()
+            })?
+        )
+        .map_err(&w)?;
+    } else {
+        if out_file.is_none() {
+            write_plan(&p.rows, out)?;
+        }
+        let ax = settings.axis;
+        let mut text = format!(
+            "{}: {} steps about [{:.4}, {:.4}, {:.4}] by {:.2} deg ({} model, {} pairs, {}): \
+             final angle {:.2} deg, worst axis error {:.2} deg, {}",
+            sc.name,
+            s.steps,
+            ax.x,
+            ax.y,
+            ax.z,
+            settings.angle.0.to_degrees(),
+            s.model,
+            s.pairs_per_step,
+            s.scheme,
+            s.final_angle_deg,
+            s.max_axis_error_deg,
+            if s.reached { "reached" } else { "NOT reached" }
+        );
+        if let Some(m) = &p.message {
+            text.push_str(&format!(": {m}"));
+        }
+        writeln!(out, "{text}").map_err(&w)?;
+    }
+    Ok(p)
 }

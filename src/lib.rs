@@ -3,11 +3,14 @@
 //! stator cap). Conventions: ../shared/MODEL.md, summarised in the README.
 
 pub mod app;
+pub mod commutation;
 pub mod dynamics;
 pub mod error;
 pub mod geometry;
+pub mod output;
 pub mod packing;
 pub mod planfile;
+pub mod planner;
 pub mod scenario;
 pub mod symmetry;
 pub mod torque;

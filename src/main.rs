@@ -50,6 +50,35 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Plan a motion: which coils to switch, in which order, to turn the ball about an axis.
+    Plan {
+        /// Scenario file (TOML); its [plan] section gives defaults for the options below.
+        scenario: PathBuf,
+        /// Desired rotation axis x,y,z (world frame).
+        #[arg(long, allow_hyphen_values = true)]
+        axis: Option<String>,
+        /// Target rotation angle, degrees.
+        #[arg(long)]
+        angle: Option<f64>,
+        /// min-axis-error, max-angle, weighted (the paper's) or search.
+        #[arg(long)]
+        scheme: Option<String>,
+        /// Step model: pivot (paper 3.2) or dynamic (paper 3.4).
+        #[arg(long)]
+        model: Option<String>,
+        /// Pairs on after each step (dynamic model: 2 or more).
+        #[arg(long)]
+        pairs: Option<usize>,
+        /// Start orientation qx,qy,qz,qw (default: the scenario's, else identity).
+        #[arg(long, allow_hyphen_values = true)]
+        from: Option<String>,
+        /// Write the plan CSV here (else it goes to standard output).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print a JSON summary.
+        #[arg(long)]
+        json: bool,
+    },
     /// Write one self-contained HTML page showing a plan in 3-D (opens from disk, no network).
     View {
         /// Plan file (CSV, as written by `plan`).
@@ -110,6 +139,35 @@ fn run(cli: Cli) -> Result<()> {
                 }
             } else if let Some(pairs) = pairs {
                 app::settle_one(&sc, &pairs, &q0, json, &mut out)?;
+            }
+        }
+        Command::Plan {
+            scenario,
+            axis,
+            angle,
+            scheme,
+            model,
+            pairs,
+            from,
+            out: out_file,
+            json,
+        } => {
+            let sc = Scenario::load(&scenario)?;
+            let o = app::PlanOverrides {
+                axis,
+                angle_deg: angle,
+                scheme,
+                model,
+                pairs,
+                from,
+            };
+            let settings = app::plan_settings(&sc, &o)?;
+            let p = app::plan_command(&sc, &settings, out_file.as_deref(), json, &mut out)?;
+            if !p.reached {
+                anyhow::bail!(
+                    "{}",
+                    p.message.unwrap_or_else(|| "target not reached".into())
+                );
             }
         }
         Command::View {

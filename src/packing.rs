@@ -224,12 +224,15 @@ pub fn prototype_stator() -> Packing {
 /// Number of stator coils in the prototype.
 pub const PROTOTYPE_COILS: usize = 16;
 
-/// Generates the prototype stator: the vertices, edge midpoints and face centres of an
-/// icosahedron with a vertex on -Z (an icosahedral semi-regular packing of 62 points), keeping
-/// the 16 nearest to -Z: the vertex on -Z, the 5 edge midpoints and 5 face centres around it,
-/// and the 5 midpoints of the edges of the vertex's pentagon. They fill a cap of 58.3 degrees
-/// (less than a hemisphere), 20.9 degrees apart at the least, room for 2 inch coils around a
-/// 12 inch ball.
+/// Generates the prototype stator from the icosahedral semi-regular packing of 62 points
+/// (the vertices, edge midpoints and face centres of an icosahedron with a vertex on -Z): the
+/// vertex on -Z, the 5 edge midpoints around it (31.7 degrees out), the 5 midpoints of the
+/// edges of its pentagon (58.3 degrees) and the 5 face centres of the next ring (79.2
+/// degrees), turned about Z so that one rim coil lies towards +Y. The cap is 79.2 degrees
+/// (less than a hemisphere) and the coils are 20.9 degrees apart at the least, room for 2 inch
+/// coils around a 12 inch ball. Why the rim: a pivot step turns the ball about a coil's axis,
+/// so the paper's 15 degree bound about Y (Figure 8) needs a coil within 15 degrees of the Y
+/// axis; a compact cap (58 degrees) cannot do better than 32 degrees.
 pub fn generate_prototype_stator() -> Packing {
     let t = 2.0f64.atan(); // polar angle of a vertex next to the one on +Z
     let v0 = Vector3::new(0.0, 0.0, 1.0);
@@ -244,7 +247,35 @@ pub fn generate_prototype_stator() -> Packing {
     }
     .points();
     let down = u(Vector3::new(0.0, 0.0, -1.0));
-    let mut pts = full.points;
+    let rings_deg = [0.0, 31.717, 58.283, 79.188];
+    let mut pts: Vec<UnitVec> = full
+        .points
+        .into_iter()
+        .filter(|p| {
+            let d = angular_distance(p, &down).0.to_degrees();
+            rings_deg.iter().any(|r| (d - r).abs() < 0.01)
+        })
+        .collect();
+    // Turn about Z (the smallest turn) so that a rim coil points towards +Y.
+    let rim_az = pts
+        .iter()
+        .filter(|p| angular_distance(p, &down).0.to_degrees() > 79.0)
+        .map(|p| {
+            let mut turn = std::f64::consts::FRAC_PI_2 - p.y.atan2(p.x);
+            while turn > std::f64::consts::PI {
+                turn -= 2.0 * std::f64::consts::PI;
+            }
+            while turn <= -std::f64::consts::PI {
+                turn += 2.0 * std::f64::consts::PI;
+            }
+            turn
+        })
+        .min_by(|a, b| a.abs().total_cmp(&b.abs()))
+        .unwrap_or(0.0);
+    let turn = nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), rim_az);
+    for p in pts.iter_mut() {
+        *p = UnitVec::new_normalize(turn * p.into_inner());
+    }
     // Sort by distance from -Z, then by azimuth, so that indices are stable and readable.
     pts.sort_by(|p, q| {
         let dp = angular_distance(p, &down).0;
@@ -254,7 +285,7 @@ pub fn generate_prototype_stator() -> Packing {
             .total_cmp(&key(dq))
             .then(azimuth(p).total_cmp(&azimuth(q)))
     });
-    pts.truncate(PROTOTYPE_COILS);
+    debug_assert_eq!(pts.len(), PROTOTYPE_COILS);
     Packing { points: pts }
 }
 
@@ -366,9 +397,16 @@ mod tests {
         let stator = prototype_stator();
         assert_eq!(rotor.len(), 80);
         assert_eq!(stator.len(), 16);
-        // one coil on -Z, all in a cap smaller than a hemisphere
+        // one coil on -Z, all in a cap smaller than a hemisphere, one within 11 degrees of Y
         assert!((stator.points[0].z + 1.0).abs() < 1e-12);
-        assert!(stator.points.iter().all(|p| p.z < -0.1));
+        assert!(stator.points.iter().all(|p| p.z < -0.15));
+        let y = unit(Vector3::y()).unwrap();
+        let near_y = stator
+            .points
+            .iter()
+            .map(|p| angular_distance(p, &y).0.to_degrees())
+            .fold(180.0, f64::min);
+        assert!((near_y - 10.812).abs() < 0.01, "{near_y}");
         // octahedral symmetry: every rotation of O maps the rotor onto itself
         for g in Group::O.elements() {
             for p in &rotor.points {

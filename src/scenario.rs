@@ -2,12 +2,15 @@
 //! damping, how to settle. Unknown keys are rejected; every value is checked, and an error names
 //! the file, the field and what was expected. Every section has defaults (the prototype).
 
+use crate::commutation::{StepLimits, StepModel};
 use crate::dynamics::{Body, SettleParams};
 use crate::error::{Error, Result};
-use crate::geometry::{unit, Degrees, Pair, UnitVec};
+use crate::geometry::{orientation_from_xyzw, unit, Degrees, Pair, Radians, UnitVec};
 use crate::packing::{self, Cap, Packing, SemiRegular};
+use crate::planner::{PlanSettings, Scheme};
 use crate::symmetry::Group;
 use crate::torque::{Interaction, MagnetTorques, TorqueTable, Well, WellShape};
+use nalgebra::UnitQuaternion;
 use nalgebra::Vector3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -30,6 +33,26 @@ pub(crate) struct RawScenario {
     magnets: Option<RawMagnets>,
     body: Option<RawBody>,
     settle: Option<RawSettle>,
+    plan: Option<RawPlan>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPlan {
+    axis: Option<[f64; 3]>,
+    angle_deg: Option<f64>,
+    scheme: Option<String>,
+    model: Option<StepModel>,
+    pairs_per_step: Option<usize>,
+    start: Option<[f64; 4]>,
+    max_steps: Option<usize>,
+    beam_width: Option<usize>,
+    max_step_axis_error_deg: Option<f64>,
+    min_step_angle_deg: Option<f64>,
+    error_bound_start_deg: Option<f64>,
+    search_bound_deg: Option<f64>,
+    max_candidates: Option<usize>,
+    angle_tolerance_deg: Option<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -99,6 +122,8 @@ pub struct Scenario {
     pub torques: MagnetTorques,
     pub body: Body,
     pub settle: SettleParams,
+    /// Planning settings of the `[plan]` section (command-line options override them).
+    pub plan: PlanSettings,
 }
 
 impl Scenario {
@@ -131,6 +156,7 @@ impl Scenario {
         let well_and_interaction = ck.magnets(raw.magnets.unwrap_or_default())?;
         let body = ck.body(raw.body.unwrap_or_default())?;
         let settle = ck.settle(raw.settle.unwrap_or_default())?;
+        let plan = ck.plan(raw.plan.unwrap_or_default())?;
         let name = raw.name.unwrap_or_else(|| {
             path.file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
@@ -151,6 +177,7 @@ impl Scenario {
             torques,
             body,
             settle,
+            plan,
         })
     }
 
@@ -191,6 +218,18 @@ impl Scenario {
             }
         }
         Ok(())
+    }
+}
+
+/// Checks a step model's pairs per step: the pivot model takes exactly 2, the dynamic 2 or more.
+pub fn check_pairs_per_step(model: StepModel, pairs: usize) -> std::result::Result<(), String> {
+    match (model, pairs) {
+        (StepModel::Pivot, 2) => Ok(()),
+        (StepModel::Pivot, k) => Err(format!("2 pairs per step for the pivot model, got {k}")),
+        (StepModel::Dynamic, k) if (2..=8).contains(&k) => Ok(()),
+        (StepModel::Dynamic, k) => Err(format!(
+            "2 to 8 pairs per step for the dynamic model, got {k}"
+        )),
     }
 }
 
@@ -463,6 +502,91 @@ impl Checker<'_> {
         let damping =
             self.non_negative("body.damping_nms", raw.damping_nms, DEFAULT_DAMPING_NMS)?;
         Ok(Body { inertia, damping })
+    }
+
+    fn plan(&self, raw: RawPlan) -> Result<PlanSettings> {
+        let d = StepLimits::default();
+        let axis = self.unit("plan.axis", raw.axis.unwrap_or([0.0, 0.0, 1.0]))?;
+        let angle = raw.angle_deg.unwrap_or(90.0);
+        if !(angle.is_finite() && angle > 0.0 && angle <= 3600.0) {
+            return Err(self.err(
+                "plan.angle_deg",
+                format!("a target angle in (0, 3600] degrees, got {angle}"),
+            ));
+        }
+        let scheme = match raw.scheme.as_deref() {
+            None => Scheme::Search,
+            Some(n) => Scheme::from_name(n).ok_or_else(|| {
+                self.err(
+                    "plan.scheme",
+                    format!("one of min-axis-error, max-angle, weighted, search, got \"{n}\""),
+                )
+            })?,
+        };
+        let model = raw.model.unwrap_or(StepModel::Pivot);
+        let pairs = raw.pairs_per_step.unwrap_or(2);
+        check_pairs_per_step(model, pairs).map_err(|m| self.err("plan.pairs_per_step", m))?;
+        let start = match raw.start {
+            None => UnitQuaternion::identity(),
+            Some(v) => orientation_from_xyzw(v[0], v[1], v[2], v[3]).ok_or_else(|| {
+                self.err(
+                    "plan.start",
+                    "a non-zero, finite quaternion [qx, qy, qz, qw]",
+                )
+            })?,
+        };
+        let count = |field: &str, v: Option<usize>, default: usize| -> Result<usize> {
+            match v {
+                None => Ok(default),
+                Some(0) => Err(self.err(field, "a whole number >= 1, got 0")),
+                Some(x) => Ok(x),
+            }
+        };
+        let angle_field = |field: &str, v: Option<f64>, default: Radians| -> Result<Radians> {
+            match v {
+                None => Ok(default),
+                Some(x) if x.is_finite() && x > 0.0 && x <= 180.0 => Ok(Degrees(x).to_radians()),
+                Some(x) => Err(self.err(field, format!("an angle in (0, 180] degrees, got {x}"))),
+            }
+        };
+        Ok(PlanSettings {
+            axis,
+            angle: Degrees(angle).to_radians(),
+            scheme,
+            model,
+            pairs_per_step: pairs,
+            start,
+            limits: StepLimits {
+                min_angle: angle_field(
+                    "plan.min_step_angle_deg",
+                    raw.min_step_angle_deg,
+                    d.min_angle,
+                )?,
+                max_axis_error: angle_field(
+                    "plan.max_step_axis_error_deg",
+                    raw.max_step_axis_error_deg,
+                    d.max_axis_error,
+                )?,
+                bound_start: angle_field(
+                    "plan.error_bound_start_deg",
+                    raw.error_bound_start_deg,
+                    d.bound_start,
+                )?,
+                max_candidates: count("plan.max_candidates", raw.max_candidates, d.max_candidates)?,
+                search_bound: angle_field(
+                    "plan.search_bound_deg",
+                    raw.search_bound_deg,
+                    d.search_bound,
+                )?,
+            },
+            max_steps: count("plan.max_steps", raw.max_steps, 200)?,
+            beam_width: count("plan.beam_width", raw.beam_width, 24)?,
+            angle_tolerance: angle_field(
+                "plan.angle_tolerance_deg",
+                raw.angle_tolerance_deg,
+                Degrees(0.5).to_radians(),
+            )?,
+        })
     }
 
     fn settle(&self, raw: RawSettle) -> Result<SettleParams> {

@@ -1,0 +1,471 @@
+//! Commutation (paper sections 3.2 and 4.1, MODEL.md "Commutation"): the initial commutation
+//! state, the distance array of candidate pairs, the two filter tests of the paper's Figure 4
+//! with their widening error bound, and the two step models that say where a candidate step
+//! leaves the ball: `pivot` (geometric, the held pair as stationary point) and `dynamic` (the
+//! candidate set settled by the engine). The planner chooses among the steps made here.
+
+use crate::dynamics::{settle_many, Body, SettleParams};
+use crate::geometry::{
+    angular_distance, axis_error, rot_q, rotation_angle, signed_angle_about, CoilId, MagnetId,
+    Orientation, Pair, Radians, UnitVec,
+};
+use crate::torque::MagnetTorques;
+use nalgebra::{UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// How a candidate step's outcome is predicted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StepModel {
+    /// Paper 3.2: two pairs; the pivot stays put and the rotor turns about the pivot coil's axis
+    /// until the candidate magnet is as close to its coil as it gets.
+    Pivot,
+    /// Paper 3.4: the pivot and the new pairs settled by the dynamics engine.
+    Dynamic,
+}
+
+/// Everything a commutation step needs to know about the motor.
+#[derive(Debug, Clone)]
+pub struct Motor<'a> {
+    pub torques: &'a MagnetTorques,
+    pub body: Body,
+    pub settle: SettleParams,
+}
+
+/// The ball's commutation state: its orientation and what holds it there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommutationState {
+    pub q: Orientation,
+    pub active: Vec<Pair>,
+    /// Predicted settle time of the move into this state, s (0 for the geometric model).
+    pub settle_time_s: f64,
+}
+
+/// A candidate pair from the distance array.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    pub pair: Pair,
+    /// D_ij, the angular distance of the magnet from the coil.
+    pub distance: Radians,
+    /// How far the pair is from passing the two filter tests exactly (the larger deviation).
+    pub deviation: Radians,
+}
+
+/// A step: from a state, keep `pivot`, switch `new` on, and end at `to`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Step {
+    pub pivot: Pair,
+    pub new: Vec<Pair>,
+    pub to: CommutationState,
+    /// Rotation of the step about the desired axis (signed), rad.
+    pub angle: Radians,
+    /// Angle between the step's rotation axis and the desired axis, rad.
+    pub axis_error: Radians,
+}
+
+/// The starting error bound of the filter: pi/24.
+pub const ERROR_BOUND_START: Radians = Radians(std::f64::consts::PI / 24.0);
+
+/// Step 1: the distance array. Every (coil, magnet) with the magnet in the bottom hemisphere
+/// (world z < 0) and within the maximum attraction distance, in (coil, magnet) order.
+pub fn distance_array(torques: &MagnetTorques, q: &Orientation) -> Vec<(Pair, Radians)> {
+    let r = q.to_rotation_matrix();
+    let dmax = torques.well.max_attraction.0;
+    let mut out = Vec::new();
+    let world: Vec<Vector3<f64>> = torques.rotor.iter().map(|m| r * m).collect();
+    for (i, s) in torques.stator.iter().enumerate() {
+        let s = UnitVec::new_unchecked(*s);
+        for (j, p) in world.iter().enumerate() {
+            if p.z >= 0.0 {
+                continue;
+            }
+            let d = angular_distance(&UnitVec::new_unchecked(*p), &s);
+            if d.0 <= dmax {
+                out.push((Pair::new(i, j), d));
+            }
+        }
+    }
+    out
+}
+
+/// The deviations of a pair from the two tests of the paper's Figure 4, for desired axis `n`:
+/// (1) the angle between the torque direction r x s and n; (2) how far the attraction vector
+/// s - r is from perpendicular to the torque arm r - (r . n) n.
+pub fn filter_deviations(r: &Vector3<f64>, s: &Vector3<f64>, n: &UnitVec) -> (Radians, Radians) {
+    let t = r.cross(s);
+    let dev1 = if t.norm() < 1e-12 {
+        std::f64::consts::PI
+    } else {
+        angular_distance(&UnitVec::new_normalize(t), n).0
+    };
+    let arm = r - n.into_inner() * r.dot(n);
+    let pull = s - r;
+    let dev2 = if arm.norm() < 1e-12 || pull.norm() < 1e-12 {
+        std::f64::consts::PI
+    } else {
+        let c = (pull.dot(&arm) / (pull.norm() * arm.norm())).clamp(-1.0, 1.0);
+        (c.acos() - std::f64::consts::FRAC_PI_2).abs()
+    };
+    (Radians(dev1), Radians(dev2))
+}
+
+/// Step 2: the pairs that pass both filter tests within the error bound, the bound starting at
+/// `start` and doubling until something is left (or it exceeds pi). Pairs on a coil or magnet
+/// in `exclude` are no candidates. Returns the candidates and the bound that let them through.
+pub fn filter_candidates(
+    torques: &MagnetTorques,
+    q: &Orientation,
+    n: &UnitVec,
+    exclude: &[Pair],
+    start: Radians,
+) -> (Vec<Candidate>, Radians) {
+    let r = q.to_rotation_matrix();
+    let all: Vec<Candidate> = distance_array(torques, q)
+        .into_iter()
+        .filter(|(p, _)| {
+            !exclude
+                .iter()
+                .any(|e| e.coil == p.coil || e.magnet == p.magnet)
+        })
+        .map(|(p, d)| {
+            let rv = r * torques.rotor[p.magnet.0];
+            let (d1, d2) = filter_deviations(&rv, &torques.stator[p.coil.0], n);
+            Candidate {
+                pair: p,
+                distance: d,
+                deviation: Radians(d1.0.max(d2.0)),
+            }
+        })
+        .collect();
+    let mut bound = start.0;
+    loop {
+        let kept: Vec<Candidate> = all
+            .iter()
+            .filter(|c| c.deviation.0 <= bound)
+            .copied()
+            .collect();
+        if !kept.is_empty() || bound > std::f64::consts::PI {
+            return (kept, Radians(bound));
+        }
+        bound *= 2.0;
+    }
+}
+
+/// The pivot model: the rotation about the pivot coil's axis `a` that brings the magnet at
+/// world position `p` as close as it gets to the coil at `s`.
+pub fn pivot_rotation(a: &UnitVec, p: &Vector3<f64>, s: &Vector3<f64>) -> Orientation {
+    let av = a.into_inner();
+    let par = av * p.dot(&av);
+    let perp = p - par;
+    // s . p(phi) = const + cos(phi) s.perp + sin(phi) s.(a x p)
+    let phi = s.dot(&av.cross(p)).atan2(s.dot(&perp));
+    rot_q(a, Radians(phi))
+}
+
+/// Rotation of a step, ΔR = R_new R^T, as its signed angle about `n` and its axis error.
+pub fn step_measure(from: &Orientation, to: &Orientation, n: &UnitVec) -> (Radians, Radians) {
+    let d = to * from.inverse();
+    (signed_angle_about(&d, n), axis_error(&d, n))
+}
+
+/// Limits on what counts as a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepLimits {
+    /// Steps turning less than this about the desired axis do not advance.
+    pub min_angle: Radians,
+    /// Steps whose axis is further than this from the desired axis are discarded.
+    pub max_axis_error: Radians,
+    /// The filter's starting error bound.
+    pub bound_start: Radians,
+    /// With k >= 3 pairs per step, combinations are drawn from this many best candidates.
+    pub max_candidates: usize,
+    /// The search planner weighs every candidate within this bound (the greedy schemes use
+    /// the paper's bound, starting at `bound_start`): it can afford to look at more.
+    pub search_bound: Radians,
+}
+
+impl Default for StepLimits {
+    fn default() -> Self {
+        StepLimits {
+            min_angle: Radians(0.2f64.to_radians()),
+            max_axis_error: Radians(75f64.to_radians()),
+            bound_start: ERROR_BOUND_START,
+            max_candidates: 8,
+            search_bound: Radians(45f64.to_radians()),
+        }
+    }
+}
+
+/// Step 3: every admissible step from `state` towards rotation about `n`: each held pair as the
+/// pivot with each candidate (pivot model), or with each combination of `pairs - 1` candidates
+/// (dynamic model, settled in parallel). Steps that do not advance, whose axis error is too
+/// large, or that do not settle are discarded. Deterministic order.
+pub fn candidate_steps(
+    motor: &Motor,
+    state: &CommutationState,
+    n: &UnitVec,
+    model: StepModel,
+    pairs: usize,
+    limits: &StepLimits,
+) -> Vec<Step> {
+    let mut proposals: Vec<(Pair, Vec<Pair>)> = Vec::new();
+    for pivot in &state.active {
+        let (mut cands, _) =
+            filter_candidates(motor.torques, &state.q, n, &[*pivot], limits.bound_start);
+        cands.sort_by(|a, b| {
+            a.deviation
+                .0
+                .total_cmp(&b.deviation.0)
+                .then(a.pair.cmp(&b.pair))
+        });
+        let extra = pairs.saturating_sub(1).max(1);
+        if extra == 1 {
+            for c in &cands {
+                proposals.push((*pivot, vec![c.pair]));
+            }
+        } else {
+            cands.truncate(limits.max_candidates);
+            for combo in combinations(cands.len(), extra) {
+                let set: Vec<Pair> = combo.iter().map(|&k| cands[k].pair).collect();
+                let distinct = set.iter().enumerate().all(|(k, p)| {
+                    set[..k]
+                        .iter()
+                        .all(|o| o.coil != p.coil && o.magnet != p.magnet)
+                });
+                if distinct {
+                    proposals.push((*pivot, set));
+                }
+            }
+        }
+    }
+    let outcomes: Vec<Option<CommutationState>> = match model {
+        StepModel::Pivot => proposals
+            .iter()
+            .map(|(pivot, new)| Some(pivot_step(motor.torques, &state.q, *pivot, new[0])))
+            .collect(),
+        StepModel::Dynamic => {
+            let sets: Vec<Vec<Pair>> = proposals
+                .iter()
+                .map(|(p, new)| {
+                    let mut s = vec![*p];
+                    s.extend_from_slice(new);
+                    s
+                })
+                .collect();
+            settle_many(motor.torques, &sets, &state.q, motor.body, motor.settle)
+                .into_iter()
+                .zip(sets)
+                .map(|(r, active)| {
+                    r.settled.then_some(CommutationState {
+                        q: r.q,
+                        active,
+                        settle_time_s: r.settle_time_s,
+                    })
+                })
+                .collect()
+        }
+    };
+    proposals
+        .into_iter()
+        .zip(outcomes)
+        .filter_map(|((pivot, new), to)| {
+            let to = to?;
+            let (angle, err) = step_measure(&state.q, &to.q, n);
+            (angle.0 >= limits.min_angle.0 && err.0 <= limits.max_axis_error.0).then_some(Step {
+                pivot,
+                new,
+                to,
+                angle,
+                axis_error: err,
+            })
+        })
+        .collect()
+}
+
+/// The pivot model's step: turn about the pivot coil's axis until the candidate magnet is as
+/// close to its coil as it gets.
+pub fn pivot_step(
+    torques: &MagnetTorques,
+    q: &Orientation,
+    pivot: Pair,
+    cand: Pair,
+) -> CommutationState {
+    let a = UnitVec::new_normalize(torques.stator[pivot.coil.0]);
+    let p = q * torques.rotor[cand.magnet.0];
+    let d = pivot_rotation(&a, &p, &torques.stator[cand.coil.0]);
+    CommutationState {
+        q: d * q,
+        active: vec![pivot, cand],
+        settle_time_s: 0.0,
+    }
+}
+
+/// All k-subsets of 0..n in lexicographic order.
+fn combinations(n: usize, k: usize) -> Vec<Vec<usize>> {
+    let mut out = Vec::new();
+    if k == 0 || k > n {
+        return out;
+    }
+    let mut idx: Vec<usize> = (0..k).collect();
+    loop {
+        out.push(idx.clone());
+        let mut i = k;
+        while i > 0 && idx[i - 1] == n - k + i - 1 {
+            i -= 1;
+        }
+        if i == 0 {
+            return out;
+        }
+        idx[i - 1] += 1;
+        for j in i..k {
+            idx[j] = idx[j - 1] + 1;
+        }
+    }
+}
+
+/// The coil nearest to -Z (the paper's coil on the axis).
+pub fn bottom_coil(torques: &MagnetTorques) -> CoilId {
+    let k = torques
+        .stator
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.z.total_cmp(&b.1.z).then(a.0.cmp(&b.0)))
+        .map(|(k, _)| k)
+        .unwrap_or(0);
+    CoilId(k)
+}
+
+/// The magnet nearest to a coil at orientation `q`.
+pub fn nearest_magnet(
+    torques: &MagnetTorques,
+    coil: CoilId,
+    q: &Orientation,
+) -> (MagnetId, Radians) {
+    let r = q.to_rotation_matrix();
+    let s = UnitVec::new_normalize(torques.stator[coil.0]);
+    torques
+        .rotor
+        .iter()
+        .enumerate()
+        .map(|(j, m)| (j, angular_distance(&UnitVec::new_normalize(r * m), &s)))
+        .min_by(|a, b| a.1 .0.total_cmp(&b.1 .0).then(a.0.cmp(&b.0)))
+        .map(|(j, d)| (MagnetId(j), d))
+        .unwrap_or((MagnetId(0), Radians(std::f64::consts::PI)))
+}
+
+/// How well a coil serves as a pivot for rotation about `n`: the angle between the coil's
+/// axis line and `n` (a pivot step turns the ball about the pivot coil's axis).
+pub fn pivot_error(torques: &MagnetTorques, coil: CoilId, n: &UnitVec) -> Radians {
+    let s = torques.stator[coil.0];
+    let c = s.dot(n).abs() / s.norm();
+    Radians(c.clamp(-1.0, 1.0).acos())
+}
+
+/// The initial commutation states (paper Figure 5), best first: the coil on -Z and its nearest
+/// magnet, aligned, plus a second pair (a magnet in the bottom hemisphere within the maximum
+/// attraction distance of another coil), settled by the step model. The best second pair is
+/// the one whose coil is the better pivot for rotation about `n` (the coil on -Z already is the
+/// pivot for axes near Z; then the pair nearest to alignment comes first). Empty when no second
+/// pair is in reach.
+pub fn initial_states(
+    motor: &Motor,
+    start: &Orientation,
+    model: StepModel,
+    n: &UnitVec,
+) -> Vec<CommutationState> {
+    let coil = bottom_coil(motor.torques);
+    let (magnet, _) = nearest_magnet(motor.torques, coil, start);
+    let first = Pair { coil, magnet };
+    // Align the first pair exactly (the minimal rotation), as the ball does when it is the
+    // only pair on.
+    let p = start * motor.torques.rotor[magnet.0];
+    let s = motor.torques.stator[coil.0];
+    let align = UnitQuaternion::rotation_between(&p, &s).unwrap_or_else(UnitQuaternion::identity);
+    let q1 = align * start;
+    let base = pivot_error(motor.torques, coil, n).0;
+    let mut seconds: Vec<(f64, f64, Pair)> = distance_array(motor.torques, &q1)
+        .into_iter()
+        .filter(|(p, _)| p.coil != coil && p.magnet != magnet)
+        .map(|(p, d)| {
+            let pe = pivot_error(motor.torques, p.coil, n).0;
+            // only a better pivot than the first pair counts; otherwise least motion first
+            let key = if pe < base - 1e-9 { pe } else { base };
+            (key, d.0, p)
+        })
+        .collect();
+    seconds.sort_by(|a, b| {
+        a.0.total_cmp(&b.0)
+            .then(a.1.total_cmp(&b.1))
+            .then(a.2.cmp(&b.2))
+    });
+    let states: Vec<Option<CommutationState>> = match model {
+        StepModel::Pivot => seconds
+            .iter()
+            .map(|(_, _, second)| Some(pivot_step(motor.torques, &q1, first, *second)))
+            .collect(),
+        StepModel::Dynamic => {
+            let sets: Vec<Vec<Pair>> = seconds.iter().map(|(_, _, p)| vec![first, *p]).collect();
+            settle_many(motor.torques, &sets, start, motor.body, motor.settle)
+                .into_iter()
+                .zip(sets)
+                .map(|(r, active)| {
+                    r.settled.then_some(CommutationState {
+                        q: r.q,
+                        active,
+                        settle_time_s: r.settle_time_s,
+                    })
+                })
+                .collect()
+        }
+    };
+    states.into_iter().flatten().collect()
+}
+
+/// Angle of the cumulative rotation R_k R_0^T (signed about `n`) and its axis error.
+pub fn cumulative(q0: &Orientation, qk: &Orientation, n: &UnitVec) -> (Radians, Radians) {
+    step_measure(q0, qk, n)
+}
+
+/// Unsigned angle of a rotation between two orientations.
+pub fn angle_between(a: &Orientation, b: &Orientation) -> Radians {
+    rotation_angle(&(b * a.inverse()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::unit;
+
+    #[test]
+    fn combinations_are_complete_and_ordered() {
+        let c = combinations(4, 2);
+        assert_eq!(
+            c,
+            vec![
+                vec![0, 1],
+                vec![0, 2],
+                vec![0, 3],
+                vec![1, 2],
+                vec![1, 3],
+                vec![2, 3]
+            ]
+        );
+        assert_eq!(combinations(5, 3).len(), 10);
+        assert!(combinations(2, 3).is_empty());
+    }
+
+    #[test]
+    fn pivot_rotation_brings_the_magnet_closest() {
+        let a = unit(Vector3::new(0.0, 0.0, -1.0)).unwrap();
+        let p = Vector3::new(0.5f64.sin(), 0.0, -0.5f64.cos());
+        let s = Vector3::new(0.0, 0.4f64.sin(), -0.4f64.cos());
+        let q = pivot_rotation(&a, &p, &s);
+        let best = (q * p).dot(&s);
+        for k in -50..50 {
+            let other = rot_q(&a, Radians(k as f64 * 0.05)) * p;
+            assert!(other.dot(&s) <= best + 1e-12);
+        }
+        // p turns about -Z by 90 degrees (from the X-Z plane into the Y-Z plane)
+        assert!((rotation_angle(&q).0 - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,413 @@
+//! Motion planning (paper section 3.2 and 4.1): sequences of commutation steps that turn the
+//! ball by a target angle about a desired axis. A consumer of settled equilibria: it chooses
+//! among the steps that `commutation` predicts and never integrates anything itself. The
+//! paper's three greedy schemes, and a beam search that looks ahead for the smallest worst
+//! cumulative axis error.
+
+use crate::commutation::{
+    candidate_steps, cumulative, initial_states, CommutationState, Motor, Step, StepLimits,
+    StepModel,
+};
+use crate::geometry::{Orientation, Pair, Radians, UnitVec};
+use crate::planfile::PlanRow;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// How the next step is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Scheme {
+    /// Greedy: the step with the smallest axis error.
+    MinAxisError,
+    /// Greedy: the step with the largest rotation angle.
+    MaxAngle,
+    /// Greedy: the largest angle minus axis error (the paper's choice, section 4.1).
+    Weighted,
+    /// Beam search over sequences for the smallest worst cumulative axis error.
+    Search,
+}
+
+impl Scheme {
+    pub const ALL: [Scheme; 4] = [
+        Scheme::MinAxisError,
+        Scheme::MaxAngle,
+        Scheme::Weighted,
+        Scheme::Search,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Scheme::MinAxisError => "min-axis-error",
+            Scheme::MaxAngle => "max-angle",
+            Scheme::Weighted => "weighted",
+            Scheme::Search => "search",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Scheme> {
+        Scheme::ALL.into_iter().find(|x| x.name() == s)
+    }
+}
+
+/// What to plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanSettings {
+    pub axis: UnitVec,
+    pub angle: Radians,
+    pub scheme: Scheme,
+    pub model: StepModel,
+    /// Pairs on after each step (pivot + new ones): 2 for the paper's model.
+    pub pairs_per_step: usize,
+    /// Start orientation, before the initial commutation.
+    pub start: Orientation,
+    pub limits: StepLimits,
+    /// Give up after this many steps.
+    pub max_steps: usize,
+    /// Beam width of the search planner.
+    pub beam_width: usize,
+    /// The target counts as reached within this angle of it.
+    pub angle_tolerance: Radians,
+}
+
+/// A plan and how it ended.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    pub rows: Vec<PlanRow>,
+    pub reached: bool,
+    /// Why the plan stopped short, when it did.
+    pub message: Option<String>,
+}
+
+/// The summary printed by `plan --json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlanSummary {
+    pub steps: usize,
+    pub final_angle_deg: f64,
+    pub max_axis_error_deg: f64,
+    pub reached: bool,
+    pub total_settle_time_s: f64,
+    pub scheme: String,
+    pub model: String,
+    pub pairs_per_step: usize,
+    pub message: Option<String>,
+}
+
+impl Plan {
+    pub fn summary(&self, s: &PlanSettings) -> PlanSummary {
+        PlanSummary {
+            steps: self.rows.len().saturating_sub(1),
+            final_angle_deg: self.rows.last().map(|r| r.cum_angle_deg).unwrap_or(0.0),
+            max_axis_error_deg: max_axis_error_deg(&self.rows),
+            reached: self.reached,
+            total_settle_time_s: self.rows.iter().map(|r| r.settle_time_s).sum(),
+            scheme: s.scheme.name().to_string(),
+            model: match s.model {
+                StepModel::Pivot => "pivot".into(),
+                StepModel::Dynamic => "dynamic".into(),
+            },
+            pairs_per_step: s.pairs_per_step,
+            message: self.message.clone(),
+        }
+    }
+}
+
+/// Worst cumulative axis error over a plan's rows, degrees.
+pub fn max_axis_error_deg(rows: &[PlanRow]) -> f64 {
+    rows.iter()
+        .map(|r| r.cum_axis_error_deg)
+        .fold(0.0, f64::max)
+}
+
+/// A partial plan: the states so far and their running figures.
+#[derive(Debug, Clone)]
+struct Path {
+    rows: Vec<PlanRow>,
+    state: CommutationState,
+    worst: f64,
+    cum: f64,
+}
+
+impl Path {
+    fn extend(&self, step: &Step, q0: &Orientation, n: &UnitVec) -> Path {
+        let (ca, ce) = cumulative(q0, &step.to.q, n);
+        let row = PlanRow {
+            step: self.rows.len(),
+            pivot: Some(step.pivot),
+            new: step.new.clone(),
+            active: step.to.active.clone(),
+            q: step.to.q,
+            step_angle_deg: step.angle.0.to_degrees(),
+            step_axis_error_deg: step.axis_error.0.to_degrees(),
+            cum_angle_deg: ca.0.to_degrees(),
+            cum_axis_error_deg: ce.0.to_degrees(),
+            settle_time_s: step.to.settle_time_s,
+        };
+        let mut rows = self.rows.clone();
+        rows.push(row);
+        Path {
+            rows,
+            state: step.to.clone(),
+            worst: self.worst.max(ce.0),
+            cum: ca.0,
+        }
+    }
+}
+
+/// Plans a motion.
+pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
+    let inits = initial_states(motor, &s.start, s.model, &s.axis);
+    let Some(first) = inits.first() else {
+        return Plan {
+            rows: Vec::new(),
+            reached: false,
+            message: Some(
+                "no initial commutation state: no second pair within the maximum attraction \
+                 distance of the start orientation"
+                    .into(),
+            ),
+        };
+    };
+    match s.scheme {
+        Scheme::Search => {
+            let roots: Vec<Path> = inits.iter().map(root_path).collect();
+            search(motor, s, roots)
+        }
+        g => greedy(motor, s, root_path(first), g),
+    }
+}
+
+/// A plan's start: row 0, the initial commutation state.
+fn root_path(init: &CommutationState) -> Path {
+    let row0 = PlanRow {
+        step: 0,
+        pivot: None,
+        new: init.active.clone(),
+        active: init.active.clone(),
+        q: init.q,
+        step_angle_deg: 0.0,
+        step_axis_error_deg: 0.0,
+        cum_angle_deg: 0.0,
+        cum_axis_error_deg: 0.0,
+        settle_time_s: init.settle_time_s,
+    };
+    Path {
+        rows: vec![row0],
+        state: init.clone(),
+        worst: 0.0,
+        cum: 0.0,
+    }
+}
+
+fn reached(p: &Path, s: &PlanSettings) -> bool {
+    p.cum >= s.angle.0 - s.angle_tolerance.0
+}
+
+fn steps_from(motor: &Motor, s: &PlanSettings, state: &CommutationState) -> Vec<Step> {
+    candidate_steps(motor, state, &s.axis, s.model, s.pairs_per_step, &s.limits)
+}
+
+/// The greedy key of a step (larger is better), ties broken by the step's pairs. Progress
+/// past the target counts against a step, so that the last step lands near the target.
+fn greedy_key(scheme: Scheme, st: &Step, remaining: f64) -> f64 {
+    let progress = st.angle.0 - 2.0 * (st.angle.0 - remaining).max(0.0);
+    match scheme {
+        Scheme::MinAxisError => -st.axis_error.0,
+        Scheme::MaxAngle => progress,
+        _ => progress - st.axis_error.0,
+    }
+}
+
+fn greedy(motor: &Motor, s: &PlanSettings, mut path: Path, scheme: Scheme) -> Plan {
+    let q0 = path.state.q;
+    let mut seen: Vec<Vec<Pair>> = vec![path.state.active.clone()];
+    loop {
+        if reached(&path, s) {
+            return Plan {
+                rows: path.rows,
+                reached: true,
+                message: None,
+            };
+        }
+        if path.rows.len() > s.max_steps {
+            return stopped(path, format!("gave up after {} steps", s.max_steps));
+        }
+        let steps = steps_from(motor, s, &path.state);
+        let remaining = s.angle.0 - path.cum;
+        let best = steps
+            .iter()
+            .filter(|st| !revisits(&seen, st))
+            .max_by(|a, b| {
+                greedy_key(scheme, a, remaining)
+                    .total_cmp(&greedy_key(scheme, b, remaining))
+                    .then_with(|| b.to.active.cmp(&a.to.active))
+            });
+        let Some(best) = best else {
+            return stopped(
+                path,
+                "no candidate step advances about the axis within the axis error limit".into(),
+            );
+        };
+        path = path.extend(best, &q0, &s.axis);
+        seen.push(path.state.active.clone());
+    }
+}
+
+/// A greedy plan must not cycle between the same active sets.
+fn revisits(seen: &[Vec<Pair>], st: &Step) -> bool {
+    let mut a = st.to.active.clone();
+    a.sort();
+    seen.iter().any(|v| {
+        let mut b = v.clone();
+        b.sort();
+        a == b
+    })
+}
+
+fn stopped(path: Path, why: String) -> Plan {
+    let got = path.cum.to_degrees();
+    Plan {
+        rows: path.rows,
+        reached: false,
+        message: Some(format!(
+            "target not reached: {why} (reached {got:.2} degrees)"
+        )),
+    }
+}
+
+/// Beam search: keeps the `beam_width` best partial plans at each depth (best = smallest worst
+/// cumulative axis error, with a credit for progress), expanding them all in parallel; a plan
+/// that reaches the target is a solution, and partial plans already as bad as the best solution
+/// are pruned (the worst error never falls along a path). The paper's greedy plans are
+/// candidates too, so the search is never worse than them.
+fn search(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
+    let Some(root) = roots.first().cloned() else {
+        return Plan {
+            rows: Vec::new(),
+            reached: false,
+            message: Some("no initial commutation state".into()),
+        };
+    };
+    let mut best: Option<Path> = None;
+    for g in [Scheme::Weighted, Scheme::MinAxisError, Scheme::MaxAngle] {
+        let q0 = root.state.q;
+        let p = greedy(motor, s, root.clone(), g);
+        if p.reached {
+            let worst = max_axis_error_deg(&p.rows).to_radians();
+            let cum = p
+                .rows
+                .last()
+                .map(|r| r.cum_angle_deg.to_radians())
+                .unwrap_or(0.0);
+            let cand = Path {
+                state: CommutationState {
+                    q: p.rows.last().map(|r| r.q).unwrap_or(q0),
+                    active: p.rows.last().map(|r| r.active.clone()).unwrap_or_default(),
+                    settle_time_s: 0.0,
+                },
+                rows: p.rows,
+                worst,
+                cum,
+            };
+            if better_solution(&cand, best.as_ref(), s.angle.0) {
+                best = Some(cand);
+            }
+        }
+    }
+    let mut beam = roots;
+    let mut deepest = root;
+    let wide = PlanSettings {
+        limits: StepLimits {
+            bound_start: Radians(s.limits.bound_start.0.max(s.limits.search_bound.0)),
+            ..s.limits
+        },
+        ..s.clone()
+    };
+    for _depth in 0..s.max_steps {
+        if beam.is_empty() {
+            break;
+        }
+        let children: Vec<Vec<Path>> = beam
+            .par_iter()
+            .map(|p| {
+                let q0 = p.rows[0].q;
+                steps_from(motor, &wide, &p.state)
+                    .iter()
+                    .map(|st| p.extend(st, &q0, &s.axis))
+                    .collect()
+            })
+            .collect();
+        let mut next: Vec<Path> = Vec::new();
+        for c in children.into_iter().flatten() {
+            if best.as_ref().is_some_and(|b| c.worst > b.worst + 1e-9) {
+                continue;
+            }
+            if reached(&c, s) {
+                if better_solution(&c, best.as_ref(), s.angle.0) {
+                    best = Some(c);
+                }
+            } else {
+                next.push(c);
+            }
+        }
+        let credit = 0.25;
+        next.sort_by(|a, b| {
+            let sa = a.worst - credit * a.cum;
+            let sb = b.worst - credit * b.cum;
+            sa.total_cmp(&sb)
+                .then_with(|| a.state.active.cmp(&b.state.active))
+                .then_with(|| {
+                    let ka: Vec<_> = a.rows.iter().map(|r| r.active.clone()).collect();
+                    let kb: Vec<_> = b.rows.iter().map(|r| r.active.clone()).collect();
+                    ka.cmp(&kb)
+                })
+        });
+        // one partial plan per end state
+        let mut kept: Vec<Path> = Vec::new();
+        for c in next {
+            let dup = kept
+                .iter()
+                .any(|k| k.state.active == c.state.active && k.state.q.angle_to(&c.state.q) < 1e-6);
+            if !dup {
+                kept.push(c);
+                if kept.len() == s.beam_width {
+                    break;
+                }
+            }
+        }
+        if let Some(front) = kept.first() {
+            if front.cum > deepest.cum {
+                deepest = front.clone();
+            }
+        }
+        beam = kept;
+    }
+    match best {
+        Some(b) => Plan {
+            rows: b.rows,
+            reached: true,
+            message: None,
+        },
+        None => stopped(
+            deepest,
+            "the search found no sequence that reaches the target".into(),
+        ),
+    }
+}
+
+/// Smaller worst axis error wins; on a tie (within 1e-9 rad), landing nearer the target, then
+/// fewer steps.
+fn better_solution(c: &Path, best: Option<&Path>, target: f64) -> bool {
+    match best {
+        None => true,
+        Some(b) => {
+            if (c.worst - b.worst).abs() > 1e-9 {
+                return c.worst < b.worst;
+            }
+            let (oc, ob) = ((c.cum - target).abs(), (b.cum - target).abs());
+            if (oc - ob).abs() > 1e-9 {
+                return oc < ob;
+            }
+            c.rows.len() < b.rows.len()
+        }
+    }
+}

@@ -1,0 +1,216 @@
+//! Bad input gets a clear error naming the file, the field and what was expected, a non-zero
+//! exit code, and never a panic.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+fn run(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(common::bin()).args(args).output().unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn scenario(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_string_lossy().into_owned()
+}
+
+/// Runs `settle` on a scenario and checks the failure names the file and all of `needles`.
+fn fails_with(text: &str, pairs: &str, needles: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let file = scenario(dir.path(), "bad.toml", text);
+    let (code, _, err) = run(&["settle", &file, "--pairs", pairs]);
+    assert_ne!(code, 0, "must fail: {err}");
+    assert_ne!(code, 101, "a panic is not an error message: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(err.contains("bad.toml"), "names the file: {err}");
+    for n in needles {
+        assert!(err.contains(n), "expected '{n}' in: {err}");
+    }
+}
+
+#[test]
+fn malformed_toml() {
+    fails_with("[magnets\nshape = 1", "0:14", &["bad.toml"]);
+}
+
+#[test]
+fn unknown_key() {
+    fails_with(
+        "[magnets]\nstrenght_j = 0.2\n",
+        "0:14",
+        &["strenght_j", "unknown field"],
+    );
+}
+
+#[test]
+fn wrong_shape_name() {
+    fails_with(
+        "[magnets]\nshape = \"square\"\n",
+        "0:14",
+        &["square", "gaussian"],
+    );
+}
+
+#[test]
+fn zero_vector_in_points() {
+    fails_with(
+        "[stator]\npoints = [[0, 0, -1], [0, 0, 0]]\n",
+        "0:14",
+        &["stator.points[1]", "non-zero"],
+    );
+}
+
+#[test]
+fn nan_vector_in_points() {
+    fails_with(
+        "[rotor]\npoints = [[0, 0, -1], [nan, 0, 1]]\n",
+        "0:0",
+        &["rotor.points[1]", "finite"],
+    );
+}
+
+#[test]
+fn negative_tolerance() {
+    fails_with(
+        "[settle]\ntorque_tol = -1e-4\n",
+        "0:14",
+        &["settle.torque_tol", "> 0", "-0.0001"],
+    );
+}
+
+#[test]
+fn bad_inertia_entry() {
+    fails_with(
+        "[body]\ninertia_kg_m2 = [0.02, 0.0, 0.02]\n",
+        "0:14",
+        &["body.inertia_kg_m2[1]"],
+    );
+}
+
+#[test]
+fn missing_table_file() {
+    fails_with(
+        "[magnets]\nshape = \"table\"\ntable = \"nope.csv\"\n",
+        "0:14",
+        &["nope.csv"],
+    );
+}
+
+#[test]
+fn index_out_of_range() {
+    let (code, _, err) = run(&["settle", "scenarios/prototype.toml", "--pairs", "0:14,16:3"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("--pairs") && err.contains("coil index below 16"),
+        "{err}"
+    );
+    let (code, _, err) = run(&["settle", "scenarios/prototype.toml", "--pairs", "0:80"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("magnet index below 80"), "{err}");
+}
+
+#[test]
+fn coil_twice() {
+    let (code, _, err) = run(&["settle", "scenarios/prototype.toml", "--pairs", "3:14,3:20"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("coil 3 twice"), "{err}");
+}
+
+#[test]
+fn malformed_pairs_and_orientation() {
+    let (code, _, err) = run(&["settle", "scenarios/prototype.toml", "--pairs", "0-14"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("coil:magnet") && err.contains("0-14"), "{err}");
+    let (code, _, err) = run(&[
+        "settle",
+        "scenarios/prototype.toml",
+        "--pairs",
+        "0:14",
+        "--from",
+        "0,0,0,0",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("--from") && err.contains("non-zero"), "{err}");
+}
+
+#[test]
+fn bad_line_in_a_sets_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let sets = dir.path().join("sets.txt");
+    std::fs::write(&sets, "0:14,7:68\n# comment\n\n0:14,7:99\n").unwrap();
+    let (code, out, err) = run(&[
+        "settle",
+        "scenarios/prototype.toml",
+        "--sets",
+        sets.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(out.is_empty());
+    assert!(
+        err.contains("sets.txt: line 4") && err.contains("below 80"),
+        "{err}"
+    );
+}
+
+#[test]
+fn missing_scenario_file() {
+    let (code, _, err) = run(&["settle", "no/such.toml", "--pairs", "0:14"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("no/such.toml"), "{err}");
+}
+
+#[test]
+fn settle_json_has_the_documented_keys() {
+    let (code, out, err) = run(&[
+        "settle",
+        "scenarios/prototype.toml",
+        "--pairs",
+        "0:14,7:68",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    for k in [
+        "q",
+        "settle_time_s",
+        "evaluations",
+        "steps",
+        "energy_j",
+        "residual_torque_nm",
+        "settled",
+    ] {
+        assert!(v.get(k).is_some(), "missing {k} in {out}");
+    }
+    assert_eq!(v["q"].as_array().unwrap().len(), 4);
+    assert_eq!(v["settled"], true);
+    assert!(v["residual_torque_nm"].as_f64().unwrap() < 1e-4);
+}
+
+#[test]
+fn sets_csv_rows_follow_the_file_order_and_are_deterministic() {
+    let dir = tempfile::tempdir().unwrap();
+    let sets = dir.path().join("sets.txt");
+    std::fs::write(&sets, "0:14,7:68\n1:44,9:42\n0:14,12:45,7:68\n").unwrap();
+    let args = [
+        "settle",
+        "scenarios/prototype.toml",
+        "--sets",
+        sets.to_str().unwrap(),
+    ];
+    let (code, a, err) = run(&args);
+    assert_eq!(code, 0, "{err}");
+    let (_, b, _) = run(&args);
+    assert_eq!(a, b);
+    let lines: Vec<&str> = a.lines().collect();
+    assert_eq!(lines.len(), 4);
+    assert!(lines[0].starts_with("line,active,qx,qy,qz,qw,settle_time_s"));
+    assert!(lines[1].starts_with("1,0:14;7:68,"));
+    assert!(lines[3].starts_with("3,0:14;12:45;7:68,"));
+}

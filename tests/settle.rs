@@ -1,0 +1,221 @@
+//! Physics of the settle engine: alignment, energy, invariance, symmetry, parallel = serial.
+
+mod common;
+
+use common::{identity, nearest_magnet};
+use nalgebra::{UnitQuaternion, Vector3};
+use spherestep::dynamics::{settle, settle_many, settle_traced, State};
+use spherestep::geometry::{angular_distance, rot_q, unit, Pair, Radians, UnitVec};
+use spherestep::scenario::Scenario;
+use spherestep::torque::{Interaction, MagnetTorques, TorqueModel};
+
+fn proto() -> Scenario {
+    Scenario::load(std::path::Path::new("scenarios/prototype.toml")).unwrap()
+}
+
+fn dist(sc: &Scenario, q: &spherestep::geometry::Orientation, p: Pair) -> f64 {
+    let m = UnitVec::new_normalize(q * sc.rotor.points[p.magnet.0].into_inner());
+    angular_distance(&m, &sc.stator.points[p.coil.0]).0
+}
+
+#[test]
+fn one_pair_settles_with_the_magnet_on_its_coil() {
+    let sc = proto();
+    // start 20 degrees away: turn the ball so that the nearest magnet is off its coil
+    let q0 = rot_q(&unit(Vector3::new(1.0, 0.3, 0.0)).unwrap(), Radians(0.2));
+    for coil in [0usize, 3, 12] {
+        let (m, d0) = nearest_magnet(&sc, coil, &q0);
+        assert!(d0 > 0.01 && d0 < sc.torques.well.max_attraction.0);
+        let pair = Pair {
+            coil: spherestep::geometry::CoilId(coil),
+            magnet: m,
+        };
+        let r = settle(&sc.torques, &[pair], &q0, sc.body, sc.settle);
+        assert!(r.settled, "coil {coil}: {r:?}");
+        // the settle test's torque tolerance, through the well's stiffness, bounds the angle
+        let bound = sc.settle.torque_tol / sc.torques.well.stiffness() * 1.05;
+        let d = dist(&sc, &r.q, pair);
+        assert!(d < bound, "coil {coil}: {d} rad left, bound {bound}");
+        assert!(r.residual_torque_nm < sc.settle.torque_tol);
+        assert!((r.q.quaternion().norm() - 1.0).abs() < 1e-15);
+        assert!(r.evaluations > 10 && r.steps > 2);
+    }
+}
+
+fn two_pairs(sc: &Scenario, q0: &spherestep::geometry::Orientation) -> Vec<Pair> {
+    let (m0, _) = nearest_magnet(sc, 0, q0);
+    let (m1, _) = nearest_magnet(sc, 7, q0);
+    vec![
+        Pair {
+            coil: spherestep::geometry::CoilId(0),
+            magnet: m0,
+        },
+        Pair {
+            coil: spherestep::geometry::CoilId(7),
+            magnet: m1,
+        },
+    ]
+}
+
+#[test]
+fn total_energy_never_rises_with_damping() {
+    let sc = proto();
+    let q0 = rot_q(&unit(Vector3::new(0.2, 1.0, 0.4)).unwrap(), Radians(0.15));
+    let active = two_pairs(&sc, &q0);
+    let mut trace: Vec<(f64, State)> = Vec::new();
+    let r = settle_traced(
+        &sc.torques,
+        &active,
+        &q0,
+        sc.body,
+        sc.settle,
+        Some(&mut trace),
+    );
+    assert!(r.settled);
+    assert!(trace.len() > 10);
+    let energy = |y: &State| {
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(y[3], y[0], y[1], y[2]));
+        let w = Vector3::new(y[4], y[5], y[6]);
+        let (_, u) = sc
+            .torques
+            .torque_energy(q.to_rotation_matrix().matrix(), &active);
+        u + 0.5 * w.dot(&sc.body.inertia.component_mul(&w))
+    };
+    let e: Vec<f64> = trace.iter().map(|(_, y)| energy(y)).collect();
+    assert!(
+        e[0] - e[e.len() - 1] > 1e-3,
+        "it must fall: {} -> {}",
+        e[0],
+        e[e.len() - 1]
+    );
+    for k in 1..e.len() {
+        assert!(
+            e[k] <= e[k - 1] + 1e-7,
+            "energy rose at step {k}: {} -> {}",
+            e[k - 1],
+            e[k]
+        );
+    }
+    // |q| stays 1 along the way (to integration accuracy)
+    for (_, y) in &trace {
+        let n = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3]).sqrt();
+        assert!((n - 1.0).abs() < 1e-5, "|q| = {n}");
+    }
+}
+
+#[test]
+fn rotating_stator_rotor_and_start_together_rotates_the_result() {
+    let sc = proto();
+    let q0 = rot_q(&unit(Vector3::new(0.2, 1.0, 0.4)).unwrap(), Radians(0.15));
+    let active = two_pairs(&sc, &q0);
+    let base = settle(&sc.torques, &active, &q0, sc.body, sc.settle);
+    assert!(base.settled);
+    // world rotation G of the stator, body rotation B of the rotor
+    let g = rot_q(&unit(Vector3::new(0.3, -0.5, 0.8)).unwrap(), Radians(1.1));
+    let b = rot_q(&unit(Vector3::new(-0.7, 0.1, 0.2)).unwrap(), Radians(0.6));
+    let moved = MagnetTorques {
+        rotor: sc.torques.rotor.iter().map(|r| b * r).collect(),
+        stator: sc.torques.stator.iter().map(|s| g * s).collect(),
+        ..sc.torques.clone()
+    };
+    let q0m = g * q0 * b.inverse();
+    let r = settle(&moved, &active, &q0m, sc.body, sc.settle);
+    assert!(r.settled);
+    let expected = g * base.q * b.inverse();
+    let err = r.q.angle_to(&expected);
+    assert!(err < 1e-5, "rotated result off by {err} rad");
+    assert!((r.energy_j - base.energy_j).abs() < 1e-9);
+}
+
+#[test]
+fn a_symmetric_set_settles_where_symmetry_says() {
+    // Two coils 20 degrees either side of -Z in the X-Z plane, two magnets 16 degrees either
+    // side: the mirror symmetry x -> -x makes the identity the equilibrium, the magnets each
+    // 4 degrees short of their coils.
+    let y = unit(Vector3::y()).unwrap();
+    let down = Vector3::new(0.0, 0.0, -1.0);
+    let at = |deg: f64| rot_q(&y, Radians(deg.to_radians())) * down;
+    let mut sc = proto();
+    sc.torques = MagnetTorques {
+        rotor: vec![at(16.0), at(-16.0)],
+        stator: vec![at(20.0), at(-20.0)],
+        well: sc.torques.well.clone(),
+        interaction: Interaction::Pairs,
+    };
+    let q0 = rot_q(&unit(Vector3::new(0.3, 1.0, 0.2)).unwrap(), Radians(0.08));
+    let active = [Pair::new(0, 0), Pair::new(1, 1)];
+    let r = settle(&sc.torques, &active, &q0, sc.body, sc.settle);
+    assert!(r.settled);
+    // residual angle bounded by torque_tol over the pair of springs' stiffness (order 10 N m/rad)
+    assert!(
+        r.q.angle_to(&identity()) < 1e-4,
+        "off by {}",
+        r.q.angle_to(&identity())
+    );
+}
+
+#[test]
+fn settle_many_equals_the_serial_loop_exactly() {
+    let sc = proto();
+    let q0 = rot_q(&unit(Vector3::new(0.2, 1.0, 0.4)).unwrap(), Radians(0.05));
+    let mut sets = Vec::new();
+    for a in 0..16 {
+        for b in [(a + 3) % 16, (a + 7) % 16] {
+            let (ma, _) = nearest_magnet(&sc, a, &q0);
+            let (mb, _) = nearest_magnet(&sc, b, &q0);
+            sets.push(vec![
+                Pair {
+                    coil: spherestep::geometry::CoilId(a),
+                    magnet: ma,
+                },
+                Pair {
+                    coil: spherestep::geometry::CoilId(b),
+                    magnet: mb,
+                },
+            ]);
+        }
+    }
+    let par = settle_many(&sc.torques, &sets, &q0, sc.body, sc.settle);
+    let ser: Vec<_> = sets
+        .iter()
+        .map(|s| settle(&sc.torques, s, &q0, sc.body, sc.settle))
+        .collect();
+    assert_eq!(par, ser);
+    assert!(par.iter().filter(|r| r.steps > 0).count() > 10);
+}
+
+#[test]
+fn coils_interaction_attracts_every_magnet_in_range() {
+    let mut sc = proto();
+    let q0 = identity();
+    let (m, _) = nearest_magnet(&sc, 0, &q0);
+    let pair = [Pair {
+        coil: spherestep::geometry::CoilId(0),
+        magnet: m,
+    }];
+    let r = q0.to_rotation_matrix();
+    let (_, up) = sc.torques.torque_energy(r.matrix(), &pair);
+    sc.torques.interaction = Interaction::Coils;
+    let (tc, uc) = sc.torques.torque_energy(r.matrix(), &pair);
+    // every magnet within range adds its own pull; energy is lower by the others' wells
+    let mut expect_t = Vector3::zeros();
+    let mut in_range = 0;
+    for (j, _) in sc.rotor.points.iter().enumerate() {
+        let one = [Pair {
+            coil: spherestep::geometry::CoilId(0),
+            magnet: spherestep::geometry::MagnetId(j),
+        }];
+        sc.torques.interaction = Interaction::Pairs;
+        let (t, _) = sc.torques.torque_energy(r.matrix(), &one);
+        if dist(&sc, &q0, one[0]) < sc.torques.well.max_attraction.0 {
+            in_range += 1;
+        }
+        expect_t += t;
+    }
+    assert!(
+        in_range >= 2,
+        "the prototype's coil 0 reaches {in_range} magnets"
+    );
+    assert!((tc - expect_t).norm() < 1e-12);
+    assert!(uc < up);
+}
