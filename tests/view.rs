@@ -73,7 +73,11 @@ fn page_embeds_plan_and_packings() {
         let q: Vec<f64> = serde_json::from_value(s["q"].clone()).unwrap();
         let want = spherestep::geometry::xyzw(&r.q);
         for k in 0..4 {
-            assert!((q[k] - want[k]).abs() < 1e-12, "step {} q {q:?} vs {want:?}", r.step);
+            assert!(
+                (q[k] - want[k]).abs() < 1e-12,
+                "step {} q {q:?} vs {want:?}",
+                r.step
+            );
         }
         let active: Vec<[usize; 2]> = serde_json::from_value(s["active"].clone()).unwrap();
         let want: Vec<[usize; 2]> = r.active.iter().map(|p| [p.coil.0, p.magnet.0]).collect();
@@ -89,20 +93,27 @@ fn page_embeds_plan_and_packings() {
     let stator: Vec<[f64; 3]> = serde_json::from_value(v["stator"].clone()).unwrap();
     assert_eq!(rotor.len(), 80);
     assert_eq!(stator.len(), 16);
+    // (serde_json's own parser may be 1 ulp off; browsers parse the shortest form exactly)
+    let same = |a: &[f64; 3], b: &spherestep::geometry::UnitVec| {
+        (0..3).all(|k| (a[k] - b[k]).abs() <= 1e-15)
+    };
     for (a, b) in rotor.iter().zip(&sc.rotor.points) {
-        assert_eq!(*a, [b.x, b.y, b.z]);
+        assert!(same(a, b), "{a:?} vs {b:?}");
     }
     for (a, b) in stator.iter().zip(&sc.stator.points) {
-        assert_eq!(*a, [b.x, b.y, b.z]);
+        assert!(same(a, b), "{a:?} vs {b:?}");
     }
     // the given desired axis, normalised
     assert_eq!(v["desired_axis"]["source"], "given");
-    assert_eq!(v["desired_axis"]["axis"], serde_json::json!([0.0, 0.0, 1.0]));
+    assert_eq!(
+        v["desired_axis"]["axis"],
+        serde_json::json!([0.0, 0.0, 1.0])
+    );
     // simulate results with the file's deviation
     let sim = v["sim"].as_array().unwrap();
     assert_eq!(sim.len(), 4);
     assert_eq!(sim[3]["deviation_deg"].as_f64().unwrap(), 4.5);
-    assert!((sim[3]["q"][2].as_f64().unwrap() - 0.156434465).abs() < 1e-12);
+    assert!((sim[3]["q"][2].as_f64().unwrap() - 0.156434465).abs() < 1e-8);
     assert_eq!(listing(dir.path()), vec!["plan.html".to_string()]);
 }
 
@@ -152,7 +163,10 @@ fn cli_writes_page_with_default_scenario_and_inferred_axis() {
     let html = std::fs::read_to_string(&out).unwrap();
     let v: serde_json::Value = serde_json::from_str(extract_data_json(&html).unwrap()).unwrap();
     assert_eq!(v["scenario"], "test motor");
-    assert_eq!(v["desired_axis"]["axis"], serde_json::json!([0.0, 0.0, -1.0]));
+    assert_eq!(
+        v["desired_axis"]["axis"],
+        serde_json::json!([0.0, 0.0, -1.0])
+    );
     // a scenario with fewer magnets than the plan uses is refused
     std::fs::write(
         &sc_path,
@@ -176,7 +190,13 @@ fn cli_writes_page_with_default_scenario_and_inferred_axis() {
 /// Runs `view` expecting failure; returns stderr. Checks that `out` keeps `before` (or stays
 /// absent) and that no temporary file is left.
 fn view_fails(args: &[&std::ffi::OsStr], dir: &Path, out: &Path, before: Option<&str>) -> String {
-    let o = bin().arg("view").args(args).arg("--out").arg(out).output().unwrap();
+    let o = bin()
+        .arg("view")
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
     assert!(!o.status.success(), "expected failure");
     match before {
         None => assert!(!out.exists(), "no page may be written"),
@@ -207,7 +227,10 @@ fn bad_plan_row_gives_error_and_no_page() {
     // a non-number
     std::fs::write(&bad, good.replacen("0.150", "slow", 1)).unwrap();
     let err = view_fails(&[bad.as_os_str()], dir.path(), &out, Some("old page"));
-    assert!(err.contains("line 3") && err.contains("settle_time_s"), "{err}");
+    assert!(
+        err.contains("line 3") && err.contains("settle_time_s"),
+        "{err}"
+    );
     // a pair index beyond the prototype's coils
     std::fs::write(&bad, good.replace("6:62;5:38", "6:62;50:38")).unwrap();
     let err = view_fails(&[bad.as_os_str()], dir.path(), &out, Some("old page"));

@@ -105,7 +105,9 @@ fn close(a: &[f64], b: &[f64]) -> bool {
 #[test]
 fn page_runs_in_headless_chromium() {
     let Some(exe) = chromium() else {
-        println!("skipped: chromium not installed (apt-get install chromium, or .ci/install-chromium)");
+        println!(
+            "skipped: chromium not installed (apt-get install chromium, or .ci/install-chromium)"
+        );
         eprintln!("skipped: chromium not installed");
         return;
     };
@@ -149,7 +151,10 @@ fn page_runs_in_headless_chromium() {
     let total = r["totalPixels"].as_f64().unwrap();
     let drawn = r["nonBlankPixels"].as_f64().unwrap();
     assert!(total > 10_000.0, "canvas too small: {r}");
-    assert!(drawn > 0.02 * total, "canvas looks blank: {drawn} of {total} pixels drawn");
+    assert!(
+        drawn > 0.02 * total,
+        "canvas looks blank: {drawn} of {total} pixels drawn"
+    );
     assert!(r["nonBlankAfterNext"].as_f64().unwrap() > 0.02 * total);
     assert_eq!(r["stepCount"], 4);
     // stepping changes the displayed step and the orientation
@@ -159,9 +164,19 @@ fn page_runs_in_headless_chromium() {
     assert_eq!(r["stepAfterNext"], 1);
     assert_eq!(r["labelAfterNext"], "1");
     let after = quat(&r["orientationAfterNext"]);
-    assert!(!close(&after, &quat(&r["orientationBefore"])), "orientation did not change: {r}");
-    assert!(close(&after, &plan_q[1]), "orientation after next: {after:?} vs {:?}", plan_q[1]);
-    assert!(close(&quat(&r["displayedAfterNext"]), &plan_q[1]), "drawn orientation: {r}");
+    assert!(
+        !close(&after, &quat(&r["orientationBefore"])),
+        "orientation did not change: {r}"
+    );
+    assert!(
+        close(&after, &plan_q[1]),
+        "orientation after next: {after:?} vs {:?}",
+        plan_q[1]
+    );
+    assert!(
+        close(&quat(&r["displayedAfterNext"]), &plan_q[1]),
+        "drawn orientation: {r}"
+    );
     assert_eq!(r["stepAfterSetLast"], 3);
     assert_eq!(r["labelAfterSetLast"], "3");
     assert_eq!(r["stepAfterPrev"], 2);
