@@ -178,8 +178,9 @@
     }
     polyline(pts, style);
   }
-  function arrowAxis(v, color, width, dash) {
+  function arrowAxis(v, color, width, dash, name) {
     var u = normalize(v);
+    if (state.labels && name) label(scale(u, AXIS_LEN + 0.14), name, { color: color, small: true });
     segmented(scale(u, -AXIS_LEN), scale(u, AXIS_LEN), 24, { color: color, width: width, dash: dash });
     // arrow head: two short segments in the plane containing the view direction
     var tip = scale(u, AXIS_LEN + 0.02);
@@ -256,9 +257,9 @@
     }
 
     // axes
-    if (data.desired_axis) arrowAxis(data.desired_axis.axis, COLORS.desired, 2.5);
-    if (st && st.cum_axis) arrowAxis(st.cum_axis, COLORS.cumAxis, 2, [6, 4]);
-    if (st && st.step_axis) arrowAxis(st.step_axis, COLORS.stepAxis, 2, [2, 3]);
+    if (data.desired_axis) arrowAxis(data.desired_axis.axis, COLORS.desired, 2.5, null, "desired");
+    if (st && st.cum_axis) arrowAxis(st.cum_axis, COLORS.cumAxis, 2, [6, 4], "cum");
+    if (st && st.step_axis) arrowAxis(st.step_axis, COLORS.stepAxis, 2, [2, 3], "step");
   }
 
   function currentGhost() {
@@ -365,7 +366,12 @@
     } else {
       state.anim = { from: state.shown.slice(), to: to, gfrom: state.ghost || gto, gto: gto,
         t0: now(), dur: 700 };
+      var mine = state.anim;
       requestAnimationFrame(tick);
+      // Where animation frames are throttled (hidden tab, headless), end the move on time.
+      setTimeout(function () {
+        if (state.anim === mine) { settle(); afterAnimation(); }
+      }, mine.dur + 80);
     }
     state.step = k;
     updatePanel();
