@@ -11,7 +11,8 @@ use std::time::{Duration, Instant};
 
 fn chromium() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("SPHERESTEP_CHROMIUM") {
-        return Some(PathBuf::from(p));
+        let p = PathBuf::from(p);
+        return p.exists().then_some(p);
     }
     ["/usr/bin/chromium", "/usr/bin/chromium-browser"]
         .iter()
@@ -105,10 +106,13 @@ fn close(a: &[f64], b: &[f64]) -> bool {
 #[test]
 fn page_runs_in_headless_chromium() {
     let Some(exe) = chromium() else {
-        println!(
-            "skipped: chromium not installed (apt-get install chromium, or .ci/install-chromium)"
+        // Written to the stderr handle directly so that it shows without --nocapture.
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr(),
+            "page_runs_in_headless_chromium: skipped: chromium not installed \
+             (apt-get install chromium, or CI=true .ci/install-chromium)"
         );
-        eprintln!("skipped: chromium not installed");
         return;
     };
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
