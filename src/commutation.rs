@@ -182,6 +182,10 @@ pub struct StepLimits {
     /// The search planner weighs every candidate within this bound (the greedy schemes use
     /// the paper's bound, starting at `bound_start`): it can afford to look at more.
     pub search_bound: Radians,
+    /// A pair counts as holding only when its magnet ends within this distance of its coil:
+    /// steps that leave an active pair further out are discarded (the "certain error" of the
+    /// paper's section 2.1, within the peak of the coil's attraction).
+    pub capture: Radians,
 }
 
 impl Default for StepLimits {
@@ -192,6 +196,7 @@ impl Default for StepLimits {
             bound_start: ERROR_BOUND_START,
             max_candidates: 8,
             search_bound: Radians(45f64.to_radians()),
+            capture: Radians(6f64.to_radians()),
         }
     }
 }
@@ -270,6 +275,9 @@ pub fn candidate_steps(
         .zip(outcomes)
         .filter_map(|((pivot, new), to)| {
             let to = to?;
+            if !holds(motor.torques, &to, limits.capture) {
+                return None;
+            }
             let (angle, err) = step_measure(&state.q, &to.q, n);
             (angle.0 >= limits.min_angle.0 && err.0 <= limits.max_axis_error.0).then_some(Step {
                 pivot,
@@ -280,6 +288,16 @@ pub fn candidate_steps(
             })
         })
         .collect()
+}
+
+/// Whether every active pair of a state has its magnet within `capture` of its coil.
+pub fn holds(torques: &MagnetTorques, state: &CommutationState, capture: Radians) -> bool {
+    let r = state.q.to_rotation_matrix();
+    state.active.iter().all(|p| {
+        let m = UnitVec::new_normalize(r * torques.rotor[p.magnet.0]);
+        let s = UnitVec::new_normalize(torques.stator[p.coil.0]);
+        angular_distance(&m, &s).0 <= capture.0
+    })
 }
 
 /// The pivot model's step: turn about the pivot coil's axis until the candidate magnet is as
@@ -366,12 +384,13 @@ pub fn pivot_error(torques: &MagnetTorques, coil: CoilId, n: &UnitVec) -> Radian
 /// attraction distance of another coil), settled by the step model. The best second pair is
 /// the one whose coil is the better pivot for rotation about `n` (the coil on -Z already is the
 /// pivot for axes near Z; then the pair nearest to alignment comes first). Empty when no second
-/// pair is in reach.
+/// pair is in reach. States whose pairs do not hold (see [`holds`]) are left out.
 pub fn initial_states(
     motor: &Motor,
     start: &Orientation,
     model: StepModel,
     n: &UnitVec,
+    capture: Radians,
 ) -> Vec<CommutationState> {
     let coil = bottom_coil(motor.torques);
     let (magnet, _) = nearest_magnet(motor.torques, coil, start);
@@ -418,12 +437,21 @@ pub fn initial_states(
                 .collect()
         }
     };
-    states.into_iter().flatten().collect()
+    states
+        .into_iter()
+        .flatten()
+        .filter(|st| holds(motor.torques, st, capture))
+        .collect()
 }
 
 /// Angle of the cumulative rotation R_k R_0^T (signed about `n`) and its axis error.
 pub fn cumulative(q0: &Orientation, qk: &Orientation, n: &UnitVec) -> (Radians, Radians) {
     step_measure(q0, qk, n)
+}
+
+/// The rotation axis of a step's rotation ΔR (`None` for no rotation).
+pub fn rotation_axis_of_step(d: &Orientation) -> Option<UnitVec> {
+    crate::geometry::rotation_axis(d)
 }
 
 /// Unsigned angle of a rotation between two orientations.

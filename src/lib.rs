@@ -12,6 +12,7 @@ pub mod packing;
 pub mod planfile;
 pub mod planner;
 pub mod scenario;
+pub mod simulate;
 pub mod symmetry;
 pub mod torque;
 pub mod view;

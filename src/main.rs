@@ -79,6 +79,19 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Replay a plan's coil sequence through the dynamic model and measure the "slop".
+    Simulate {
+        /// Plan CSV (from `plan --out`).
+        plan: PathBuf,
+        /// Scenario to simulate in (default: the built-in prototype).
+        scenario: Option<PathBuf>,
+        /// Write the per-step CSV here (else to standard output).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print a JSON summary.
+        #[arg(long)]
+        json: bool,
+    },
     /// Write one self-contained HTML page showing a plan in 3-D (opens from disk, no network).
     View {
         /// Plan file (CSV, as written by `plan`).
@@ -168,6 +181,36 @@ fn run(cli: Cli) -> Result<()> {
                     "{}",
                     p.message.unwrap_or_else(|| "target not reached".into())
                 );
+            }
+        }
+        Command::Simulate {
+            plan,
+            scenario,
+            out: out_file,
+            json,
+        } => {
+            let sc = match scenario {
+                Some(p) => Scenario::load(&p)?,
+                None => Scenario::prototype(),
+            };
+            let rows = spherestep::planfile::read_plan(&plan)?;
+            let sim = spherestep::simulate::simulate(&sc, &rows, &plan)?;
+            let mut buf = Vec::new();
+            spherestep::simulate::write_sim(&sim, &mut buf)?;
+            match &out_file {
+                Some(p) => spherestep::output::write_atomic(p, &buf)?,
+                None if !json => out.write_all(&buf)?,
+                None => {}
+            }
+            let s = spherestep::simulate::summary(&sim);
+            if json {
+                writeln!(out, "{}", serde_json::to_string(&s)?)?;
+            } else {
+                writeln!(
+                    out,
+                    "{} steps: max deviation {:.3} deg, final deviation {:.3} deg, {} unsettled",
+                    s.steps, s.max_deviation_deg, s.final_deviation_deg, s.unsettled_steps
+                )?;
             }
         }
         Command::View {

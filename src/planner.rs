@@ -155,7 +155,7 @@ impl Path {
 
 /// Plans a motion.
 pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
-    let inits = initial_states(motor, &s.start, s.model, &s.axis);
+    let inits = initial_states(motor, &s.start, s.model, &s.axis, s.limits.capture);
     let Some(first) = inits.first() else {
         return Plan {
             rows: Vec::new(),

@@ -51,6 +51,7 @@ struct RawPlan {
     min_step_angle_deg: Option<f64>,
     error_bound_start_deg: Option<f64>,
     search_bound_deg: Option<f64>,
+    capture_deg: Option<f64>,
     max_candidates: Option<usize>,
     angle_tolerance_deg: Option<f64>,
 }
@@ -573,6 +574,7 @@ impl Checker<'_> {
                     d.bound_start,
                 )?,
                 max_candidates: count("plan.max_candidates", raw.max_candidates, d.max_candidates)?,
+                capture: angle_field("plan.capture_deg", raw.capture_deg, d.capture)?,
                 search_bound: angle_field(
                     "plan.search_bound_deg",
                     raw.search_bound_deg,

@@ -8,16 +8,15 @@
 //! embedded as JSON (`<script type="application/json" id="spherestep-data">`). The page loads
 //! nothing from the network: its small canvas renderer is part of `view.js`.
 //!
-//! The page is written to a temporary file next to the output and renamed into place, so an
-//! error never leaves a half-written page behind.
+//! The page is written with `output::write_atomic` (a temporary file next to the output, then
+//! a rename), so an error never leaves a half-written page behind.
 
 use crate::error::{Error, Result};
 use crate::geometry::{rotation_angle, rotation_axis, xyzw, Orientation, Pair, UnitVec};
 use crate::planfile::{read_plan, PlanRow};
 use crate::scenario::Scenario;
 use serde::Serialize;
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The page template; `{{STYLE}}`, `{{SCRIPT}}` and `{{DATA}}` are filled in.
 pub const TEMPLATE: &str = include_str!("../assets/view/view.html");
@@ -393,31 +392,6 @@ pub fn render_html(data: &ViewData) -> Result<String> {
     ))
 }
 
-/// Writes `bytes` to `out` atomically: a temporary file in the same folder, then a rename.
-pub fn write_atomic(out: &Path, bytes: &[u8]) -> Result<()> {
-    let name = out
-        .file_name()
-        .ok_or_else(|| Error::Arg {
-            arg: "--out".into(),
-            expected: format!("a file path, got '{}'", out.display()),
-        })?
-        .to_string_lossy()
-        .into_owned();
-    let tmp: PathBuf = out.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, out)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(out, e));
-    }
-    Ok(())
-}
-
 /// `spherestep view`: reads the plan (and the simulate results, if any), builds the page and
 /// writes it to `out`. On any error nothing is written.
 pub fn write_view(
@@ -434,7 +408,7 @@ pub fn write_view(
         .map(|n| format!("spherestep plan: {}", n.to_string_lossy()));
     let data = view_data(&plan, plan_path, sc, &ViewOptions { axis, sim, title })?;
     let html = render_html(&data)?;
-    write_atomic(out, html.as_bytes())?;
+    crate::output::write_atomic(out, html.as_bytes())?;
     Ok(data)
 }
 
