@@ -271,3 +271,59 @@ fn bad_sim_or_axis_gives_error_and_no_page() {
     );
     assert!(err.contains("--axis"), "{err}");
 }
+
+#[test]
+fn plan_then_simulate_then_view() {
+    // The whole pipeline on a paper scenario: the page takes `simulate`'s CSV as it is.
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scenario = root.join("scenarios/paper-fig7-z.toml");
+    let (plan, sim, page) = (
+        dir.path().join("plan.csv"),
+        dir.path().join("sim.csv"),
+        dir.path().join("plan.html"),
+    );
+    let o = bin()
+        .arg("plan")
+        .arg(&scenario)
+        .arg("--out")
+        .arg(&plan)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = bin()
+        .arg("simulate")
+        .arg(&plan)
+        .arg(&scenario)
+        .arg("--out")
+        .arg(&sim)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = bin()
+        .arg("view")
+        .arg(&plan)
+        .arg(&scenario)
+        .arg("--sim")
+        .arg(&sim)
+        .arg("--out")
+        .arg(&page)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert_self_contained(&html);
+    let v: serde_json::Value = serde_json::from_str(extract_data_json(&html).unwrap()).unwrap();
+    let rows = read_plan(&plan).unwrap();
+    assert_eq!(v["steps"].as_array().unwrap().len(), rows.len());
+    let sims = v["sim"].as_array().unwrap();
+    assert_eq!(sims.len(), rows.len());
+    for s in sims {
+        let d = s["deviation_deg"].as_f64().unwrap();
+        let c = s["computed_deviation_deg"].as_f64().unwrap();
+        assert!(
+            (d - c).abs() < 1e-6,
+            "file and computed deviation differ: {s}"
+        );
+    }
+}
