@@ -17,5 +17,6 @@ pub mod scenario;
 pub mod simulate;
 pub mod symmetry;
 pub mod torque;
+pub mod view;
 
 pub use error::{Error, Result};

@@ -4,7 +4,7 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use spherestep::app;
-use spherestep::scenario::{parse_orientation, Scenario};
+use spherestep::scenario::{parse_axis, parse_orientation, Scenario};
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -147,6 +147,22 @@ enum Command {
         /// TOML map file with the [relay] keys at the top (replaces the scenario's section).
         #[arg(long)]
         map: Option<PathBuf>,
+    },
+    /// Write one self-contained HTML page showing a plan in 3-D (opens from disk, no network).
+    View {
+        /// Plan file (CSV, as written by `plan`).
+        plan: PathBuf,
+        /// Scenario file (TOML) with the packings; default: the built-in prototype.
+        scenario: Option<PathBuf>,
+        /// The HTML page to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Simulate results (CSV with columns step,qx,qy,qz,qw) to draw as a ghost ball.
+        #[arg(long)]
+        sim: Option<PathBuf>,
+        /// Desired rotation axis x,y,z (default: the axis of the plan's total rotation).
+        #[arg(long, allow_hyphen_values = true)]
+        axis: Option<String>,
     },
     /// Regenerate the built-in prototype's coordinate files from their generators.
     Prototype {
@@ -325,6 +341,21 @@ fn run(cli: Cli) -> Result<()> {
             };
             let input = (mode == Mode::Step && !dry_run).then(replay::stdin_lines);
             replay::run(&opts, stop, input, &mut out)?;
+        }
+        Command::View {
+            plan,
+            scenario,
+            out: page,
+            sim,
+            axis,
+        } => {
+            let sc = match scenario {
+                Some(p) => Scenario::load(&p)?,
+                None => Scenario::prototype(),
+            };
+            let axis = axis.map(|a| parse_axis(&a, "--axis")).transpose()?;
+            let data = spherestep::view::write_view(&plan, &sc, sim.as_deref(), axis, &page)?;
+            writeln!(out, "wrote {} ({} steps)", page.display(), data.steps.len())?;
         }
         Command::Prototype { out: dir } => {
             app::write_prototype(&dir)?;
