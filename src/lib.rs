@@ -8,6 +8,7 @@ pub mod error;
 pub mod geometry;
 pub mod packing;
 pub mod planfile;
+pub mod plots;
 pub mod scenario;
 pub mod symmetry;
 pub mod torque;

@@ -10,7 +10,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "spherestep", version, about = "Commutation, planning, settling and relay replay for spherical stepper motors")]
+#[command(
+    name = "spherestep",
+    version,
+    about = "Commutation, planning, settling and relay replay for spherical stepper motors"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -45,6 +49,17 @@ enum Command {
         /// Write the --sets CSV here instead of standard output.
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Draw an existing result CSV (plan or sweep, told by its header) as SVG and PNG.
+    Plot {
+        /// A plan CSV (axis error vs. rotation angle) or a sweep CSV (map of the worst axis error).
+        csv: PathBuf,
+        /// Folder for the pictures (default: next to the CSV).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Title of the figure (default: from the file name).
+        #[arg(long)]
+        title: Option<String>,
     },
     /// Regenerate the built-in prototype's coordinate files from their generators.
     Prototype {
@@ -90,6 +105,15 @@ fn run(cli: Cli) -> Result<()> {
                 }
             } else if let Some(pairs) = pairs {
                 app::settle_one(&sc, &pairs, &q0, json, &mut out)?;
+            }
+        }
+        Command::Plot {
+            csv,
+            out: dir,
+            title,
+        } => {
+            for f in spherestep::plots::plot_csv(&csv, dir.as_deref(), title.as_deref())? {
+                writeln!(out, "wrote {}", f.display())?;
             }
         }
         Command::Prototype { out: dir } => {
