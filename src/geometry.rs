@@ -215,7 +215,7 @@ mod tests {
     #[test]
     fn rot_matches_paper_formula() {
         let n = v(1.0, 2.0, 3.0);
-        let th = 0.7;
+        let th: f64 = 0.7;
         let nn = n.into_inner();
         let nm = Matrix3::new(0.0, -nn.z, nn.y, nn.z, 0.0, -nn.x, -nn.y, nn.x, 0.0);
         let paper = Matrix3::identity() + nm * th.sin() + nm * nm * (1.0 - th.cos());

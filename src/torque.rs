@@ -150,7 +150,8 @@ impl Well {
         }
     }
 
-    /// Torque magnitude g(d) = -U'(d) >= 0, in N m (0 beyond the cut-off).
+    /// Torque magnitude g(d) = dU/dd >= 0 (the pull -dU/dd points back towards the coil), in
+    /// N m (0 beyond the cut-off).
     pub fn g(&self, d: f64) -> f64 {
         if d > self.max_attraction.0 {
             return 0.0;
@@ -343,13 +344,14 @@ mod tests {
     }
 
     #[test]
-    fn g_is_minus_the_derivative_of_u() {
+    fn g_is_the_slope_of_u() {
         for w in wells() {
             for i in 1..49 {
                 let d = i as f64 * 0.01 + 0.0005;
                 let h = 1e-6;
                 let du = (w.potential(d + h) - w.potential(d - h)) / (2.0 * h);
-                assert!((w.g(d) + du).abs() < 1e-6, "{:?} at {d}", w.shape);
+                // the pull towards the coil has magnitude dU/dd (U rises away from the coil)
+                assert!((w.g(d) - du).abs() < 1e-6, "{:?} at {d}", w.shape);
                 assert!(w.g(d) >= 0.0);
                 assert!((w.g_over_sin(d, d.sin()) * d.sin() - w.g(d)).abs() < 1e-12);
             }
