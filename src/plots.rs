@@ -191,9 +191,9 @@ fn tick(v: f64, decimals: usize) -> String {
 
 /// Decimals enough for ticks over a range of width `span`.
 fn tick_decimals(span: f64) -> usize {
-    if span >= 20.0 {
+    if span >= 8.0 {
         0
-    } else if span >= 2.0 {
+    } else if span >= 0.8 {
         1
     } else {
         2
@@ -387,7 +387,10 @@ impl Figure for CommutationPlot {
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
         self.check()?;
-        let area = root.titled(&self.title, text(24))?.margin(5, 15, 15, 15);
+        let area = root
+            .margin(8, 0, 0, 0)
+            .titled(&self.title, text(24))?
+            .margin(5, 15, 15, 15);
         let (left, bottom) = (60, 50);
         let (pw, ph) = plot_dims(&area, left, bottom);
         // Equal scales on both axes: the unit circle stays a circle.
@@ -511,7 +514,7 @@ fn scaled(p: [f64; 3], s: f64) -> [f64; 3] {
 const VIEW_YAW: f64 = 0.6;
 const VIEW_PITCH: f64 = -0.5;
 const COIL_RADIUS: f64 = 1.1;
-const AXIS_LENGTH: f64 = 1.55;
+const AXIS_LENGTH: f64 = 1.45;
 
 impl View3d {
     fn check(&self) -> DrawResult {
@@ -556,14 +559,17 @@ impl Figure for View3d {
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
         self.check()?;
-        let area = root.titled(&self.title, text(24))?.margin(0, 10, 10, 10);
+        let area = root
+            .margin(8, 0, 0, 0)
+            .titled(&self.title, text(24))?
+            .margin(0, 10, 10, 10);
         let lim = 1.6;
         let mut chart =
             ChartBuilder::on(&area).build_cartesian_3d(-lim..lim, -lim..lim, -lim..lim)?;
         chart.with_projection(|mut pb| {
             pb.yaw = VIEW_YAW;
             pb.pitch = VIEW_PITCH;
-            pb.scale = 1.4;
+            pb.scale = 1.3;
             pb.into_matrix()
         });
         let spec = chart.as_coord_spec().clone();
@@ -592,7 +598,7 @@ impl Figure for View3d {
                 .into_iter()
                 .map(|g| PathElement::new(g, GUIDE_COLOR.stroke_width(1))),
         )?;
-        // World axes, labelled at their tips.
+        // World axes, labelled beside their tips (a rotation axis may lie along one).
         for (name, v) in [
             ("x", [1.0, 0.0, 0.0]),
             ("y", [0.0, 1.0, 0.0]),
@@ -602,11 +608,14 @@ impl Figure for View3d {
                 vec![to_chart([0.0; 3]), to_chart(scaled(v, 1.3))],
                 REFERENCE_COLOR.stroke_width(1),
             )))?;
-            chart.draw_series(std::iter::once(Text::new(
-                name.to_string(),
-                to_chart(scaled(v, 1.36)),
-                text(18).color(&REFERENCE_COLOR),
-            )))?;
+            chart.draw_series(std::iter::once(
+                EmptyElement::at(to_chart(scaled(v, 1.3)))
+                    + Text::new(
+                        format!("world {name}"),
+                        (6, 4),
+                        text(16).color(&REFERENCE_COLOR),
+                    ),
+            ))?;
         }
         // Magnets behind the ball first (faded), then the active pairs, then those in front.
         let back: Vec<_> = self.magnets.iter().filter(|(_, p)| !front(*p)).collect();
@@ -907,7 +916,10 @@ impl Figure for SweepMap {
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
         self.check()?;
-        let area = root.titled(&self.title, text(24))?.margin(5, 15, 10, 10);
+        let area = root
+            .margin(8, 0, 0, 0)
+            .titled(&self.title, text(24))?
+            .margin(5, 15, 10, 10);
         let (map_area, bar_area) = area.split_horizontally(area.dim_in_pixel().0 as i32 - 140);
         let (left, bottom) = (60, 50);
         let mut chart = ChartBuilder::on(&map_area)
@@ -954,21 +966,23 @@ impl Figure for SweepMap {
             .filter_map(|(a, _)| lon_lat(a))
             .collect();
         if !missing.is_empty() {
-            chart
-                .draw_series(
-                    missing
-                        .iter()
-                        .map(|ll| Circle::new(*ll, radius, NO_RESULT_COLOR.stroke_width(2))),
-                )?
-                .label("no result")
-                .legend(|(x, y)| Circle::new((x + 10, y), 5, NO_RESULT_COLOR.stroke_width(2)));
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
-                .label_font(text(14))
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK)
-                .draw()?;
+            chart.draw_series(
+                missing
+                    .iter()
+                    .map(|ll| Circle::new(*ll, radius, NO_RESULT_COLOR.stroke_width(2))),
+            )?;
+            // Explained under the colour bar, where it hides no disk.
+            let h = bar_area.dim_in_pixel().1 as i32;
+            let at = (14, h - bottom as i32 / 2);
+            bar_area.draw(
+                &(EmptyElement::at(at)
+                    + Circle::new((0, 0), 6, NO_RESULT_COLOR.stroke_width(2))
+                    + Text::new(
+                        "no result",
+                        (12, 0),
+                        text(14).pos(Pos::new(HPos::Left, VPos::Center)),
+                    )),
+            )?;
         }
         // The colour bar, its plotting area level with the map's.
         let mut bar = ChartBuilder::on(&bar_area)
@@ -1176,7 +1190,10 @@ pub fn plot_csv(
                     .map(str::to_string)
                     .unwrap_or_else(|| format!("worst axis error over the sphere of axes: {stem}"));
                 let (title, file) = match &scheme {
-                    Some(s) => (format!("{base} ({s})"), format!("{stem}_{}", file_safe(s))),
+                    Some(s) => (
+                        format!("{base}, scheme {s}"),
+                        format!("{stem}_{}", file_safe(s)),
+                    ),
                     None => (base, stem.clone()),
                 };
                 let fig = SweepMap {

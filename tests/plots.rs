@@ -222,9 +222,9 @@ fn figure6_view3d() {
         "actual axis",
         "active pair",
         "stator coil (+)",
-        "x",
-        "y",
-        "z",
+        "world x",
+        "world y",
+        "world z",
     ] {
         assert!(has_text(&svg, t), "text `{t}`");
     }
@@ -428,7 +428,7 @@ fn plot_csv_sweep_per_scheme() {
     assert_eq!(count(&svg, "circle"), 61 + 1);
     assert!(has_text(
         &svg,
-        "worst axis error over the sphere of axes: sweep (weighted)"
+        "worst axis error over the sphere of axes: sweep, scheme weighted"
     ));
     // Without a scheme column: one map named after the file.
     let csv = write(
