@@ -186,13 +186,7 @@ pub fn settle_traced<M: TorqueModel>(
     let y_end = *solver.y_out().last().unwrap_or(&y0);
     let t_end = *solver.x_out().last().unwrap_or(&0.0);
     if let Some(trace) = trace {
-        trace.extend(
-            solver
-                .x_out()
-                .iter()
-                .copied()
-                .zip(solver.y_out().iter().copied()),
-        );
+        trace.extend(solver.x_out().iter().copied().zip(solver.y_out().iter().copied()));
     }
     drop(solver);
     let (evals, steps) = match &outcome {

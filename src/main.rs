@@ -10,11 +10,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(
-    name = "spherestep",
-    version,
-    about = "Commutation, planning, settling and relay replay for spherical stepper motors"
-)]
+#[command(name = "spherestep", version, about = "Commutation, planning, settling and relay replay for spherical stepper motors")]
 struct Cli {
     #[command(subcommand)]
     command: Command,

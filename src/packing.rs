@@ -44,10 +44,7 @@ impl SemiRegular {
         for g in &self.generators {
             for p in orbit(self.group, g) {
                 let inside = self.cap.as_ref().is_none_or(|c| c.contains(&p));
-                if inside
-                    && !pts
-                        .iter()
-                        .any(|q| (q.into_inner() - p.into_inner()).norm() < 1e-9)
+                if inside && !pts.iter().any(|q| (q.into_inner() - p.into_inner()).norm() < 1e-9)
                 {
                     pts.push(p);
                 }
@@ -260,11 +257,7 @@ pub fn generate_prototype_stator() -> Packing {
 
 fn azimuth(p: &UnitVec) -> f64 {
     let a = p.y.atan2(p.x);
-    let a = if a < -1e-9 {
-        a + 2.0 * std::f64::consts::PI
-    } else {
-        a
-    };
+    let a = if a < -1e-9 { a + 2.0 * std::f64::consts::PI } else { a };
     (a * 1e9).round() / 1e9
 }
 

@@ -130,10 +130,7 @@ pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
                 .ok_or_else(|| {
                     row_err(
                         line,
-                        format!(
-                            "column `{}`: expected a finite number, got '{s}'",
-                            HEADER[k]
-                        ),
+                        format!("column `{}`: expected a finite number, got '{s}'", HEADER[k]),
                     )
                 })
         };
@@ -185,11 +182,7 @@ pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
                 "columns `new_coil`, `new_magnet`: expected as many coils as magnets".into(),
             ));
         }
-        let new = nc
-            .into_iter()
-            .zip(nm)
-            .map(|(c, m)| Pair::new(c, m))
-            .collect();
+        let new = nc.into_iter().zip(nm).map(|(c, m)| Pair::new(c, m)).collect();
         let active = parse_pairs(get(5), "active").map_err(|_| {
             row_err(
                 line,
@@ -203,18 +196,12 @@ pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
             if active[..k].iter().any(|o| o.coil == p.coil) {
                 return Err(row_err(
                     line,
-                    format!(
-                        "column `active`: expected each coil once, got coil {} twice",
-                        p.coil
-                    ),
+                    format!("column `active`: expected each coil once, got coil {} twice", p.coil),
                 ));
             }
         }
         let q = orientation_from_xyzw(num(6)?, num(7)?, num(8)?, num(9)?).ok_or_else(|| {
-            row_err(
-                line,
-                "columns `qx..qw`: expected a non-zero quaternion".into(),
-            )
+            row_err(line, "columns `qx..qw`: expected a non-zero quaternion".into())
         })?;
         rows.push(PlanRow {
             step,
@@ -232,10 +219,7 @@ pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
             if step != prev + 1 {
                 return Err(row_err(
                     line,
-                    format!(
-                        "column `step`: expected {} after step {prev}, got {step}",
-                        prev + 1
-                    ),
+                    format!("column `step`: expected {} after step {prev}, got {step}", prev + 1),
                 ));
             }
         }
@@ -302,18 +286,12 @@ mod tests {
         write_plan(&sample(), &mut buf).unwrap();
         let text = String::from_utf8(buf).unwrap();
         let broken = text.replace("0:34;3:7", "0:34;x:7");
-        let e = parse_plan(&broken, Path::new("p.csv"))
-            .unwrap_err()
-            .to_string();
+        let e = parse_plan(&broken, Path::new("p.csv")).unwrap_err().to_string();
         assert!(e.contains("p.csv: line 3") && e.contains("`active`"), "{e}");
         let broken = text.replacen("0.12", "abc", 1);
-        let e = parse_plan(&broken, Path::new("p.csv"))
-            .unwrap_err()
-            .to_string();
+        let e = parse_plan(&broken, Path::new("p.csv")).unwrap_err().to_string();
         assert!(e.contains("line 2") && e.contains("settle_time_s"), "{e}");
-        let e = parse_plan("step,qx\n", Path::new("p.csv"))
-            .unwrap_err()
-            .to_string();
+        let e = parse_plan("step,qx\n", Path::new("p.csv")).unwrap_err().to_string();
         assert!(e.contains("pivot_coil"), "{e}");
     }
 }

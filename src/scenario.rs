@@ -286,10 +286,7 @@ impl Checker<'_> {
         unit(Vector3::new(v[0], v[1], v[2])).ok_or_else(|| {
             self.err(
                 field,
-                format!(
-                    "a non-zero, finite vector, got [{}, {}, {}]",
-                    v[0], v[1], v[2]
-                ),
+                format!("a non-zero, finite vector, got [{}, {}, {}]", v[0], v[1], v[2]),
             )
         })
     }
@@ -399,7 +396,9 @@ impl Checker<'_> {
 
     fn magnets(&self, raw: RawMagnets) -> Result<(Well, Interaction)> {
         let shape = raw.shape.unwrap_or(Shape::Gaussian);
-        let max_deg = raw.max_attraction_deg.unwrap_or(DEFAULT_MAX_ATTRACTION_DEG);
+        let max_deg = raw
+            .max_attraction_deg
+            .unwrap_or(DEFAULT_MAX_ATTRACTION_DEG);
         if !(max_deg.is_finite() && max_deg > 0.0 && max_deg <= 180.0) {
             return Err(self.err(
                 "magnets.max_attraction_deg",
@@ -460,8 +459,7 @@ impl Checker<'_> {
                 v
             }
         };
-        let damping =
-            self.non_negative("body.damping_nms", raw.damping_nms, DEFAULT_DAMPING_NMS)?;
+        let damping = self.non_negative("body.damping_nms", raw.damping_nms, DEFAULT_DAMPING_NMS)?;
         Ok(Body { inertia, damping })
     }
 
@@ -484,10 +482,7 @@ fn read_table(path: &Path) -> std::result::Result<TorqueTable, String> {
     for (i, rec) in rdr.records().enumerate() {
         let rec = rec.map_err(|e| format!("row {}: {e}", i + 1))?;
         if rec.len() != 2 {
-            return Err(format!(
-                "row {}: expected 2 columns angle_deg,torque_nm",
-                i + 1
-            ));
+            return Err(format!("row {}: expected 2 columns angle_deg,torque_nm", i + 1));
         }
         let num = |k: usize| {
             rec[k]

@@ -56,10 +56,7 @@ impl Group {
             let e = elems[i];
             for g in &gens {
                 let c = g * e;
-                if !elems
-                    .iter()
-                    .any(|x| (x.matrix() - c.matrix()).norm() < 1e-9)
-                {
+                if !elems.iter().any(|x| (x.matrix() - c.matrix()).norm() < 1e-9) {
                     elems.push(c);
                 }
             }
@@ -75,10 +72,7 @@ pub fn orbit(group: Group, p: &UnitVec) -> Vec<UnitVec> {
     let mut out: Vec<UnitVec> = Vec::new();
     for g in group.elements() {
         let q = UnitVec::new_normalize(g * p.into_inner());
-        if !out
-            .iter()
-            .any(|x| (x.into_inner() - q.into_inner()).norm() < 1e-9)
-        {
+        if !out.iter().any(|x| (x.into_inner() - q.into_inner()).norm() < 1e-9) {
             out.push(q);
         }
     }
