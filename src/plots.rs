@@ -482,11 +482,11 @@ impl Figure for CommutationPlot {
             .legend(|(x, y)| star!((x + 10, y), 6, MAGNET_COLOR.stroke_width(1)));
         chart.draw_series(self.coils.iter().enumerate().map(|(i, c)| {
             EmptyElement::at((c[0], c[1]))
-                + Text::new(i.to_string(), (5, -16), label.color(&COIL_COLOR))
+                + Text::new(i.to_string(), (8, -21), label.color(&COIL_COLOR))
         }))?;
         chart.draw_series(self.magnets.iter().map(|(j, p)| {
             EmptyElement::at((p[0], p[1]))
-                + Text::new(j.to_string(), (5, 3), label.color(&MAGNET_COLOR))
+                + Text::new(j.to_string(), (10, 1), label.color(&MAGNET_COLOR))
         }))?;
         chart
             .configure_series_labels()
