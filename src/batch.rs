@@ -295,13 +295,10 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
                 continue;
             }
             if opts.shard.is_none() && sc.sweep.is_some() {
-                match merge_parts(&opts.out, &name, &sc, &text)? {
-                    Some(bytes) => {
-                        write_with_hash(&csv, &bytes, &hash)?;
-                        report.skipped.push(name);
-                        continue;
-                    }
-                    None => {}
+                if let Some(bytes) = merge_parts(&opts.out, &name, &sc, &text)? {
+                    write_with_hash(&csv, &bytes, &hash)?;
+                    report.skipped.push(name);
+                    continue;
                 }
             }
         }

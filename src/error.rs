@@ -26,6 +26,9 @@ pub enum Error {
         line: usize,
         message: String,
     },
+    /// Drawing a figure failed (the backend's error, or data the figure cannot show).
+    #[error("{path}: plotting failed: {message}")]
+    Plot { path: PathBuf, message: String },
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {

@@ -12,6 +12,7 @@ pub mod output;
 pub mod packing;
 pub mod planfile;
 pub mod planner;
+pub mod plots;
 pub mod relay;
 pub mod scenario;
 pub mod simulate;

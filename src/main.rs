@@ -164,6 +164,17 @@ enum Command {
         #[arg(long, allow_hyphen_values = true)]
         axis: Option<String>,
     },
+    /// Draw an existing result CSV (plan or sweep, told by its header) as SVG and PNG.
+    Plot {
+        /// A plan CSV (axis error vs. rotation angle) or a sweep CSV (map of the worst axis error).
+        csv: PathBuf,
+        /// Folder for the pictures (default: next to the CSV).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Title of the figure (default: from the file name).
+        #[arg(long)]
+        title: Option<String>,
+    },
     /// Regenerate the built-in prototype's coordinate files from their generators.
     Prototype {
         /// Folder to write rotor.csv and stator.csv into.
@@ -356,6 +367,15 @@ fn run(cli: Cli) -> Result<()> {
             let axis = axis.map(|a| parse_axis(&a, "--axis")).transpose()?;
             let data = spherestep::view::write_view(&plan, &sc, sim.as_deref(), axis, &page)?;
             writeln!(out, "wrote {} ({} steps)", page.display(), data.steps.len())?;
+        }
+        Command::Plot {
+            csv,
+            out: dir,
+            title,
+        } => {
+            for f in spherestep::plots::plot_csv(&csv, dir.as_deref(), title.as_deref())? {
+                writeln!(out, "wrote {}", f.display())?;
+            }
         }
         Command::Prototype { out: dir } => {
             app::write_prototype(&dir)?;
