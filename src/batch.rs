@@ -13,6 +13,7 @@ use crate::geometry::UnitVec;
 use crate::output::write_atomic;
 use crate::planfile::{parse_plan, write_plan, PlanRow};
 use crate::planner::{max_axis_error_deg, plan, PlanSettings};
+use crate::report;
 use crate::scenario::Scenario;
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};
@@ -32,6 +33,8 @@ pub struct BatchOptions {
     pub resume: bool,
     /// Show a progress bar (only drawn on a terminal).
     pub progress: bool,
+    /// Also draw each result's pictures and pages (see `report`).
+    pub plots: bool,
 }
 
 /// Part `index` of `count` (0-based).
@@ -344,7 +347,14 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
                     })
                     .collect();
                 let seconds = outcomes.iter().map(|o| o.seconds).sum();
-                (seconds, write_job(job, &outcomes, &opts.out))
+                let written = write_job(job, &outcomes, &opts.out).and_then(|()| {
+                    if opts.plots {
+                        draw_job(job, &outcomes, &opts.out)
+                    } else {
+                        Ok(())
+                    }
+                });
+                (seconds, written)
             })
             .collect()
     };
@@ -460,6 +470,61 @@ fn write_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
             write_with_hash(&job.csv, &bytes, &job.hash)
         }
     }
+}
+
+fn case_label(c: &Case) -> String {
+    let s = &c.settings;
+    match s.model {
+        StepModel::Pivot => s.scheme.name().to_string(),
+        StepModel::Dynamic => format!("{} (dynamic, {} pairs)", s.scheme.name(), s.pairs_per_step),
+    }
+}
+
+/// The pictures of a job (`--plots`): a plan's figures and page; a sweep's per-scheme figure
+/// (one motion) or maps (many axes), and the kept plans' figures.
+fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
+    let sc = &job.scenario;
+    if job.csv.to_string_lossy().contains(".shard-") {
+        return Ok(());
+    }
+    match &sc.sweep {
+        None => {
+            if let (Some(c), Some(o)) = (job.cases.first(), outcomes.first()) {
+                report::plan_pictures(
+                    sc,
+                    &c.settings.axis,
+                    &case_label(c),
+                    &o.rows,
+                    out,
+                    &job.name,
+                )?;
+            }
+        }
+        Some(sw) => {
+            if sw.axes.len() > 1 {
+                report::sweep_pictures(&job.csv, out, &sc.name)?;
+            } else {
+                let plans: Vec<(String, Vec<PlanRow>)> = job
+                    .cases
+                    .iter()
+                    .zip(outcomes)
+                    .map(|(c, o)| (case_label(c), o.rows.clone()))
+                    .collect();
+                report::schemes_picture(sc, &plans, out, &job.name)?;
+                if let (Some(c), Some(o)) = (job.cases.last(), outcomes.last()) {
+                    report::plan_pictures(
+                        sc,
+                        &c.settings.axis,
+                        &case_label(c),
+                        &o.rows,
+                        out,
+                        &job.name,
+                    )?;
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Merges the shard parts of a sweep, when a complete, up-to-date set of them is present.

@@ -119,8 +119,31 @@ pub fn filter_candidates(
     exclude: &[Pair],
     start: Radians,
 ) -> (Vec<Candidate>, Radians) {
+    let all = scored_candidates(torques, q, n, exclude);
+    let mut bound = start.0;
+    loop {
+        let kept: Vec<Candidate> = all
+            .iter()
+            .filter(|c| c.deviation.0 <= bound)
+            .copied()
+            .collect();
+        if !kept.is_empty() || bound > std::f64::consts::PI {
+            return (kept, Radians(bound));
+        }
+        bound *= 2.0;
+    }
+}
+
+/// Every pair of the distance array not on an excluded coil or magnet, with its filter
+/// deviation, sorted by deviation (then by pair).
+pub fn scored_candidates(
+    torques: &MagnetTorques,
+    q: &Orientation,
+    n: &UnitVec,
+    exclude: &[Pair],
+) -> Vec<Candidate> {
     let r = q.to_rotation_matrix();
-    let all: Vec<Candidate> = distance_array(torques, q)
+    let mut all: Vec<Candidate> = distance_array(torques, q)
         .into_iter()
         .filter(|(p, _)| {
             !exclude
@@ -137,18 +160,13 @@ pub fn filter_candidates(
             }
         })
         .collect();
-    let mut bound = start.0;
-    loop {
-        let kept: Vec<Candidate> = all
-            .iter()
-            .filter(|c| c.deviation.0 <= bound)
-            .copied()
-            .collect();
-        if !kept.is_empty() || bound > std::f64::consts::PI {
-            return (kept, Radians(bound));
-        }
-        bound *= 2.0;
-    }
+    all.sort_by(|a, b| {
+        a.deviation
+            .0
+            .total_cmp(&b.deviation.0)
+            .then(a.pair.cmp(&b.pair))
+    });
+    all
 }
 
 /// The pivot model: the rotation about the pivot coil's axis `a` that brings the magnet at
@@ -213,36 +231,78 @@ pub fn candidate_steps(
     pairs: usize,
     limits: &StepLimits,
 ) -> Vec<Step> {
-    let mut proposals: Vec<(Pair, Vec<Pair>)> = Vec::new();
-    for pivot in &state.active {
-        let (mut cands, _) =
-            filter_candidates(motor.torques, &state.q, n, &[*pivot], limits.bound_start);
-        cands.sort_by(|a, b| {
-            a.deviation
-                .0
-                .total_cmp(&b.deviation.0)
-                .then(a.pair.cmp(&b.pair))
-        });
+    let scored: Vec<(Pair, Vec<Candidate>)> = state
+        .active
+        .iter()
+        .map(|pivot| {
+            (
+                *pivot,
+                scored_candidates(motor.torques, &state.q, n, &[*pivot]),
+            )
+        })
+        .collect();
+    // The paper's step 3, carried through the evaluation: while no candidate gives an
+    // admissible step, widen the bound (doubling) and weigh the pairs it lets in.
+    let mut low = -1.0;
+    let mut bound = limits.bound_start.0;
+    loop {
+        let proposals = proposals_between(&scored, low, bound, pairs, limits.max_candidates);
+        let steps = evaluate(motor, state, n, model, proposals, limits);
+        if !steps.is_empty() || bound > std::f64::consts::PI {
+            return steps;
+        }
+        low = bound;
+        bound *= 2.0;
+    }
+}
+
+/// The (pivot, new pairs) proposals whose candidates lie within `bound`, leaving out those
+/// already weighed at `low` (all their candidates within it).
+fn proposals_between(
+    scored: &[(Pair, Vec<Candidate>)],
+    low: f64,
+    bound: f64,
+    pairs: usize,
+    max_candidates: usize,
+) -> Vec<(Pair, Vec<Pair>)> {
+    let mut proposals = Vec::new();
+    for (pivot, all) in scored {
+        let cands: Vec<&Candidate> = all.iter().filter(|c| c.deviation.0 <= bound).collect();
         let extra = pairs.saturating_sub(1).max(1);
         if extra == 1 {
-            for c in &cands {
+            for c in cands.iter().filter(|c| c.deviation.0 > low) {
                 proposals.push((*pivot, vec![c.pair]));
             }
-        } else {
-            cands.truncate(limits.max_candidates);
-            for combo in combinations(cands.len(), extra) {
-                let set: Vec<Pair> = combo.iter().map(|&k| cands[k].pair).collect();
-                let distinct = set.iter().enumerate().all(|(k, p)| {
-                    set[..k]
-                        .iter()
-                        .all(|o| o.coil != p.coil && o.magnet != p.magnet)
-                });
-                if distinct {
-                    proposals.push((*pivot, set));
-                }
+            continue;
+        }
+        let cands = &cands[..cands.len().min(max_candidates)];
+        for combo in combinations(cands.len(), extra) {
+            if combo.iter().all(|&k| cands[k].deviation.0 <= low) {
+                continue;
+            }
+            let set: Vec<Pair> = combo.iter().map(|&k| cands[k].pair).collect();
+            let distinct = set.iter().enumerate().all(|(k, p)| {
+                set[..k]
+                    .iter()
+                    .all(|o| o.coil != p.coil && o.magnet != p.magnet)
+            });
+            if distinct {
+                proposals.push((*pivot, set));
             }
         }
     }
+    proposals
+}
+
+/// Step 3's evaluation: where each proposal leaves the ball, keeping the admissible steps.
+fn evaluate(
+    motor: &Motor,
+    state: &CommutationState,
+    n: &UnitVec,
+    model: StepModel,
+    proposals: Vec<(Pair, Vec<Pair>)>,
+    limits: &StepLimits,
+) -> Vec<Step> {
     let outcomes: Vec<Option<CommutationState>> = match model {
         StepModel::Pivot => proposals
             .iter()

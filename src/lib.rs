@@ -14,6 +14,7 @@ pub mod planfile;
 pub mod planner;
 pub mod plots;
 pub mod relay;
+pub mod report;
 pub mod scenario;
 pub mod simulate;
 pub mod symmetry;

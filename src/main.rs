@@ -109,6 +109,9 @@ enum Command {
         /// Skip scenarios whose output is up to date; merge finished shard parts.
         #[arg(long)]
         resume: bool,
+        /// Also draw the pictures (Figures 5-8, sweep maps) and the 3-D page of each result.
+        #[arg(long)]
+        plots: bool,
     },
     /// Replay a plan on a relay board: switch each step's coils, wait, all off at the end
     /// (and on error or Ctrl-C). Settings come from the scenario's [relay] section or --map.
@@ -286,6 +289,7 @@ fn run(cli: Cli) -> Result<()> {
             jobs,
             shard,
             resume,
+            plots,
         } => {
             if jobs == Some(0) {
                 anyhow::bail!("argument --jobs: expected a number of threads >= 1, got 0");
@@ -299,6 +303,7 @@ fn run(cli: Cli) -> Result<()> {
                     .transpose()?,
                 resume,
                 progress: true,
+                plots,
             };
             let files = spherestep::batch::collect_inputs(&inputs)?;
             let report = spherestep::batch::run_batch(&files, &opts)?;

@@ -36,6 +36,22 @@ pub(crate) struct RawScenario {
     plan: Option<RawPlan>,
     sweep: Option<RawSweep>,
     relay: Option<crate::relay::RelayConfig>,
+    report: Option<RawReport>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawReport {
+    reference_deg: Option<f64>,
+    reference_label: Option<String>,
+}
+
+/// The `[report]` section: what the pictures compare against.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReportSettings {
+    /// A reference axis error (e.g. the paper's bound), drawn as a line, degrees.
+    pub reference_deg: Option<f64>,
+    pub reference_label: Option<String>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -172,6 +188,8 @@ pub struct Scenario {
     pub plan: PlanSettings,
     /// The `[sweep]` section, if any: many cases instead of one plan.
     pub sweep: Option<Sweep>,
+    /// The `[report]` section (reference lines of the pictures).
+    pub report: ReportSettings,
     /// Relay board, coil map and replay limits (`[relay]`, see `crate::relay::config`).
     pub relay: crate::relay::RelaySettings,
 }
@@ -211,6 +229,21 @@ impl Scenario {
             None => None,
             Some(sw) => Some(ck.sweep(sw, &plan)?),
         };
+        let report = match raw.report {
+            None => ReportSettings::default(),
+            Some(r) => ReportSettings {
+                reference_deg: match r.reference_deg {
+                    Some(v) if !(v.is_finite() && v >= 0.0) => {
+                        return Err(ck.err(
+                            "report.reference_deg",
+                            format!("a finite angle >= 0 degrees, got {v}"),
+                        ))
+                    }
+                    v => v,
+                },
+                reference_label: r.reference_label,
+            },
+        };
         let relay = crate::relay::RelaySettings::from_config(
             raw.relay.unwrap_or_default(),
             path,
@@ -238,6 +271,7 @@ impl Scenario {
             settle,
             plan,
             sweep,
+            report,
             relay,
         })
     }
