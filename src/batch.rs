@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::geometry::UnitVec;
 use crate::output::write_atomic;
 use crate::planfile::{parse_plan, write_plan, PlanRow};
-use crate::planner::{max_axis_error_deg, plan, PlanSettings};
+use crate::planner::{max_axis_error_deg, plan, total_settle_time, PlanSettings};
 use crate::report;
 use crate::scenario::Scenario;
 use rayon::prelude::*;
@@ -346,7 +346,7 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
                         }
                     })
                     .collect();
-                let seconds = outcomes.iter().map(|o| o.seconds).sum();
+                let seconds = outcomes.iter().fold(0.0, |a, o| a + o.seconds);
                 let written = write_job(job, &outcomes, &opts.out).and_then(|()| {
                     if opts.plots {
                         draw_job(job, &outcomes, &opts.out)
@@ -427,11 +427,7 @@ fn sweep_record(c: &Case, o: &Outcome) -> Vec<String> {
             .to_string(),
         max_axis_error_deg(&o.rows).to_string(),
         o.reached.to_string(),
-        o.rows
-            .iter()
-            .map(|r| r.settle_time_s)
-            .sum::<f64>()
-            .to_string(),
+        total_settle_time(&o.rows).to_string(),
     ]
 }
 
@@ -627,10 +623,7 @@ fn summary_csv(inputs: &[PathBuf], out: &Path, report: &mut BatchReport) -> Resu
                     fin.to_string(),
                     max_axis_error_deg(&rows).to_string(),
                     reached.to_string(),
-                    rows.iter()
-                        .map(|r| r.settle_time_s)
-                        .sum::<f64>()
-                        .to_string(),
+                    total_settle_time(&rows).to_string(),
                 ]
             }
             Some(sw) => {

@@ -99,7 +99,7 @@ impl Plan {
             final_angle_deg: self.rows.last().map(|r| r.cum_angle_deg).unwrap_or(0.0),
             max_axis_error_deg: max_axis_error_deg(&self.rows),
             reached: self.reached,
-            total_settle_time_s: self.rows.iter().map(|r| r.settle_time_s).sum(),
+            total_settle_time_s: total_settle_time(&self.rows),
             scheme: s.scheme.name().to_string(),
             model: match s.model {
                 StepModel::Pivot => "pivot".into(),
@@ -109,6 +109,11 @@ impl Plan {
             message: self.message.clone(),
         }
     }
+}
+
+/// Sum of a plan's predicted settle times, s (0, not -0, for no rows).
+pub fn total_settle_time(rows: &[PlanRow]) -> f64 {
+    rows.iter().fold(0.0, |a, r| a + r.settle_time_s)
 }
 
 /// Worst cumulative axis error over a plan's rows, degrees.
@@ -162,7 +167,8 @@ pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
             reached: false,
             message: Some(
                 "no initial commutation state: no second pair within the maximum attraction \
-                 distance of the start orientation"
+                 distance of the start orientation settles with both pairs holding (each magnet \
+                 within the capture distance of its coil)"
                     .into(),
             ),
         };
