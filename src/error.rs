@@ -30,11 +30,12 @@ pub enum Error {
     #[error("{path}: plotting failed: {message}")]
     Plot { path: PathBuf, message: String },
     /// Reading or writing a file failed.
-    #[error("{path}: {source}")]
+    /// (The cause is part of the message and not a `source`, so that printing the error chain
+    /// does not say it twice.)
+    #[error("{path}: {cause}")]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
 }
 
@@ -50,10 +51,10 @@ impl Error {
         }
     }
 
-    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+    pub fn io(path: impl Into<PathBuf>, cause: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
-            source,
+            cause,
         }
     }
 }

@@ -92,21 +92,36 @@ pub fn read_plan(path: &Path) -> Result<Vec<PlanRow>> {
     parse_plan(&text, path)
 }
 
-/// Parses plan CSV text (`path` names it in errors).
-pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
-    let row_err = |line: usize, message: String| Error::Row {
+/// An error in line `line` of the CSV file `path`.
+pub fn row_error(path: &Path, line: usize, message: String) -> Error {
+    Error::Row {
         file: path.to_path_buf(),
         line,
         message,
-    };
+    }
+}
+
+/// Opens CSV text with a header row (fields trimmed) for one of our readers (plans, sweeps,
+/// simulate results): the reader and the header, or an error naming the file.
+pub fn csv_reader<'t>(
+    text: &'t str,
+    path: &Path,
+) -> Result<(csv::Reader<&'t [u8]>, csv::StringRecord)> {
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
     let headers = rdr
         .headers()
-        .map_err(|e| row_err(1, format!("unreadable header: {e}")))?
+        .map_err(|e| row_error(path, 1, format!("unreadable header: {e}")))?
         .clone();
+    Ok((rdr, headers))
+}
+
+/// Parses plan CSV text (`path` names it in errors).
+pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
+    let row_err = |line: usize, message: String| row_error(path, line, message);
+    let (mut rdr, headers) = csv_reader(text, path)?;
     let col = |name: &str| -> Result<usize> {
         headers
             .iter()

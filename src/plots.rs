@@ -1034,19 +1034,8 @@ pub type SweepPoints = (Option<String>, Vec<([f64; 3], f64)>);
 /// in the order the schemes first appear. Values may be NaN ("no result"); axes must be finite
 /// and non-zero.
 pub fn parse_sweep(text: &str, path: &Path) -> Result<Vec<SweepPoints>> {
-    let row_err = |line: usize, message: String| Error::Row {
-        file: path.to_path_buf(),
-        line,
-        message,
-    };
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .trim(csv::Trim::All)
-        .from_reader(text.as_bytes());
-    let headers = rdr
-        .headers()
-        .map_err(|e| row_err(1, format!("unreadable header: {e}")))?
-        .clone();
+    let row_err = |line: usize, message: String| crate::planfile::row_error(path, line, message);
+    let (mut rdr, headers) = crate::planfile::csv_reader(text, path)?;
     let col = |name: &str| headers.iter().position(|h| h == name);
     let idx = SWEEP_COLUMNS
         .iter()

@@ -133,20 +133,8 @@ pub fn read_sim(path: &Path) -> Result<Vec<SimRow>> {
 
 /// Parses simulate results text (`path` names it in errors).
 pub fn parse_sim(text: &str, path: &Path) -> Result<Vec<SimRow>> {
-    let row_err = |line: usize, message: String| Error::Row {
-        file: path.to_path_buf(),
-        line,
-        message,
-    };
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .trim(csv::Trim::All)
-        .flexible(false)
-        .from_reader(text.as_bytes());
-    let headers = rdr
-        .headers()
-        .map_err(|e| row_err(1, format!("unreadable header: {e}")))?
-        .clone();
+    let row_err = |line: usize, message: String| crate::planfile::row_error(path, line, message);
+    let (mut rdr, headers) = crate::planfile::csv_reader(text, path)?;
     let mut idx = [0usize; 5];
     for (k, name) in SIM_COLUMNS.iter().enumerate() {
         idx[k] = headers.iter().position(|h| h == *name).ok_or_else(|| {
