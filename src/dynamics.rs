@@ -1,13 +1,21 @@
 //! Rigid-body dynamics of the rotor (paper section 3.4): the quaternion equations of motion
-//! with viscous damping under the summed magnet torques, integrated with ode_solvers until the
-//! ball has settled; `settle_many` settles many active sets from one orientation in parallel.
+//! with viscous damping under the summed magnet torques, integrated until the ball has settled;
+//! `settle_many` settles many active sets from one orientation in parallel.
+//!
+//! Two integrators reach the same equilibria: the fast path (the default), an allocation-free
+//! Bogacki-Shampine 3(2) stepper from `integrator` at loose tolerances, and the reference path,
+//! ode_solvers' Dopri5 at whatever tolerances are asked (`SettleParams::reference()` is tight).
+//! Where the ball stops is decided by the settle test on an exactly evaluated state, not by the
+//! integration error, which is why the loose tolerances land on the same equilibrium (the tests
+//! in tests/settle.rs pin this).
 
 use crate::geometry::{Orientation, Pair};
-use crate::torque::TorqueModel;
+use crate::integrator::{integrate_until, OdeSystem, Tolerances};
+use crate::torque::{rotation_matrix, TorqueModel};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use ode_solvers::{Dopri5, OutputType, SVector, System};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Rotor state: (q1, q2, q3, q4, w1, w2, w3), with w the body angular velocity.
 pub type State = SVector<f64, 7>;
@@ -21,7 +29,18 @@ pub struct Body {
     pub damping: f64,
 }
 
-/// When the ball counts as settled, and how accurately to integrate.
+/// Which integrator settles the ball.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// The fast path: spherestep's own Bogacki-Shampine 3(2) stepper.
+    #[default]
+    Bs32,
+    /// The reference path: ode_solvers' Dormand-Prince 5(4).
+    Dopri5,
+}
+
+/// When the ball counts as settled, and how to integrate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SettleParams {
     /// |w| below this (rad/s) ...
@@ -33,6 +52,8 @@ pub struct SettleParams {
     /// Relative and absolute tolerances of the integrator.
     pub rtol: f64,
     pub atol: f64,
+    /// The integrator.
+    pub method: Method,
 }
 
 impl Default for SettleParams {
@@ -41,8 +62,22 @@ impl Default for SettleParams {
             omega_tol: 1e-3,
             torque_tol: 1e-4,
             t_max: 5.0,
-            rtol: 1e-6,
-            atol: 1e-8,
+            rtol: 1e-2,
+            atol: 1e-5,
+            method: Method::Bs32,
+        }
+    }
+}
+
+impl SettleParams {
+    /// The same settle test, integrated by ode_solvers' Dopri5 at tight tolerances: the yardstick
+    /// that the fast path is checked against.
+    pub fn reference(self) -> Self {
+        SettleParams {
+            rtol: 1e-10,
+            atol: 1e-12,
+            method: Method::Dopri5,
+            ..self
         }
     }
 }
@@ -74,73 +109,97 @@ pub struct RotorDynamics<'a, M: TorqueModel> {
     pub model: &'a M,
     pub active: &'a [Pair],
     pub body: Body,
-    pub params: SettleParams,
-    /// Set by the stop test: the time it passed.
-    settled_at: Option<f64>,
+    /// 1 / I, per axis.
+    inv_inertia: Vector3<f64>,
 }
 
 impl<'a, M: TorqueModel> RotorDynamics<'a, M> {
-    pub fn new(model: &'a M, active: &'a [Pair], body: Body, params: SettleParams) -> Self {
+    pub fn new(model: &'a M, active: &'a [Pair], body: Body) -> Self {
         RotorDynamics {
             model,
             active,
             body,
-            params,
-            settled_at: None,
+            inv_inertia: body.inertia.map(|i| 1.0 / i),
         }
     }
 
-    /// Body-frame torque N_B at the orientation held in `y`.
-    pub fn body_torque(&self, y: &State) -> Vector3<f64> {
-        let q = unit_q(y);
-        let r = q.to_rotation_matrix();
-        r.transpose() * self.model.torque(r.matrix(), self.active)
+    /// Body-frame torque N_B at the orientation held in `y` (which need not be normalised).
+    pub fn body_torque(&self, y: &[f64; 7]) -> Vector3<f64> {
+        let r = rotation_matrix(y[0], y[1], y[2], y[3]);
+        self.model.body_torque(&r, self.active)
     }
 
-    /// |N_B| recovered from the state and its derivative (no extra torque evaluation):
-    /// N_B = I dw/dt + w x (I w) + c w.
-    fn torque_from_derivative(&self, y: &State, dy: &State) -> f64 {
-        let w = Vector3::new(y[4], y[5], y[6]);
-        let dw = Vector3::new(dy[4], dy[5], dy[6]);
-        let i = self.body.inertia;
-        let nb = i.component_mul(&dw) + w.cross(&i.component_mul(&w)) + w * self.body.damping;
-        nb.norm()
-    }
-}
-
-fn unit_q(y: &State) -> Orientation {
-    UnitQuaternion::from_quaternion(Quaternion::new(y[3], y[0], y[1], y[2]))
-}
-
-impl<M: TorqueModel> System<f64, State> for RotorDynamics<'_, M> {
-    fn system(&self, _t: f64, y: &State, dy: &mut State) {
+    /// dy/dt: dq/dt = 1/2 (q4 w - w x q), dq4/dt = -1/2 w . q,
+    /// dw/dt = I^-1 [ -w x (I w) + N_B - c w ].
+    #[inline]
+    pub fn derivative(&self, y: &[f64; 7], dy: &mut [f64; 7]) {
         let (q1, q2, q3, q4) = (y[0], y[1], y[2], y[3]);
         let w = Vector3::new(y[4], y[5], y[6]);
         let qv = Vector3::new(q1, q2, q3);
-        // dq/dt = 1/2 (q4 w - w x q), dq4/dt = -1/2 w . q
         let dqv = (w * q4 - w.cross(&qv)) * 0.5;
         dy[0] = dqv.x;
         dy[1] = dqv.y;
         dy[2] = dqv.z;
         dy[3] = -0.5 * w.dot(&qv);
-        // dw/dt = I^-1 [ -w x (I w) + N_B - c w ]
         let nb = self.body_torque(y);
         let i = self.body.inertia;
         let rhs = -w.cross(&i.component_mul(&w)) + nb - w * self.body.damping;
-        dy[4] = rhs.x / i.x;
-        dy[5] = rhs.y / i.y;
-        dy[6] = rhs.z / i.z;
+        let dw = rhs.component_mul(&self.inv_inertia);
+        dy[4] = dw.x;
+        dy[5] = dw.y;
+        dy[6] = dw.z;
+    }
+
+    /// The settle test on a state and its exact derivative. |N_B| is recovered from them
+    /// without another torque evaluation: N_B = I dw/dt + w x (I w) + c w.
+    fn settled(&self, params: &SettleParams, y: &[f64], dy: &[f64]) -> bool {
+        let w = Vector3::new(y[4], y[5], y[6]);
+        if w.norm() >= params.omega_tol {
+            return false;
+        }
+        let dw = Vector3::new(dy[4], dy[5], dy[6]);
+        let i = self.body.inertia;
+        let nb = i.component_mul(&dw) + w.cross(&i.component_mul(&w)) + w * self.body.damping;
+        nb.norm() < params.torque_tol
+    }
+}
+
+impl<M: TorqueModel> OdeSystem<7> for RotorDynamics<'_, M> {
+    #[inline]
+    fn rhs(&self, y: &[f64; 7], dy: &mut [f64; 7]) {
+        self.derivative(y, dy)
+    }
+}
+
+/// ode_solvers' view of the same equations, with the settle test as its stop test (Sparse
+/// output: `solout` sees each accepted step and its exact derivative).
+struct ReferenceRun<'a, 'b, M: TorqueModel> {
+    dynamics: &'b RotorDynamics<'a, M>,
+    params: SettleParams,
+    settled_at: Option<f64>,
+}
+
+impl<M: TorqueModel> System<f64, State> for &mut ReferenceRun<'_, '_, M> {
+    fn system(&self, _t: f64, y: &State, dy: &mut State) {
+        let mut out = [0.0; 7];
+        self.dynamics.derivative(&as_array(y), &mut out);
+        dy.copy_from_slice(&out);
     }
 
     fn solout(&mut self, t: f64, y: &State, dy: &State) -> bool {
-        let w = (y[4] * y[4] + y[5] * y[5] + y[6] * y[6]).sqrt();
-        if w < self.params.omega_tol && self.torque_from_derivative(y, dy) < self.params.torque_tol
+        if self
+            .dynamics
+            .settled(&self.params, y.as_slice(), dy.as_slice())
         {
             self.settled_at = Some(t);
             return true;
         }
         false
     }
+}
+
+fn as_array(y: &State) -> [f64; 7] {
+    [y[0], y[1], y[2], y[3], y[4], y[5], y[6]]
 }
 
 /// Settles the ball from rest at `q0` under the active set: integrates until the settle test
@@ -164,26 +223,63 @@ pub fn settle_traced<M: TorqueModel>(
     params: SettleParams,
     trace: Option<&mut Vec<(f64, State)>>,
 ) -> SettleResult {
-    let y0 = State::from_column_slice(&[q0.i, q0.j, q0.k, q0.w, 0.0, 0.0, 0.0]);
-    let mut sys = RotorDynamics::new(model, active, body, params);
-    let r0 = q0.to_rotation_matrix();
-    let tau0 = model.torque(r0.matrix(), active).norm();
-    if tau0 < params.torque_tol {
+    let y0 = [q0.i, q0.j, q0.k, q0.w, 0.0, 0.0, 0.0];
+    let sys = RotorDynamics::new(model, active, body);
+    if sys.body_torque(&y0).norm() < params.torque_tol {
         // Already in equilibrium and at rest.
-        return finish(model, active, y0, 0.0, 1, 0, true);
+        return finish(model, active, &y0, 0.0, 1, 0, true);
     }
+    match params.method {
+        Method::Bs32 => {
+            let mut trace = trace;
+            let tol = Tolerances {
+                rtol: params.rtol,
+                atol: params.atol,
+            };
+            let out = integrate_until(&sys, y0, params.t_max, tol, |t, y, dy| {
+                if let Some(tr) = trace.as_deref_mut() {
+                    tr.push((t, State::from_column_slice(y)));
+                }
+                sys.settled(&params, y, dy)
+            });
+            finish(
+                model,
+                active,
+                &out.y,
+                out.t,
+                out.evaluations,
+                out.steps,
+                out.stopped,
+            )
+        }
+        Method::Dopri5 => settle_dopri5(&sys, y0, params, trace),
+    }
+}
+
+fn settle_dopri5<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    y0: [f64; 7],
+    params: SettleParams,
+    trace: Option<&mut Vec<(f64, State)>>,
+) -> SettleResult {
+    let mut run = ReferenceRun {
+        dynamics: sys,
+        params,
+        settled_at: None,
+    };
+    let start = State::from_column_slice(&y0);
     let mut solver = Dopri5::new(
-        &mut sys,
+        &mut run,
         0.0,
         params.t_max,
         params.t_max,
-        y0,
+        start,
         params.rtol,
         params.atol,
     );
     solver.set_output(OutputType::Sparse);
     let outcome = solver.integrate();
-    let y_end = *solver.y_out().last().unwrap_or(&y0);
+    let y_end = as_array(solver.y_out().last().unwrap_or(&start));
     let t_end = *solver.x_out().last().unwrap_or(&0.0);
     if let Some(trace) = trace {
         trace.extend(
@@ -199,37 +295,27 @@ pub fn settle_traced<M: TorqueModel>(
         Ok(stats) => (stats.num_eval, stats.accepted_steps),
         Err(_) => (0, 0),
     };
-    let settled_at = sys.settled_at;
     finish(
-        model,
-        active,
-        y_end,
-        settled_at.unwrap_or(t_end),
+        sys.model,
+        sys.active,
+        &y_end,
+        run.settled_at.unwrap_or(t_end),
         evals,
         steps,
-        settled_at.is_some(),
+        run.settled_at.is_some(),
     )
-}
-
-impl<M: TorqueModel> System<f64, State> for &mut RotorDynamics<'_, M> {
-    fn system(&self, t: f64, y: &State, dy: &mut State) {
-        (**self).system(t, y, dy)
-    }
-    fn solout(&mut self, t: f64, y: &State, dy: &State) -> bool {
-        (**self).solout(t, y, dy)
-    }
 }
 
 fn finish<M: TorqueModel>(
     model: &M,
     active: &[Pair],
-    y: State,
+    y: &[f64; 7],
     t: f64,
     evaluations: u32,
     steps: u32,
     settled: bool,
 ) -> SettleResult {
-    let q = unit_q(&y);
+    let q = UnitQuaternion::from_quaternion(Quaternion::new(y[3], y[0], y[1], y[2]));
     let r = q.to_rotation_matrix();
     let (tau, energy) = model.torque_energy(r.matrix(), active);
     SettleResult {

@@ -8,6 +8,7 @@ pub mod commutation;
 pub mod dynamics;
 pub mod error;
 pub mod geometry;
+pub mod integrator;
 pub mod output;
 pub mod packing;
 pub mod planfile;

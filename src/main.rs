@@ -49,6 +49,10 @@ enum Command {
         /// Write the --sets CSV here instead of standard output.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Integrate with the reference path (ode_solvers' Dopri5, rtol 1e-10, atol 1e-12)
+        /// instead of the scenario's [settle] method and tolerances.
+        #[arg(long)]
+        reference: bool,
     },
     /// Plan a motion: which coils to switch, in which order, to turn the ball about an axis.
     Plan {
@@ -201,8 +205,12 @@ fn run(cli: Cli) -> Result<()> {
             from,
             json,
             out: out_file,
+            reference,
         } => {
-            let sc = Scenario::load(&scenario)?;
+            let mut sc = Scenario::load(&scenario)?;
+            if reference {
+                sc.settle = sc.settle.reference();
+            }
             let q0 = match from {
                 Some(f) => parse_orientation(&f, "--from")?,
                 None => nalgebra::UnitQuaternion::identity(),

@@ -3,7 +3,7 @@
 //! the file, the field and what was expected. Every section has defaults (the prototype).
 
 use crate::commutation::{StepLimits, StepModel};
-use crate::dynamics::{Body, SettleParams};
+use crate::dynamics::{Body, Method, SettleParams};
 use crate::error::{Error, Result};
 use crate::geometry::{orientation_from_xyzw, unit, Degrees, Pair, Radians, UnitVec};
 use crate::packing::{self, Cap, Packing, SemiRegular};
@@ -170,6 +170,7 @@ struct RawSettle {
     t_max_s: Option<f64>,
     rtol: Option<f64>,
     atol: Option<f64>,
+    method: Option<Method>,
 }
 
 /// A checked scenario: the motor, the body and the settle settings.
@@ -803,6 +804,7 @@ impl Checker<'_> {
             t_max: self.positive("settle.t_max_s", raw.t_max_s, d.t_max)?,
             rtol: self.positive("settle.rtol", raw.rtol, d.rtol)?,
             atol: self.positive("settle.atol", raw.atol, d.atol)?,
+            method: raw.method.unwrap_or(d.method),
         })
     }
 }

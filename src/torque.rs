@@ -17,6 +17,33 @@ pub trait TorqueModel: Sync {
     fn torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
         self.torque_energy(r, active).0
     }
+
+    /// Body-frame torque N_B = R^T N (what the equations of motion use).
+    fn body_torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
+        r.transpose() * self.torque(r, active)
+    }
+}
+
+/// The body-to-world rotation matrix of the quaternion (x, y, z, w), which need not be
+/// normalised: it is the rotation of q / |q|, built without a square root or trigonometry.
+#[inline]
+pub fn rotation_matrix(x: f64, y: f64, z: f64, w: f64) -> Matrix3<f64> {
+    let s = 2.0 / (x * x + y * y + z * z + w * w);
+    let (xs, ys, zs) = (x * s, y * s, z * s);
+    let (wx, wy, wz) = (w * xs, w * ys, w * zs);
+    let (xx, xy, xz) = (x * xs, x * ys, x * zs);
+    let (yy, yz, zz) = (y * ys, y * zs, z * zs);
+    Matrix3::new(
+        1.0 - (yy + zz),
+        xy - wz,
+        xz + wy,
+        xy + wz,
+        1.0 - (xx + zz),
+        yz - wx,
+        xz - wy,
+        yz + wx,
+        1.0 - (xx + yy),
+    )
 }
 
 /// Shape of a pair's potential well U(d).
@@ -238,11 +265,18 @@ impl MagnetTorques {
         (x * self.well.g_over_sin(d, sin_d), self.well.potential(d))
     }
 
+    /// Torque of one coil at `s` on one magnet at `p` (both in the same frame; the torque is
+    /// in that frame). A magnet beyond the cut-off is rejected on its cosine, before any
+    /// trigonometry.
     #[inline]
-    fn pair_torque(&self, p: &Vector3<f64>, s: &Vector3<f64>) -> Vector3<f64> {
+    fn pair_torque(&self, p: &Vector3<f64>, s: &Vector3<f64>, cos_cutoff: f64) -> Vector3<f64> {
+        let c = p.dot(s);
+        if c < cos_cutoff {
+            return Vector3::zeros();
+        }
         let x = p.cross(s);
         let sin_d = x.norm();
-        let d = sin_d.atan2(p.dot(s));
+        let d = sin_d.atan2(c);
         x * self.well.g_over_sin(d, sin_d)
     }
 
@@ -290,19 +324,26 @@ impl TorqueModel for MagnetTorques {
     }
 
     fn torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
+        r * self.body_torque(r, active)
+    }
+
+    /// The hot path: each energised coil is turned into the body frame once (R^T s) and the
+    /// magnets are used where they are, so no magnet is rotated and nothing is allocated.
+    fn body_torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
+        let cos_cutoff = self.well.max_attraction.0.cos();
         let mut tau = Vector3::zeros();
         match self.interaction {
             Interaction::Pairs => {
                 for pr in active {
-                    let p = r * self.rotor[pr.magnet.0];
-                    tau += self.pair_torque(&p, &self.stator[pr.coil.0]);
+                    let s = r.tr_mul(&self.stator[pr.coil.0]);
+                    tau += self.pair_torque(&self.rotor[pr.magnet.0], &s, cos_cutoff);
                 }
             }
             Interaction::Coils => {
                 for c in Self::coils(active) {
-                    let s = self.stator[c];
+                    let s = r.tr_mul(&self.stator[c]);
                     for m in &self.rotor {
-                        tau += self.pair_torque(&(r * m), &s);
+                        tau += self.pair_torque(m, &s, cos_cutoff);
                     }
                 }
             }
