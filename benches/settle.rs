@@ -1,13 +1,38 @@
-//! Criterion benchmarks of the settle engine on the built-in prototype: one settle of a 2-, 3-
-//! and 4-pair set, and `settle_many` over 1,000 sets (on the rayon pool: all cores).
+//! Criterion benchmarks of the settle engine and the planner on the built-in prototype.
+//!
+//! - `settle/pairs/K`: one settle of a K-pair set (K = 2, 3, 4), the default fast path;
+//!   `settle_dopri5/pairs/3`: the same 3-pair settle through ode_solvers' Dopri5 at the old
+//!   default tolerances (rtol 1e-6, atol 1e-8), the engine before the speed work;
+//! - `rhs/pairs/3`: one right-hand-side evaluation (a settle costs evaluations x this);
+//! - `growth_pairs/K`: settle time against the number of pairs, K = 2 to 8;
+//! - `growth_magnets_coils/N`: settle time of 2 energised coils in "coils" interaction against
+//!   the number N of rotor magnets (evenly spread Fibonacci points), and `rhs_coils/N`;
+//! - `settle_many/threads/T`: 1,000 3-pair sets on a rayon pool of T = 1 and 2 threads;
+//! - `plan_y_dynamic3/angle/A`: the search planner, dynamic model, 3 pairs per step, about Y,
+//!   against the target angle A in degrees.
+//!
+//! Run: `cargo bench --bench settle` (a group: `cargo bench --bench settle -- growth_pairs`).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use nalgebra::Vector3;
-use spherestep::dynamics::{settle, settle_many};
-use spherestep::geometry::{angular_distance, rot_q, unit, Orientation, Pair, Radians, UnitVec};
+use spherestep::commutation::Motor;
+use spherestep::dynamics::{settle, settle_many, Method, RotorDynamics, SettleParams};
+use spherestep::geometry::{
+    angular_distance, rot_q, unit, Degrees, Orientation, Pair, Radians, UnitVec,
+};
+use spherestep::integrator::OdeSystem;
+use spherestep::planner::plan;
 use spherestep::scenario::Scenario;
+use spherestep::torque::{Interaction, MagnetTorques};
 use std::hint::black_box;
+use std::path::Path;
+use std::time::Duration;
 
+fn load(name: &str) -> Scenario {
+    Scenario::load(Path::new(name)).expect("the repository's scenarios load")
+}
+
+/// Coil `coil` paired with the magnet nearest to it at `q`.
 fn nearest(sc: &Scenario, coil: usize, q: &Orientation) -> Pair {
     let s = sc.stator.points[coil];
     let (j, _) = sc
@@ -33,19 +58,110 @@ fn start() -> Orientation {
     )
 }
 
+/// The coils of the K-pair sets, in the order they are added.
+const COILS: [usize; 8] = [0, 7, 12, 9, 3, 14, 5, 1];
+
+fn set_of(sc: &Scenario, k: usize, q0: &Orientation) -> Vec<Pair> {
+    COILS[..k].iter().map(|&c| nearest(sc, c, q0)).collect()
+}
+
 fn bench_settle(c: &mut Criterion) {
-    let sc = Scenario::load(std::path::Path::new("scenarios/prototype.toml")).expect("scenario");
+    let sc = load("scenarios/prototype.toml");
     let q0 = start();
-    let coils = [0usize, 7, 12, 9];
     let mut g = c.benchmark_group("settle");
     for k in 2..=4 {
-        let set: Vec<Pair> = coils[..k].iter().map(|&c| nearest(&sc, c, &q0)).collect();
+        let set = set_of(&sc, k, &q0);
         g.bench_with_input(BenchmarkId::new("pairs", k), &set, |b, set| {
             b.iter(|| settle(&sc.torques, black_box(set), &q0, sc.body, sc.settle))
         });
     }
     g.finish();
 
+    let old = SettleParams {
+        rtol: 1e-6,
+        atol: 1e-8,
+        method: Method::Dopri5,
+        ..sc.settle
+    };
+    let set = set_of(&sc, 3, &q0);
+    let mut g = c.benchmark_group("settle_dopri5");
+    g.bench_with_input(BenchmarkId::new("pairs", 3), &set, |b, set| {
+        b.iter(|| settle(&sc.torques, black_box(set), &q0, sc.body, old))
+    });
+    g.finish();
+
+    let mut g = c.benchmark_group("rhs");
+    let sys = RotorDynamics::new(&sc.torques, &set, sc.body);
+    let y = [q0.i, q0.j, q0.k, q0.w, 0.1, -0.2, 0.3];
+    g.bench_function(BenchmarkId::new("pairs", 3), |b| {
+        b.iter(|| {
+            let mut dy = [0.0; 7];
+            sys.rhs(black_box(&y), &mut dy);
+            dy
+        })
+    });
+    g.finish();
+}
+
+fn bench_growth(c: &mut Criterion) {
+    let sc = load("scenarios/prototype.toml");
+    let q0 = start();
+    let mut g = c.benchmark_group("growth_pairs");
+    for k in 2..=8 {
+        let set = set_of(&sc, k, &q0);
+        g.bench_with_input(BenchmarkId::from_parameter(k), &set, |b, set| {
+            b.iter(|| settle(&sc.torques, black_box(set), &q0, sc.body, sc.settle))
+        });
+    }
+    g.finish();
+
+    let coils = [Pair::new(0, 0), Pair::new(7, 0)];
+    let mut g = c.benchmark_group("growth_magnets_coils");
+    g.sample_size(10);
+    let mut rhs = Vec::new();
+    for n in [20usize, 40, 80, 160, 320] {
+        let torques = MagnetTorques {
+            rotor: fibonacci_sphere(n),
+            interaction: Interaction::Coils,
+            ..sc.torques.clone()
+        };
+        g.bench_with_input(BenchmarkId::from_parameter(n), &torques, |b, t| {
+            b.iter(|| settle(t, black_box(&coils), &q0, sc.body, sc.settle))
+        });
+        rhs.push((n, torques));
+    }
+    g.finish();
+    let mut g = c.benchmark_group("rhs_coils");
+    for (n, torques) in &rhs {
+        let sys = RotorDynamics::new(torques, &coils, sc.body);
+        let y = [q0.i, q0.j, q0.k, q0.w, 0.1, -0.2, 0.3];
+        g.bench_function(BenchmarkId::from_parameter(n), |b| {
+            b.iter(|| {
+                let mut dy = [0.0; 7];
+                sys.rhs(black_box(&y), &mut dy);
+                dy
+            })
+        });
+    }
+    g.finish();
+}
+
+/// `n` points spread evenly over the sphere (the Fibonacci spiral).
+fn fibonacci_sphere(n: usize) -> Vec<Vector3<f64>> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let phi = golden * i as f64;
+            Vector3::new(r * phi.cos(), r * phi.sin(), z)
+        })
+        .collect()
+}
+
+fn bench_threads(c: &mut Criterion) {
+    let sc = load("scenarios/prototype.toml");
+    let q0 = start();
     let mut sets = Vec::new();
     'outer: for a in 0..16 {
         for b in 0..16 {
@@ -64,12 +180,46 @@ fn bench_settle(c: &mut Criterion) {
         }
     }
     let mut g = c.benchmark_group("settle_many");
-    g.sample_size(10);
-    g.bench_function("1000_sets_3_pairs", |b| {
-        b.iter(|| settle_many(&sc.torques, black_box(&sets), &q0, sc.body, sc.settle))
-    });
+    g.sample_size(20);
+    for threads in [1usize, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("a thread pool");
+        g.bench_function(BenchmarkId::new("threads", threads), |b| {
+            b.iter(|| {
+                pool.install(|| settle_many(&sc.torques, black_box(&sets), &q0, sc.body, sc.settle))
+            })
+        });
+    }
     g.finish();
 }
 
-criterion_group!(benches, bench_settle);
+fn bench_planner(c: &mut Criterion) {
+    let sc = load("scenarios/paper-fig8-y-dynamic3.toml");
+    let motor = Motor {
+        torques: &sc.torques,
+        body: sc.body,
+        settle: sc.settle,
+    };
+    let mut g = c.benchmark_group("plan_y_dynamic3");
+    g.sample_size(10);
+    g.measurement_time(Duration::from_secs(8));
+    for deg in [30.0, 60.0, 90.0, 120.0] {
+        let mut s = sc.plan.clone();
+        s.angle = Degrees(deg).to_radians();
+        g.bench_with_input(BenchmarkId::new("angle", deg), &s, |b, s| {
+            b.iter(|| plan(&motor, black_box(s)))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    bench_settle,
+    bench_growth,
+    bench_threads,
+    bench_planner
+);
 criterion_main!(benches);

@@ -37,6 +37,14 @@ pub struct Outcome<const N: usize> {
 const SAFETY: f64 = 0.9;
 const MIN_FACTOR: f64 = 0.2;
 const MAX_FACTOR: f64 = 5.0;
+/// Exponents of the proportional-integral step-size controller (Gustafsson; Hairer and Wanner,
+/// Solving ODEs II, IV.2), in the form Hairer's DOPRI5 uses: alpha = 1/3 - 0.75 beta for an
+/// error estimate of order 3. Settling is limited by the stability of the damped fast modes
+/// (|lambda| up to c/I) more than by accuracy, and a plain controller at the stability boundary
+/// alternates between growing the step and rejecting it; the integral term damps that out
+/// (5% fewer evaluations on the prototype's sets; 0.7/3 and 0.4/3 were worse).
+const ALPHA: f64 = 1.0 / 3.0 - 0.75 * BETA;
+const BETA: f64 = 0.08;
 
 /// Integrates from `y0` at t = 0 until `stop(t, y, dy)` returns true on an accepted step (dy is
 /// the exact right-hand side at y) or until `t_max`.
@@ -60,6 +68,8 @@ where
     let mut h = initial_step(sys, &y, &k1, t_max, tol, &mut evaluations);
     let (mut k2, mut k3, mut k4) = ([0.0; N], [0.0; N], [0.0; N]);
     let (mut tmp, mut y_new) = ([0.0; N], [0.0; N]);
+    // the error of the last accepted step, and whether the step before this one was rejected
+    let (mut err_old, mut rejected) = (1.0f64, false);
     while t < t_max {
         let last = t + h >= t_max;
         if last {
@@ -105,13 +115,15 @@ where
                     stopped: true,
                 };
             }
-            h *= if err == 0.0 {
-                MAX_FACTOR
-            } else {
-                (SAFETY * err.powf(-1.0 / 3.0)).clamp(MIN_FACTOR, MAX_FACTOR)
-            };
+            let err = err.max(1e-10);
+            let factor =
+                (SAFETY * err.powf(-ALPHA) * err_old.powf(BETA)).clamp(MIN_FACTOR, MAX_FACTOR);
+            h *= if rejected { factor.min(1.0) } else { factor };
+            err_old = err;
+            rejected = false;
         } else {
             h *= (SAFETY * err.powf(-1.0 / 3.0)).max(MIN_FACTOR);
+            rejected = true;
             if h < t_max * 1e-14 {
                 break;
             }

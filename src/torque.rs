@@ -266,8 +266,8 @@ impl MagnetTorques {
     }
 
     /// Torque of one coil at `s` on one magnet at `p` (both in the same frame; the torque is
-    /// in that frame). A magnet beyond the cut-off is rejected on its cosine, before any
-    /// trigonometry.
+    /// in that frame). A magnet whose cosine is below `cos_cutoff` (the cosine of the maximum
+    /// attraction distance, or -2 for no early test) is rejected before any trigonometry.
     #[inline]
     fn pair_torque(&self, p: &Vector3<f64>, s: &Vector3<f64>, cos_cutoff: f64) -> Vector3<f64> {
         let c = p.dot(s);
@@ -330,16 +330,17 @@ impl TorqueModel for MagnetTorques {
     /// The hot path: each energised coil is turned into the body frame once (R^T s) and the
     /// magnets are used where they are, so no magnet is rotated and nothing is allocated.
     fn body_torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
-        let cos_cutoff = self.well.max_attraction.0.cos();
         let mut tau = Vector3::zeros();
         match self.interaction {
             Interaction::Pairs => {
+                // a few pairs: the well's own cut-off test is cheaper than a cosine per call
                 for pr in active {
                     let s = r.tr_mul(&self.stator[pr.coil.0]);
-                    tau += self.pair_torque(&self.rotor[pr.magnet.0], &s, cos_cutoff);
+                    tau += self.pair_torque(&self.rotor[pr.magnet.0], &s, -2.0);
                 }
             }
             Interaction::Coils => {
+                let cos_cutoff = self.well.max_attraction.0.cos();
                 for c in Self::coils(active) {
                     let s = r.tr_mul(&self.stator[c]);
                     for m in &self.rotor {

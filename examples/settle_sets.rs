@@ -1,0 +1,226 @@
+//! Settles N deterministic 3-pair active sets of a scenario one after the other (one thread),
+//! times them, and writes one CSV row per set: the Rust side of `benches/scipy_settle.py`.
+//!
+//! ```text
+//! cargo run --release --example settle_sets -- [SCENARIO] [--sets N] [--out FILE.csv]
+//! ```
+//!
+//! The sets are built as in benches/settle.rs: from a fixed start orientation (0.08 rad about
+//! (0.2, 1, 0.4) normalised), ordered triples of distinct coils (a, b, c) in lexicographic order,
+//! each coil paired with the rotor magnet nearest to it at the start. The whole loop over the
+//! sets is run once to record the results, then repeated until at least 0.5 s of settling has
+//! been timed; each row's `mean_us` is that set's mean time per settle over the timed passes.
+
+use anyhow::{bail, Context, Result};
+use nalgebra::Vector3;
+use spherestep::dynamics::{settle, SettleResult};
+use spherestep::geometry::{angular_distance, rot_q, unit, Orientation, Pair, Radians, UnitVec};
+use spherestep::scenario::Scenario;
+use std::fmt::Write as _;
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+const USAGE: &str = "usage: settle_sets [SCENARIO] [--sets N] [--out FILE.csv]
+  SCENARIO      scenario TOML (default scenarios/prototype.toml)
+  --sets N      number of 3-pair active sets to settle (default 200)
+  --out FILE    write one CSV row per set to FILE (default: no CSV, only the summary line)";
+
+/// Least total time of the timed passes.
+const MIN_TIMED: Duration = Duration::from_millis(500);
+
+struct Args {
+    scenario: PathBuf,
+    sets: usize,
+    out: Option<PathBuf>,
+}
+
+fn parse_args() -> Result<Option<Args>> {
+    let mut scenario: Option<PathBuf> = None;
+    let mut sets = 200usize;
+    let mut out = None;
+    let mut it = std::env::args_os().skip(1);
+    while let Some(a) = it.next() {
+        let Some(s) = a.to_str() else {
+            bail!("argument {a:?} is not valid UTF-8\n{USAGE}");
+        };
+        match s {
+            "-h" | "--help" => return Ok(None),
+            "--sets" => {
+                let v = it.next().with_context(|| {
+                    format!("--sets needs a value: a whole number >= 1\n{USAGE}")
+                })?;
+                let v = v.to_string_lossy();
+                sets = match v.trim().parse::<usize>() {
+                    Ok(n) if n >= 1 => n,
+                    _ => bail!("--sets expects a whole number >= 1, got '{v}'"),
+                };
+            }
+            "--out" => {
+                let v = it
+                    .next()
+                    .with_context(|| format!("--out needs a file name\n{USAGE}"))?;
+                out = Some(PathBuf::from(v));
+            }
+            _ if s.starts_with('-') => bail!("unknown option '{s}'\n{USAGE}"),
+            _ => {
+                if let Some(prev) = &scenario {
+                    bail!(
+                        "expected one scenario file, got '{}' and '{s}'\n{USAGE}",
+                        prev.display()
+                    );
+                }
+                scenario = Some(PathBuf::from(s));
+            }
+        }
+    }
+    Ok(Some(Args {
+        scenario: scenario.unwrap_or_else(|| PathBuf::from("scenarios/prototype.toml")),
+        sets,
+        out,
+    }))
+}
+
+/// The rotor magnet nearest to `coil` at orientation `q`, paired with it.
+fn nearest(sc: &Scenario, coil: usize, q: &Orientation) -> Option<Pair> {
+    let s = sc.stator.points[coil];
+    sc.rotor
+        .points
+        .iter()
+        .enumerate()
+        .map(|(j, r)| {
+            (
+                j,
+                angular_distance(&UnitVec::new_normalize(q * r.into_inner()), &s).0,
+            )
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(j, _)| Pair::new(coil, j))
+}
+
+/// The first `n` sets of benches/settle.rs: ordered triples of distinct coils.
+fn build_sets(sc: &Scenario, q0: &Orientation, n: usize) -> Result<Vec<Vec<Pair>>> {
+    let coils = sc.stator.points.len();
+    if coils < 3 {
+        bail!(
+            "{}: 3-pair sets need at least 3 stator coils, the scenario has {coils}",
+            sc.path.display()
+        );
+    }
+    if sc.rotor.points.is_empty() {
+        bail!("{}: the scenario has no rotor magnets", sc.path.display());
+    }
+    let available = coils * (coils - 1) * (coils - 2);
+    if n > available {
+        bail!("--sets expects at most {available} (ordered triples of {coils} coils), got {n}");
+    }
+    let mut near = Vec::with_capacity(coils);
+    for c in 0..coils {
+        near.push(nearest(sc, c, q0).context("no rotor magnets")?);
+    }
+    let mut sets = Vec::with_capacity(n);
+    'outer: for a in 0..coils {
+        for b in 0..coils {
+            for c in 0..coils {
+                if a != b && b != c && a != c {
+                    sets.push(vec![near[a], near[b], near[c]]);
+                    if sets.len() == n {
+                        break 'outer;
+                    }
+                }
+            }
+        }
+    }
+    Ok(sets)
+}
+
+fn set_label(set: &[Pair]) -> String {
+    set.iter()
+        .map(|p| p.to_string())
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+fn run() -> Result<()> {
+    let Some(args) = parse_args()? else {
+        println!("{USAGE}");
+        return Ok(());
+    };
+    let sc = Scenario::load(&args.scenario)
+        .with_context(|| format!("loading scenario {}", args.scenario.display()))?;
+    let axis = unit(Vector3::new(0.2, 1.0, 0.4)).context("start axis")?;
+    let q0 = rot_q(&axis, Radians(0.08));
+    let sets = build_sets(&sc, &q0, args.sets)?;
+    for (k, set) in sets.iter().enumerate() {
+        sc.check_active(set, &format!("set {k}"))?;
+    }
+
+    // First pass: the results (and a warm-up).
+    let results: Vec<SettleResult> = sets
+        .iter()
+        .map(|s| settle(&sc.torques, s, &q0, sc.body, sc.settle))
+        .collect();
+
+    // Timed passes over the whole loop until MIN_TIMED has been spent settling.
+    let mut per_set = vec![Duration::ZERO; sets.len()];
+    let mut total = Duration::ZERO;
+    let mut passes = 0u32;
+    while total < MIN_TIMED {
+        let pass = Instant::now();
+        for (k, s) in sets.iter().enumerate() {
+            let t = Instant::now();
+            black_box(settle(
+                &sc.torques,
+                black_box(s),
+                black_box(&q0),
+                sc.body,
+                sc.settle,
+            ));
+            per_set[k] += t.elapsed();
+        }
+        total += pass.elapsed();
+        passes += 1;
+    }
+
+    let n = sets.len();
+    let mean_us = total.as_secs_f64() * 1e6 / (n as f64 * passes as f64);
+    let evals = results.iter().map(|r| r.evaluations as f64).sum::<f64>() / n as f64;
+
+    if let Some(out) = &args.out {
+        let mut csv = String::from(
+            "set,qx0,qy0,qz0,qw0,qx,qy,qz,qw,settled,evaluations,steps,settle_time_s,mean_us\n",
+        );
+        for ((set, r), d) in sets.iter().zip(&results).zip(&per_set) {
+            let _ = writeln!(
+                csv,
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4}",
+                set_label(set),
+                q0.i,
+                q0.j,
+                q0.k,
+                q0.w,
+                r.q.i,
+                r.q.j,
+                r.q.k,
+                r.q.w,
+                r.settled,
+                r.evaluations,
+                r.steps,
+                r.settle_time_s,
+                d.as_secs_f64() * 1e6 / passes as f64,
+            );
+        }
+        std::fs::write(out, csv).with_context(|| format!("writing {}", out.display()))?;
+    }
+    println!(
+        "rust: {n} settles, mean {mean_us:.2} us per settle, {evals:.1} evaluations per settle"
+    );
+    Ok(())
+}
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("settle_sets: error: {e:#}");
+        std::process::exit(2);
+    }
+}
