@@ -20,7 +20,9 @@ The Python side is the same model written the way a user would with numpy and sc
   - state (qx, qy, qz, qw, wx, wy, wz), start at rest; settled when |w| < omega_tol and
     |N_B| < torque_tol after an accepted step, with |N_B| recovered from the step's derivative
     (N_B = I dw/dt + w x (I w) + c w), as src/dynamics.rs does; not settled at t_max.
-The RK45 solver object is stepped by hand and the settle test is applied after every step.
+The RK45 solver object is stepped by hand and the settle test is applied after every step;
+the "ivp" rows instead call solve_ivp with the settle test as a terminal event, as most users
+would (slower: scipy locates the event's crossing on its dense output).
 
 Each set is settled with scipy at (a) the scenario's rtol/atol and (b) rtol=1e-6, atol=1e-8,
 timed with time.perf_counter, each with two right-hand sides computing the same numbers: numpy
@@ -47,7 +49,7 @@ from pathlib import Path
 
 try:
     import numpy as np
-    from scipy.integrate import RK45
+    from scipy.integrate import RK45, solve_ivp
 except ImportError as e:  # pragma: no cover - depends on the machine
     print(
         f"scipy_settle.py: needs numpy and scipy ({e}); install them with\n"
@@ -342,6 +344,8 @@ def settle(m: Model, pairs, q0: np.ndarray, rtol: float, atol: float, rhs: str) 
     if np.linalg.norm(dyn.body_torque(q0)) < m.torque_tol:
         # already in equilibrium and at rest (as src/dynamics.rs)
         return PyResult(q0 / np.linalg.norm(q0), True, 1, 0, 0.0, time.perf_counter() - t0)
+    if rhs == "ivp":
+        return settle_ivp(m, dyn, q0, y0, rtol, atol, t0)
     fun = dyn.rhs_numpy if rhs == "numpy" else dyn.rhs_float
     solver = RK45(fun, 0.0, y0, m.t_max, rtol=rtol, atol=atol)
     steps = 0
@@ -356,6 +360,29 @@ def settle(m: Model, pairs, q0: np.ndarray, rtol: float, atol: float, rhs: str) 
             break
     q = solver.y[0:4] / np.linalg.norm(solver.y[0:4])
     return PyResult(q, ok, solver.nfev, steps, solver.t, time.perf_counter() - t0)
+
+
+def settle_ivp(m: Model, dyn, q0, y0, rtol: float, atol: float, t0: float) -> PyResult:
+    """What a user would write first: solve_ivp (RK45, numpy right-hand side) with the settle
+    test as a terminal event, max(|w| / omega_tol, |N_B| / torque_tol) - 1 crossing zero
+    downwards (scipy finds the crossing on its dense output; each event test costs a torque)."""
+
+    def event(_t, y):
+        w = np.linalg.norm(y[4:7])
+        nb = np.linalg.norm(dyn.body_torque(y[0:4]))
+        return max(w / m.omega_tol, nb / m.torque_tol) - 1.0
+
+    event.terminal = True
+    event.direction = -1
+    sol = solve_ivp(
+        dyn.rhs_numpy, (0.0, m.t_max), y0, method="RK45", rtol=rtol, atol=atol, events=event
+    )
+    y = sol.y[:, -1]
+    ok = sol.status == 1
+    return PyResult(
+        y[0:4] / np.linalg.norm(y[0:4]), ok, sol.nfev, len(sol.t) - 1, sol.t[-1],
+        time.perf_counter() - t0,
+    )
 
 
 def rotation_between(a: np.ndarray, b: np.ndarray) -> float:
@@ -473,9 +500,10 @@ def main() -> int:
     )
     ap.add_argument(
         "--rhs",
-        choices=["numpy", "float", "both"],
-        default="both",
-        help="Python right-hand side(s) to time: numpy arrays, plain floats, or both (default)",
+        choices=["numpy", "float", "ivp", "all"],
+        default="all",
+        help="what to time: RK45 stepped by hand with a numpy or a plain-float right-hand side, "
+        "solve_ivp with a terminal event (numpy), or all three (default)",
     )
     ap.add_argument(
         "--agree",
@@ -518,7 +546,7 @@ def main() -> int:
         + " sets, one timed pass per configuration"
     )
 
-    rhs_kinds = ["numpy", "float"] if a.rhs == "both" else [a.rhs]
+    rhs_kinds = ["numpy", "float", "ivp"] if a.rhs == "all" else [a.rhs]
     configs = [
         (f"({tag}) {kind}", rtol, atol, kind)
         for kind in rhs_kinds
