@@ -59,6 +59,15 @@ fn wrong_shape_name() {
 }
 
 #[test]
+fn unknown_settle_method() {
+    fails_with(
+        "[settle]\nmethod = \"rk4\"\n",
+        "0:14",
+        &["rk4", "bs32", "dopri5"],
+    );
+}
+
+#[test]
 fn zero_vector_in_points() {
     fails_with(
         "[stator]\npoints = [[0, 0, -1], [0, 0, 0]]\n",
@@ -191,6 +200,43 @@ fn settle_json_has_the_documented_keys() {
     assert_eq!(v["q"].as_array().unwrap().len(), 4);
     assert_eq!(v["settled"], true);
     assert!(v["residual_torque_nm"].as_f64().unwrap() < 1e-4);
+}
+
+#[test]
+fn settle_reference_runs_dopri5_to_the_same_equilibrium() {
+    let settle = |extra: &[&str]| {
+        let mut args = vec![
+            "settle",
+            "scenarios/prototype.toml",
+            "--pairs",
+            "0:14,7:45,12:26",
+            "--from",
+            "0.007302,0.036506,0.014601,0.9992",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let (code, out, err) = run(&args);
+        assert_eq!(code, 0, "{err}");
+        serde_json::from_str::<serde_json::Value>(out.trim()).unwrap()
+    };
+    let fast = settle(&[]);
+    let reference = settle(&["--reference"]);
+    let q = |v: &serde_json::Value| -> Vec<f64> {
+        v["q"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let dot: f64 = q(&fast).iter().zip(q(&reference)).map(|(a, b)| a * b).sum();
+    let angle = 2.0 * dot.abs().min(1.0).acos();
+    assert!(angle < 1e-4, "{angle} rad apart");
+    assert_eq!(fast["settled"], true);
+    assert_eq!(reference["settled"], true);
+    // rtol 1e-10 costs many more evaluations than the default's rtol 1e-2
+    let evals = |v: &serde_json::Value| v["evaluations"].as_u64().unwrap();
+    assert!(evals(&reference) > 5 * evals(&fast), "{fast} {reference}");
 }
 
 #[test]
