@@ -68,8 +68,8 @@ where
     let mut h = initial_step(sys, &y, &k1, t_max, tol, &mut evaluations);
     let (mut k2, mut k3, mut k4) = ([0.0; N], [0.0; N], [0.0; N]);
     let (mut tmp, mut y_new) = ([0.0; N], [0.0; N]);
-    // the error of the last accepted step, and whether the step before this one was rejected
-    let (mut err_old, mut rejected) = (1.0f64, false);
+    // ln of the error of the last accepted step, and whether the step before this was rejected
+    let (mut ln_err_old, mut rejected) = (0.0f64, false);
     while t < t_max {
         let last = t + h >= t_max;
         if last {
@@ -115,14 +115,15 @@ where
                     stopped: true,
                 };
             }
-            let err = err.max(1e-10);
+            // err^-alpha * err_old^beta, with one logarithm and one exponential per step
+            let ln_err = err.max(1e-10).ln();
             let factor =
-                (SAFETY * err.powf(-ALPHA) * err_old.powf(BETA)).clamp(MIN_FACTOR, MAX_FACTOR);
+                (SAFETY * (BETA * ln_err_old - ALPHA * ln_err).exp()).clamp(MIN_FACTOR, MAX_FACTOR);
             h *= if rejected { factor.min(1.0) } else { factor };
-            err_old = err;
+            ln_err_old = ln_err;
             rejected = false;
         } else {
-            h *= (SAFETY * err.powf(-1.0 / 3.0)).max(MIN_FACTOR);
+            h *= (SAFETY / err.cbrt()).max(MIN_FACTOR);
             rejected = true;
             if h < t_max * 1e-14 {
                 break;
