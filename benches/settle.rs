@@ -6,7 +6,7 @@
 //! - `rhs/pairs/3`: one right-hand-side evaluation (a settle costs evaluations x this);
 //! - `growth_pairs/K`: settle time against the number of pairs, K = 2 to 8;
 //! - `growth_magnets_coils/N`: settle time of 2 energised coils in "coils" interaction against
-//!   the number N of rotor magnets (evenly spread Fibonacci points), and `rhs_coils/N`;
+//!   the number N of rotor magnets (evenly spread: `scenario::sphere_axes`), and `rhs_coils/N`;
 //! - `settle_many/threads/T`: 1,000 3-pair sets on a rayon pool of T = 1 and 2 threads;
 //! - `plan_y_dynamic3/angle/A`: the search planner, dynamic model, 3 pairs per step, about Y,
 //!   against the target angle A in degrees.
@@ -15,15 +15,14 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use nalgebra::Vector3;
+use spherestep::commutation::nearest_magnet;
 use spherestep::commutation::Motor;
 use spherestep::dynamics::{settle, settle_many, Method, RotorDynamics, SettleParams};
-use spherestep::geometry::{
-    angular_distance, rot_q, unit, Degrees, Orientation, Pair, Radians, UnitVec,
-};
+use spherestep::geometry::{rot_q, unit, CoilId, Degrees, Orientation, Pair, Radians};
 use spherestep::integrator::OdeSystem;
 use spherestep::planner::plan;
-use spherestep::scenario::Scenario;
-use spherestep::torque::{Interaction, MagnetTorques};
+use spherestep::scenario::{sphere_axes, Scenario};
+use spherestep::torque::{Interaction, MagnetTorques, TorqueModel};
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Duration;
@@ -34,21 +33,10 @@ fn load(name: &str) -> Scenario {
 
 /// Coil `coil` paired with the magnet nearest to it at `q`.
 fn nearest(sc: &Scenario, coil: usize, q: &Orientation) -> Pair {
-    let s = sc.stator.points[coil];
-    let (j, _) = sc
-        .rotor
-        .points
-        .iter()
-        .enumerate()
-        .map(|(j, r)| {
-            (
-                j,
-                angular_distance(&UnitVec::new_normalize(q * r.into_inner()), &s).0,
-            )
-        })
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .expect("magnets");
-    Pair::new(coil, j)
+    Pair {
+        coil: CoilId(coil),
+        magnet: nearest_magnet(&sc.torques, CoilId(coil), q).0,
+    }
 }
 
 fn start() -> Orientation {
@@ -92,15 +80,23 @@ fn bench_settle(c: &mut Criterion) {
 
     let mut g = c.benchmark_group("rhs");
     let sys = RotorDynamics::new(&sc.torques, &set, sc.body);
-    let y = [q0.i, q0.j, q0.k, q0.w, 0.1, -0.2, 0.3];
+    let y = turning(&q0);
     g.bench_function(BenchmarkId::new("pairs", 3), |b| {
-        b.iter(|| {
-            let mut dy = [0.0; 7];
-            sys.rhs(black_box(&y), &mut dy);
-            dy
-        })
+        b.iter(|| rhs_once(&sys, &y))
     });
     g.finish();
+}
+
+/// The state the `rhs` benches evaluate at: orientation `q`, turning at (0.1, -0.2, 0.3) rad/s.
+fn turning(q: &Orientation) -> [f64; 7] {
+    [q.i, q.j, q.k, q.w, 0.1, -0.2, 0.3]
+}
+
+/// One right-hand-side evaluation.
+fn rhs_once<M: TorqueModel>(sys: &RotorDynamics<'_, M>, y: &[f64; 7]) -> [f64; 7] {
+    let mut dy = [0.0; 7];
+    sys.rhs(black_box(y), &mut dy);
+    dy
 }
 
 fn bench_growth(c: &mut Criterion) {
@@ -121,7 +117,7 @@ fn bench_growth(c: &mut Criterion) {
     let mut rhs = Vec::new();
     for n in [20usize, 40, 80, 160, 320] {
         let torques = MagnetTorques {
-            rotor: fibonacci_sphere(n),
+            rotor: sphere_axes(n).iter().map(|a| a.into_inner()).collect(),
             interaction: Interaction::Coils,
             ..sc.torques.clone()
         };
@@ -134,29 +130,12 @@ fn bench_growth(c: &mut Criterion) {
     let mut g = c.benchmark_group("rhs_coils");
     for (n, torques) in &rhs {
         let sys = RotorDynamics::new(torques, &coils, sc.body);
-        let y = [q0.i, q0.j, q0.k, q0.w, 0.1, -0.2, 0.3];
+        let y = turning(&q0);
         g.bench_function(BenchmarkId::from_parameter(n), |b| {
-            b.iter(|| {
-                let mut dy = [0.0; 7];
-                sys.rhs(black_box(&y), &mut dy);
-                dy
-            })
+            b.iter(|| rhs_once(&sys, &y))
         });
     }
     g.finish();
-}
-
-/// `n` points spread evenly over the sphere (the Fibonacci spiral).
-fn fibonacci_sphere(n: usize) -> Vec<Vector3<f64>> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let phi = golden * i as f64;
-            Vector3::new(r * phi.cos(), r * phi.sin(), z)
-        })
-        .collect()
 }
 
 fn bench_threads(c: &mut Criterion) {

@@ -13,8 +13,9 @@
 
 use anyhow::{bail, Context, Result};
 use nalgebra::Vector3;
+use spherestep::commutation::nearest_magnet;
 use spherestep::dynamics::{settle, SettleResult};
-use spherestep::geometry::{angular_distance, rot_q, unit, Orientation, Pair, Radians, UnitVec};
+use spherestep::geometry::{rot_q, unit, CoilId, Orientation, Pair, Radians};
 use spherestep::scenario::Scenario;
 use std::fmt::Write as _;
 use std::hint::black_box;
@@ -81,23 +82,6 @@ fn parse_args() -> Result<Option<Args>> {
     }))
 }
 
-/// The rotor magnet nearest to `coil` at orientation `q`, paired with it.
-fn nearest(sc: &Scenario, coil: usize, q: &Orientation) -> Option<Pair> {
-    let s = sc.stator.points[coil];
-    sc.rotor
-        .points
-        .iter()
-        .enumerate()
-        .map(|(j, r)| {
-            (
-                j,
-                angular_distance(&UnitVec::new_normalize(q * r.into_inner()), &s).0,
-            )
-        })
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(j, _)| Pair::new(coil, j))
-}
-
 /// The first `n` sets of benches/settle.rs: ordered triples of distinct coils.
 fn build_sets(sc: &Scenario, q0: &Orientation, n: usize) -> Result<Vec<Vec<Pair>>> {
     let coils = sc.stator.points.len();
@@ -116,7 +100,11 @@ fn build_sets(sc: &Scenario, q0: &Orientation, n: usize) -> Result<Vec<Vec<Pair>
     }
     let mut near = Vec::with_capacity(coils);
     for c in 0..coils {
-        near.push(nearest(sc, c, q0).context("no rotor magnets")?);
+        let (magnet, _) = nearest_magnet(&sc.torques, CoilId(c), q0);
+        near.push(Pair {
+            coil: CoilId(c),
+            magnet,
+        });
     }
     let mut sets = Vec::with_capacity(n);
     'outer: for a in 0..coils {

@@ -2,22 +2,13 @@
 #![allow(dead_code)]
 
 use nalgebra::UnitQuaternion;
-use spherestep::geometry::{angular_distance, MagnetId, Orientation, UnitVec};
+use spherestep::geometry::{CoilId, MagnetId, Orientation};
 use spherestep::scenario::Scenario;
 
-/// The magnet nearest to coil `coil` at orientation `q`, and its distance.
+/// The magnet nearest to coil `coil` at orientation `q`, and its distance (radians).
 pub fn nearest_magnet(sc: &Scenario, coil: usize, q: &Orientation) -> (MagnetId, f64) {
-    let s = sc.stator.points[coil];
-    sc.rotor
-        .points
-        .iter()
-        .enumerate()
-        .map(|(j, r)| {
-            let p = UnitVec::new_normalize(q * r.into_inner());
-            (MagnetId(j), angular_distance(&p, &s).0)
-        })
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .expect("a rotor has magnets")
+    let (m, d) = spherestep::commutation::nearest_magnet(&sc.torques, CoilId(coil), q);
+    (m, d.0)
 }
 
 pub fn identity() -> Orientation {
