@@ -9,7 +9,10 @@ use crate::output::write_atomic;
 use crate::packing::{self, points_csv};
 use crate::planfile::write_plan;
 use crate::planner::{plan, Plan, PlanSettings, Scheme};
-use crate::scenario::{check_pairs_per_step, parse_axis, parse_orientation, parse_pairs, Scenario};
+use crate::scenario::{
+    check_pairs_per_step, default_pairs_per_step, parse_axis, parse_orientation, parse_pairs,
+    parse_pairs_per_step, Scenario,
+};
 use std::io::Write;
 use std::path::Path;
 
@@ -223,7 +226,8 @@ pub struct PlanOverrides {
     pub angle_deg: Option<f64>,
     pub scheme: Option<String>,
     pub model: Option<String>,
-    pub pairs: Option<usize>,
+    /// `K` (exactly K pairs after each step) or `2-K` (2 to K, chosen per step).
+    pub pairs: Option<String>,
     pub from: Option<String>,
 }
 
@@ -259,14 +263,17 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
                 })
             }
         };
-        if o.pairs.is_none() && s.model == StepModel::Pivot {
-            s.pairs_per_step = 2;
+        if o.pairs.is_none() {
+            s.pairs = default_pairs_per_step(s.model);
         }
     }
-    if let Some(k) = o.pairs {
-        s.pairs_per_step = k;
+    if let Some(k) = &o.pairs {
+        s.pairs = parse_pairs_per_step(k).ok_or_else(|| Error::Arg {
+            arg: "--pairs".into(),
+            expected: format!("K (exactly K pairs per step) or 2-K (2 to K), got '{k}'"),
+        })?;
     }
-    check_pairs_per_step(s.model, s.pairs_per_step).map_err(|m| Error::Arg {
+    check_pairs_per_step(s.model, s.pairs).map_err(|m| Error::Arg {
         arg: "--pairs".into(),
         expected: m,
     })?;
@@ -326,7 +333,7 @@ pub fn plan_command(
             ax.z,
             settings.angle.0.to_degrees(),
             s.model,
-            s.pairs_per_step,
+            settings.pairs,
             s.scheme,
             s.final_angle_deg,
             s.max_axis_error_deg,

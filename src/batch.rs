@@ -7,7 +7,7 @@
 //! work. A failing scenario is reported by name while the others still run.
 
 use crate::app::motor;
-use crate::commutation::StepModel;
+use crate::commutation::{pivot_floor, StepModel};
 use crate::error::{Error, Result};
 use crate::geometry::UnitVec;
 use crate::output::write_atomic;
@@ -15,6 +15,7 @@ use crate::planfile::{parse_plan, write_plan, PlanRow};
 use crate::planner::{max_axis_error_deg, plan, total_settle_time, PlanSettings};
 use crate::report;
 use crate::scenario::Scenario;
+use crate::torque::MagnetTorques;
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
@@ -83,7 +84,7 @@ pub struct BatchReport {
 }
 
 /// The header of a sweep CSV.
-pub const SWEEP_HEADER: [&str; 13] = [
+pub const SWEEP_HEADER: [&str; 14] = [
     "case",
     "scheme",
     "model",
@@ -97,6 +98,7 @@ pub const SWEEP_HEADER: [&str; 13] = [
     "max_axis_error_deg",
     "reached",
     "total_settle_time_s",
+    "pivot_floor_deg",
 ];
 
 /// The header of summary.csv.
@@ -171,7 +173,7 @@ fn cases(sc: &Scenario) -> Vec<Case> {
                             angle,
                             scheme,
                             model,
-                            pairs_per_step: pairs,
+                            pairs,
                             ..sc.plan.clone()
                         },
                     });
@@ -408,13 +410,13 @@ fn csv_err(e: csv::Error) -> Error {
     Error::io("<csv>", std::io::Error::other(e.to_string()))
 }
 
-fn sweep_record(c: &Case, o: &Outcome) -> Vec<String> {
+fn sweep_record(c: &Case, o: &Outcome, torques: &MagnetTorques) -> Vec<String> {
     let s = &c.settings;
     vec![
         c.index.to_string(),
         s.scheme.name().to_string(),
         model_name(s.model).to_string(),
-        s.pairs_per_step.to_string(),
+        s.pairs.to_string(),
         s.axis.x.to_string(),
         s.axis.y.to_string(),
         s.axis.z.to_string(),
@@ -428,6 +430,7 @@ fn sweep_record(c: &Case, o: &Outcome) -> Vec<String> {
         max_axis_error_deg(&o.rows).to_string(),
         o.reached.to_string(),
         total_settle_time(&o.rows).to_string(),
+        pivot_floor(torques, &s.axis).0.to_degrees().to_string(),
     ]
 }
 
@@ -446,7 +449,8 @@ fn write_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
             let mut w = csv::Writer::from_writer(Vec::new());
             w.write_record(SWEEP_HEADER).map_err(csv_err)?;
             for (c, o) in job.cases.iter().zip(outcomes) {
-                w.write_record(sweep_record(c, o)).map_err(csv_err)?;
+                w.write_record(sweep_record(c, o, &job.scenario.torques))
+                    .map_err(csv_err)?;
                 if sw.keep_plans {
                     let mut buf = Vec::new();
                     write_plan(&o.rows, &mut buf)?;
@@ -455,7 +459,7 @@ fn write_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
                         c.index,
                         c.settings.scheme.name(),
                         model_name(c.settings.model),
-                        c.settings.pairs_per_step
+                        c.settings.pairs
                     ));
                     write_atomic(&p, &buf)?;
                 }
@@ -472,7 +476,7 @@ fn case_label(c: &Case) -> String {
     let s = &c.settings;
     match s.model {
         StepModel::Pivot => s.scheme.name().to_string(),
-        StepModel::Dynamic => format!("{} (dynamic, {} pairs)", s.scheme.name(), s.pairs_per_step),
+        StepModel::Dynamic => format!("{} (dynamic, {} pairs)", s.scheme.name(), s.pairs),
     }
 }
 
@@ -618,7 +622,7 @@ fn summary_csv(inputs: &[PathBuf], out: &Path, report: &mut BatchReport) -> Resu
                     s.angle.0.to_degrees().to_string(),
                     s.scheme.name().into(),
                     model_name(s.model).into(),
-                    s.pairs_per_step.to_string(),
+                    s.pairs.to_string(),
                     rows.len().saturating_sub(1).to_string(),
                     fin.to_string(),
                     max_axis_error_deg(&rows).to_string(),

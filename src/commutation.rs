@@ -24,6 +24,47 @@ pub enum StepModel {
     Dynamic,
 }
 
+/// How many pairs are on after a step: the pivot kept from the held set plus `min - 1` to
+/// `max - 1` new pairs. The pivot model takes exactly two; the dynamic model any of 2..=8.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PairsPerStep {
+    pub min: usize,
+    pub max: usize,
+}
+
+impl PairsPerStep {
+    /// The most pairs a scenario may ask for.
+    pub const LIMIT: usize = 8;
+
+    /// Exactly `k` pairs after every step.
+    pub fn exactly(k: usize) -> Self {
+        PairsPerStep { min: k, max: k }
+    }
+
+    /// Any of 2..=k pairs, chosen per step.
+    pub fn up_to(k: usize) -> Self {
+        PairsPerStep {
+            min: 2.min(k),
+            max: k,
+        }
+    }
+
+    /// Whether every step has the same number of pairs.
+    pub fn is_exact(self) -> bool {
+        self.min == self.max
+    }
+}
+
+impl std::fmt::Display for PairsPerStep {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.is_exact() {
+            write!(f, "{}", self.max)
+        } else {
+            write!(f, "{}-{}", self.min, self.max)
+        }
+    }
+}
+
 /// Everything a commutation step needs to know about the motor.
 #[derive(Debug, Clone)]
 pub struct Motor<'a> {
@@ -228,19 +269,10 @@ pub fn candidate_steps(
     state: &CommutationState,
     n: &UnitVec,
     model: StepModel,
-    pairs: usize,
+    pairs: PairsPerStep,
     limits: &StepLimits,
 ) -> Vec<Step> {
-    let scored: Vec<(Pair, Vec<Candidate>)> = state
-        .active
-        .iter()
-        .map(|pivot| {
-            (
-                *pivot,
-                scored_candidates(motor.torques, &state.q, n, &[*pivot]),
-            )
-        })
-        .collect();
+    let scored = scored_by_pivot(motor, state, n);
     // The paper's step 3, carried through the evaluation: while no candidate gives an
     // admissible step, widen the bound (doubling) and weigh the pairs it lets in.
     let mut low = -1.0;
@@ -256,38 +288,113 @@ pub fn candidate_steps(
     }
 }
 
+/// For each held pair as the pivot, the scored candidates that could join it.
+fn scored_by_pivot(
+    motor: &Motor,
+    state: &CommutationState,
+    n: &UnitVec,
+) -> Vec<(Pair, Vec<Candidate>)> {
+    state
+        .active
+        .iter()
+        .map(|pivot| {
+            (
+                *pivot,
+                scored_candidates(motor.torques, &state.q, n, &[*pivot]),
+            )
+        })
+        .collect()
+}
+
+/// A proposal: keep `pivot`, switch `new` on (and every other held pair off).
+pub type Proposal = (Pair, Vec<Pair>);
+
+/// Every proposal from `state` whose candidates pass the filter within `bound` (with the
+/// dynamic model's combinations of up to `pairs.max - 1` of the `max_candidates` best
+/// candidates of each pivot), in a deterministic order.
+pub fn proposals_within(
+    motor: &Motor,
+    state: &CommutationState,
+    n: &UnitVec,
+    pairs: PairsPerStep,
+    bound: Radians,
+    max_candidates: usize,
+) -> Vec<Proposal> {
+    let scored = scored_by_pivot(motor, state, n);
+    proposals_between(&scored, -1.0, bound.0, pairs, max_candidates)
+}
+
+/// The cheap prediction of where a set leaves the ball from `q`: the rotation that brings its
+/// magnets as close to their coils as it can in the least-squares sense (Wahba's problem,
+/// solved by SVD), applied to `q`. It is the equilibrium of springs in place of the wells, good
+/// for ranking proposals before the engine settles the best of them.
+pub fn predicted_orientation(
+    torques: &MagnetTorques,
+    q: &Orientation,
+    set: &[Pair],
+) -> Orientation {
+    let r = q.to_rotation_matrix();
+    let mut b = nalgebra::Matrix3::zeros();
+    for p in set {
+        let a = r * torques.rotor[p.magnet.0];
+        b += torques.stator[p.coil.0] * a.transpose();
+    }
+    let svd = b.svd(true, true);
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return *q;
+    };
+    let d = (u * v_t).determinant().signum();
+    let m = u * nalgebra::Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t;
+    let rot = nalgebra::Rotation3::from_matrix_unchecked(m);
+    UnitQuaternion::from_rotation_matrix(&rot) * q
+}
+
+/// Step 3's evaluation of chosen proposals with the given model (the public face of it, for
+/// planners that rank proposals before they weigh them).
+pub fn evaluate_proposals(
+    motor: &Motor,
+    state: &CommutationState,
+    n: &UnitVec,
+    model: StepModel,
+    proposals: Vec<Proposal>,
+    limits: &StepLimits,
+) -> Vec<Step> {
+    evaluate(motor, state, n, model, proposals, limits)
+}
+
 /// The (pivot, new pairs) proposals whose candidates lie within `bound`, leaving out those
 /// already weighed at `low` (all their candidates within it).
 fn proposals_between(
     scored: &[(Pair, Vec<Candidate>)],
     low: f64,
     bound: f64,
-    pairs: usize,
+    pairs: PairsPerStep,
     max_candidates: usize,
-) -> Vec<(Pair, Vec<Pair>)> {
+) -> Vec<Proposal> {
     let mut proposals = Vec::new();
     for (pivot, all) in scored {
         let cands: Vec<&Candidate> = all.iter().filter(|c| c.deviation.0 <= bound).collect();
-        let extra = pairs.saturating_sub(1).max(1);
-        if extra == 1 {
-            for c in cands.iter().filter(|c| c.deviation.0 > low) {
-                proposals.push((*pivot, vec![c.pair]));
-            }
-            continue;
-        }
-        let cands = &cands[..cands.len().min(max_candidates)];
-        for combo in combinations(cands.len(), extra) {
-            if combo.iter().all(|&k| cands[k].deviation.0 <= low) {
+        for extra in pairs.min.saturating_sub(1).max(1)..=pairs.max.saturating_sub(1).max(1) {
+            if extra == 1 {
+                for c in cands.iter().filter(|c| c.deviation.0 > low) {
+                    proposals.push((*pivot, vec![c.pair]));
+                }
                 continue;
             }
-            let set: Vec<Pair> = combo.iter().map(|&k| cands[k].pair).collect();
-            let distinct = set.iter().enumerate().all(|(k, p)| {
-                set[..k]
-                    .iter()
-                    .all(|o| o.coil != p.coil && o.magnet != p.magnet)
-            });
-            if distinct {
-                proposals.push((*pivot, set));
+            let cands = &cands[..cands.len().min(max_candidates)];
+            for combo in combinations(cands.len(), extra) {
+                if combo.iter().all(|&k| cands[k].deviation.0 <= low) {
+                    continue;
+                }
+                let set: Vec<Pair> = combo.iter().map(|&k| cands[k].pair).collect();
+                let distinct = set.iter().enumerate().all(|(k, p)| {
+                    set[..k]
+                        .iter()
+                        .all(|o| o.coil != p.coil && o.magnet != p.magnet)
+                });
+                if distinct {
+                    proposals.push((*pivot, set));
+                }
             }
         }
     }
@@ -300,7 +407,7 @@ fn evaluate(
     state: &CommutationState,
     n: &UnitVec,
     model: StepModel,
-    proposals: Vec<(Pair, Vec<Pair>)>,
+    proposals: Vec<Proposal>,
     limits: &StepLimits,
 ) -> Vec<Step> {
     let outcomes: Vec<Option<CommutationState>> = match model {
@@ -437,6 +544,16 @@ pub fn pivot_error(torques: &MagnetTorques, coil: CoilId, n: &UnitVec) -> Radian
     let s = torques.stator[coil.0];
     let c = s.dot(n).abs() / s.norm();
     Radians(c.clamp(-1.0, 1.0).acos())
+}
+
+/// The pivot model's floor for rotation about `n` (MODEL.md, "Figures of merit"): a pivot step
+/// turns the ball about its pivot coil's axis, so a move's worst cumulative axis error is at
+/// least the smallest angle between `n` and a coil's axis line (either sign).
+pub fn pivot_floor(torques: &MagnetTorques, n: &UnitVec) -> Radians {
+    (0..torques.stator.len())
+        .map(|i| pivot_error(torques, CoilId(i), n))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .unwrap_or(Radians(std::f64::consts::FRAC_PI_2))
 }
 
 /// The initial commutation states (paper Figure 5), best first: the coil on -Z and its nearest

@@ -70,9 +70,10 @@ enum Command {
         /// Step model: pivot (paper 3.2) or dynamic (paper 3.4).
         #[arg(long)]
         model: Option<String>,
-        /// Pairs on after each step (dynamic model: 2 or more).
+        /// Pairs on after each step: K, or 2-K to choose per step (dynamic model: up to 8;
+        /// default 2-4 for the dynamic model, 2 for the pivot model).
         #[arg(long)]
-        pairs: Option<usize>,
+        pairs: Option<String>,
         /// Start orientation qx,qy,qz,qw (default: the scenario's, else identity).
         #[arg(long, allow_hyphen_values = true)]
         from: Option<String>,

@@ -4,14 +4,21 @@
 //! paper's three greedy schemes, and a beam search that looks ahead for the smallest worst
 //! cumulative axis error.
 
+use crate::commutation::Proposal;
 use crate::commutation::{
-    candidate_steps, cumulative, initial_states, CommutationState, Motor, Step, StepLimits,
-    StepModel,
+    candidate_steps, cumulative, evaluate_proposals, initial_states, predicted_orientation,
+    proposals_within, CommutationState, Motor, PairsPerStep, Step, StepLimits, StepModel,
 };
 use crate::geometry::{Orientation, Pair, Radians, UnitVec};
 use crate::planfile::PlanRow;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+
+/// The dynamic search's default budget, in settles.
+pub const DEFAULT_SETTLE_BUDGET: usize = 10_000;
+
+/// How many of each state's best-ranked proposals the dynamic search settles by default.
+pub const DEFAULT_SETTLES_PER_STATE: usize = 24;
 
 /// How the next step is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -56,15 +63,19 @@ pub struct PlanSettings {
     pub angle: Radians,
     pub scheme: Scheme,
     pub model: StepModel,
-    /// Pairs on after each step (pivot + new ones): 2 for the paper's model.
-    pub pairs_per_step: usize,
+    /// Pairs on after each step (pivot + new ones): exactly 2 for the paper's model.
+    pub pairs: PairsPerStep,
     /// Start orientation, before the initial commutation.
     pub start: Orientation,
     pub limits: StepLimits,
     /// Give up after this many steps.
     pub max_steps: usize,
-    /// Beam width of the search planner.
+    /// Beam width of the search planner (pivot model).
     pub beam_width: usize,
+    /// The search's budget (dynamic model): settles, counted, never time.
+    pub settle_budget: usize,
+    /// The search settles this many of each state's best-ranked proposals (dynamic model).
+    pub settles_per_state: usize,
     /// The target counts as reached within this angle of it.
     pub angle_tolerance: Radians,
 }
@@ -105,7 +116,7 @@ impl Plan {
                 StepModel::Pivot => "pivot".into(),
                 StepModel::Dynamic => "dynamic".into(),
             },
-            pairs_per_step: s.pairs_per_step,
+            pairs_per_step: s.pairs.max,
             message: self.message.clone(),
         }
     }
@@ -176,7 +187,10 @@ pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
     match s.scheme {
         Scheme::Search => {
             let roots: Vec<Path> = inits.iter().map(root_path).collect();
-            search(motor, s, roots)
+            match s.model {
+                StepModel::Pivot => search(motor, s, roots),
+                StepModel::Dynamic => best_first(motor, s, roots),
+            }
         }
         g => greedy(motor, s, root_path(first), g),
     }
@@ -209,7 +223,7 @@ fn reached(p: &Path, s: &PlanSettings) -> bool {
 }
 
 fn steps_from(motor: &Motor, s: &PlanSettings, state: &CommutationState) -> Vec<Step> {
-    candidate_steps(motor, state, &s.axis, s.model, s.pairs_per_step, &s.limits)
+    candidate_steps(motor, state, &s.axis, s.model, s.pairs, &s.limits)
 }
 
 /// The greedy key of a step (larger is better), ties broken by the step's pairs. Progress
@@ -293,32 +307,7 @@ fn search(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
             message: Some("no initial commutation state".into()),
         };
     };
-    let mut best: Option<Path> = None;
-    for g in [Scheme::Weighted, Scheme::MinAxisError, Scheme::MaxAngle] {
-        let q0 = root.state.q;
-        let p = greedy(motor, s, root.clone(), g);
-        if p.reached {
-            let worst = max_axis_error_deg(&p.rows).to_radians();
-            let cum = p
-                .rows
-                .last()
-                .map(|r| r.cum_angle_deg.to_radians())
-                .unwrap_or(0.0);
-            let cand = Path {
-                state: CommutationState {
-                    q: p.rows.last().map(|r| r.q).unwrap_or(q0),
-                    active: p.rows.last().map(|r| r.active.clone()).unwrap_or_default(),
-                    settle_time_s: 0.0,
-                },
-                rows: p.rows,
-                worst,
-                cum,
-            };
-            if better_solution(&cand, best.as_ref(), s.angle.0) {
-                best = Some(cand);
-            }
-        }
-    }
+    let mut best = greedy_best(motor, s, &root);
     let mut beam = roots;
     let mut deepest = root;
     let wide = PlanSettings {
@@ -398,6 +387,239 @@ fn search(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
             "the search found no sequence that reaches the target".into(),
         ),
     }
+}
+
+/// The best of the paper's three greedy plans from `root` that reaches the target, as a
+/// solution the searches must beat.
+fn greedy_best(motor: &Motor, s: &PlanSettings, root: &Path) -> Option<Path> {
+    let mut best: Option<Path> = None;
+    for g in [Scheme::Weighted, Scheme::MinAxisError, Scheme::MaxAngle] {
+        let q0 = root.state.q;
+        let p = greedy(motor, s, root.clone(), g);
+        if p.reached {
+            let worst = max_axis_error_deg(&p.rows).to_radians();
+            let cum = p
+                .rows
+                .last()
+                .map(|r| r.cum_angle_deg.to_radians())
+                .unwrap_or(0.0);
+            let cand = Path {
+                state: CommutationState {
+                    q: p.rows.last().map(|r| r.q).unwrap_or(q0),
+                    active: p.rows.last().map(|r| r.active.clone()).unwrap_or_default(),
+                    settle_time_s: 0.0,
+                },
+                rows: p.rows,
+                worst,
+                cum,
+            };
+            if better_solution(&cand, best.as_ref(), s.angle.0) {
+                best = Some(cand);
+            }
+        }
+    }
+    best
+}
+
+/// Progress counts in a partial plan's rank with this weight against its worst axis error
+/// (both in radians): a plan 4 degrees further on may be 1 degree worse.
+const PROGRESS_CREDIT: f64 = 0.25;
+
+/// Two settled states with the same pairs on and orientations closer than this are one state.
+const SAME_STATE_RAD: f64 = 1e-3;
+
+/// A partial plan's rank in the best-first search (smaller first): its worst cumulative axis
+/// error so far, less a credit for progress (none past the target).
+fn rank(worst: f64, cum: f64, target: f64) -> f64 {
+    worst - PROGRESS_CREDIT * cum.min(target)
+}
+
+/// An entry of the best-first search's open list: rank, then arrival order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Open {
+    rank: f64,
+    node: usize,
+}
+
+impl Eq for Open {}
+
+impl Ord for Open {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        // BinaryHeap is a max-heap: the smallest rank, then the earliest node, on top
+        o.rank
+            .total_cmp(&self.rank)
+            .then_with(|| o.node.cmp(&self.node))
+    }
+}
+
+impl PartialOrd for Open {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+/// The proposals from a partial plan's state that the search settles: all that pass the filter
+/// within the search bound, ranked by the rank their cheap prediction
+/// ([`predicted_orientation`]) would give the plan, the `settles_per_state` best.
+fn ranked_proposals(motor: &Motor, s: &PlanSettings, p: &Path) -> Vec<Proposal> {
+    let bound = Radians(s.limits.bound_start.0.max(s.limits.search_bound.0));
+    let q0 = p.rows[0].q;
+    let mut ranked: Vec<(f64, Proposal)> = proposals_within(
+        motor,
+        &p.state,
+        &s.axis,
+        s.pairs,
+        bound,
+        s.limits.max_candidates,
+    )
+    .into_iter()
+    .filter_map(|(pivot, new)| {
+        let mut set = vec![pivot];
+        set.extend_from_slice(&new);
+        let qp = predicted_orientation(motor.torques, &p.state.q, &set);
+        let (advance, _) = cumulative(&p.state.q, &qp, &s.axis);
+        if advance.0 <= 0.0 {
+            return None;
+        }
+        let (ca, ce) = cumulative(&q0, &qp, &s.axis);
+        Some((rank(p.worst.max(ce.0), ca.0, s.angle.0), (pivot, new)))
+    })
+    .collect();
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
+    // The smallest sets are all weighed (few, and the physics least like the springs of the
+    // prediction); the larger ones only where the prediction ranks them among the best.
+    let smallest = s.pairs.min - 1;
+    let mut taken = [0usize; PairsPerStep::LIMIT + 1];
+    ranked
+        .into_iter()
+        .filter(|(_, (_, new))| {
+            if new.len() <= smallest {
+                return true;
+            }
+            let k = new.len().min(PairsPerStep::LIMIT);
+            taken[k] += 1;
+            taken[k] <= s.settles_per_state
+        })
+        .map(|(_, p)| p)
+        .collect()
+}
+
+/// The settled states the best-first search has reached: (root, pairs on, sorted) -> each
+/// orientation reached with them and the node of the best partial plan that ends there.
+type StateIndex = std::collections::HashMap<(usize, Vec<Pair>), Vec<(Orientation, usize)>>;
+
+/// Best-first branch and bound over settled states (the dynamic model): the partial plan of
+/// smallest rank is expanded next, its best-ranked proposals settled in parallel; a plan that
+/// reaches the target is a solution, and partial plans already as bad as the best solution are
+/// pruned (a plan's worst error never falls along it). Two partial plans from the same root
+/// that end in the same state (same pairs on, orientation within [`SAME_STATE_RAD`]) are one:
+/// only the better goes on. The greedy plans are solutions from the start, so the search is
+/// never worse than them. The budget is counted in settles, so the plan is the same on any
+/// machine and any number of threads.
+fn best_first(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
+    let Some(root) = roots.first().cloned() else {
+        return Plan {
+            rows: Vec::new(),
+            reached: false,
+            message: Some("no initial commutation state".into()),
+        };
+    };
+    let mut best = greedy_best(motor, s, &root);
+    let mut deepest = root;
+    let mut nodes: Vec<(usize, Path)> = Vec::new();
+    let mut open = std::collections::BinaryHeap::new();
+    let mut states = StateIndex::new();
+    for (k, r) in roots.into_iter().enumerate() {
+        open.push(Open {
+            rank: rank(r.worst, r.cum, s.angle.0),
+            node: nodes.len(),
+        });
+        nodes.push((k, r));
+    }
+    let mut spent = 0usize;
+    while spent < s.settle_budget {
+        let Some(Open { node, .. }) = open.pop() else {
+            break;
+        };
+        let (root_id, path) = nodes[node].clone();
+        if best.as_ref().is_some_and(|b| path.worst >= b.worst - 1e-9) {
+            continue;
+        }
+        let key = (root_id, sorted(&path.state.active));
+        let current = states.get(&key).and_then(|v| {
+            v.iter()
+                .find(|(q, _)| q.angle_to(&path.state.q) < SAME_STATE_RAD)
+        });
+        if current.is_some_and(|&(_, k)| k != node) {
+            continue; // a better plan reached this state since
+        }
+        let proposals = ranked_proposals(motor, s, &path);
+        spent += proposals.len();
+        let q0 = path.rows[0].q;
+        let steps = evaluate_proposals(
+            motor,
+            &path.state,
+            &s.axis,
+            StepModel::Dynamic,
+            proposals,
+            &s.limits,
+        );
+        for st in &steps {
+            let c = path.extend(st, &q0, &s.axis);
+            if best.as_ref().is_some_and(|b| c.worst > b.worst + 1e-9) {
+                continue;
+            }
+            if reached(&c, s) {
+                if better_solution(&c, best.as_ref(), s.angle.0) {
+                    best = Some(c);
+                }
+                continue;
+            }
+            let key = (root_id, sorted(&c.state.active));
+            let list = states.entry(key).or_default();
+            let id = nodes.len();
+            match list
+                .iter_mut()
+                .find(|(q, _)| q.angle_to(&c.state.q) < SAME_STATE_RAD)
+            {
+                Some(entry) => {
+                    if nodes[entry.1].1.worst <= c.worst + 1e-9 {
+                        continue;
+                    }
+                    entry.1 = id;
+                }
+                None => list.push((c.state.q, id)),
+            }
+            if c.cum > deepest.cum {
+                deepest = c.clone();
+            }
+            open.push(Open {
+                rank: rank(c.worst, c.cum, s.angle.0),
+                node: id,
+            });
+            nodes.push((root_id, c));
+        }
+    }
+    match best {
+        Some(b) => Plan {
+            rows: b.rows,
+            reached: true,
+            message: None,
+        },
+        None => stopped(
+            deepest,
+            format!(
+                "the search found no sequence that reaches the target within its budget of {} settles",
+                s.settle_budget
+            ),
+        ),
+    }
+}
+
+fn sorted(v: &[Pair]) -> Vec<Pair> {
+    let mut v = v.to_vec();
+    v.sort();
+    v
 }
 
 /// Smaller worst axis error wins; on a tie (within 1e-9 rad), landing nearer the target, then

@@ -1034,10 +1034,21 @@ pub type SweepPoints = (Option<String>, Vec<([f64; 3], f64)>);
 /// in the order the schemes first appear. Values may be NaN ("no result"); axes must be finite
 /// and non-zero.
 pub fn parse_sweep(text: &str, path: &Path) -> Result<Vec<SweepPoints>> {
+    parse_sweep_column(text, path, SWEEP_COLUMNS[3])
+}
+
+/// The column of a sweep CSV with the pivot model's floor per axis (see
+/// [`crate::commutation::pivot_floor`]).
+pub const FLOOR_COLUMN: &str = "pivot_floor_deg";
+
+/// Reads a sweep CSV like [`parse_sweep`], with the values of column `value` in place of
+/// `max_axis_error_deg`.
+pub fn parse_sweep_column(text: &str, path: &Path, value: &str) -> Result<Vec<SweepPoints>> {
     let row_err = |line: usize, message: String| crate::planfile::row_error(path, line, message);
     let (mut rdr, headers) = crate::planfile::csv_reader(text, path)?;
     let col = |name: &str| headers.iter().position(|h| h == name);
-    let idx = SWEEP_COLUMNS
+    let columns = [SWEEP_COLUMNS[0], SWEEP_COLUMNS[1], SWEEP_COLUMNS[2], value];
+    let idx = columns
         .iter()
         .map(|c| col(c).ok_or_else(|| row_err(1, format!("expected a column `{c}`"))))
         .collect::<Result<Vec<_>>>()?;
@@ -1054,10 +1065,7 @@ pub fn parse_sweep(text: &str, path: &Path) -> Result<Vec<SweepPoints>> {
             s.parse::<f64>().map_err(|_| {
                 row_err(
                     line,
-                    format!(
-                        "column `{}`: expected a number, got '{s}'",
-                        SWEEP_COLUMNS[k]
-                    ),
+                    format!("column `{}`: expected a number, got '{s}'", columns[k]),
                 )
             })
         };
@@ -1191,6 +1199,24 @@ pub fn plot_csv(
                     points,
                 };
                 written.extend(write_figure(&fig, &dir.join(file))?);
+            }
+            if has(FLOOR_COLUMN) {
+                // the floor depends on the axis alone: one map, from the first scheme's cases
+                let floor = parse_sweep_column(&text, csv_path, FLOOR_COLUMN)?;
+                if let Some((_, points)) = floor.into_iter().next() {
+                    let fig = SweepMap {
+                        title: format!(
+                            "pivot model's floor (nearest coil axis line) over the sphere of \
+                             axes: {stem}"
+                        ),
+                        value_label: "floor of the worst axis error (deg)".into(),
+                        points,
+                    };
+                    written.extend(write_figure(
+                        &fig,
+                        &dir.join(format!("{stem}_pivot-floor")),
+                    )?);
+                }
             }
         }
     }

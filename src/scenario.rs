@@ -2,12 +2,12 @@
 //! damping, how to settle. Unknown keys are rejected; every value is checked, and an error names
 //! the file, the field and what was expected. Every section has defaults (the prototype).
 
-use crate::commutation::{StepLimits, StepModel};
+use crate::commutation::{PairsPerStep, StepLimits, StepModel};
 use crate::dynamics::{Body, Method, SettleParams};
 use crate::error::{Error, Result};
 use crate::geometry::{orientation_from_xyzw, unit, Degrees, Pair, Radians, UnitVec};
 use crate::packing::{self, Cap, Packing, SemiRegular};
-use crate::planner::{PlanSettings, Scheme};
+use crate::planner::{PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET};
 use crate::symmetry::Group;
 use crate::torque::{Interaction, MagnetTorques, TorqueTable, Well, WellShape};
 use nalgebra::UnitQuaternion;
@@ -79,7 +79,7 @@ pub struct Sweep {
     pub angles: Vec<Radians>,
     pub schemes: Vec<Scheme>,
     /// (model, pairs per step)
-    pub models: Vec<(StepModel, usize)>,
+    pub models: Vec<(StepModel, PairsPerStep)>,
     /// Also write each case's plan CSV.
     pub keep_plans: bool,
 }
@@ -105,6 +105,9 @@ struct RawPlan {
     scheme: Option<String>,
     model: Option<StepModel>,
     pairs_per_step: Option<usize>,
+    max_pairs_per_step: Option<usize>,
+    settle_budget: Option<usize>,
+    settles_per_state: Option<usize>,
     start: Option<[f64; 4]>,
     max_steps: Option<usize>,
     beam_width: Option<usize>,
@@ -317,15 +320,41 @@ impl Scenario {
     }
 }
 
-/// Checks a step model's pairs per step: the pivot model takes exactly 2, the dynamic 2 or more.
-pub fn check_pairs_per_step(model: StepModel, pairs: usize) -> std::result::Result<(), String> {
-    match (model, pairs) {
-        (StepModel::Pivot, 2) => Ok(()),
-        (StepModel::Pivot, k) => Err(format!("2 pairs per step for the pivot model, got {k}")),
-        (StepModel::Dynamic, k) if (2..=8).contains(&k) => Ok(()),
-        (StepModel::Dynamic, k) => Err(format!(
-            "2 to 8 pairs per step for the dynamic model, got {k}"
+/// Checks a step model's pairs per step: the pivot model takes exactly 2, the dynamic 2 to 8.
+pub fn check_pairs_per_step(
+    model: StepModel,
+    pairs: PairsPerStep,
+) -> std::result::Result<(), String> {
+    let limit = PairsPerStep::LIMIT;
+    match model {
+        StepModel::Pivot if pairs == PairsPerStep::exactly(2) => Ok(()),
+        StepModel::Pivot => Err(format!("2 pairs per step for the pivot model, got {pairs}")),
+        StepModel::Dynamic if pairs.min >= 2 && pairs.min <= pairs.max && pairs.max <= limit => {
+            Ok(())
+        }
+        StepModel::Dynamic => Err(format!(
+            "2 to {limit} pairs per step for the dynamic model, got {pairs}"
         )),
+    }
+}
+
+/// Parses pairs per step written `K` (exactly K) or `2-K` (2 to K, chosen per step).
+pub fn parse_pairs_per_step(s: &str) -> Option<PairsPerStep> {
+    match s.split_once('-') {
+        None => s.trim().parse().ok().map(PairsPerStep::exactly),
+        Some((lo, hi)) => {
+            let (lo, hi) = (lo.trim().parse().ok()?, hi.trim().parse().ok()?);
+            Some(PairsPerStep { min: lo, max: hi })
+        }
+    }
+}
+
+/// The pairs per step a model takes when none are given: the paper's 2 for the pivot model,
+/// any of 2 to 4 chosen per step for the dynamic model.
+pub fn default_pairs_per_step(model: StepModel) -> PairsPerStep {
+    match model {
+        StepModel::Pivot => PairsPerStep::exactly(2),
+        StepModel::Dynamic => PairsPerStep::up_to(4),
     }
 }
 
@@ -619,9 +648,18 @@ impl Checker<'_> {
                 )
             })?,
         };
-        let model = raw.model.unwrap_or(StepModel::Pivot);
-        let pairs = raw.pairs_per_step.unwrap_or(2);
-        check_pairs_per_step(model, pairs).map_err(|m| self.err("plan.pairs_per_step", m))?;
+        let model = raw.model.unwrap_or(StepModel::Dynamic);
+        let (pairs, field) =
+            match (raw.pairs_per_step, raw.max_pairs_per_step) {
+                (Some(_), Some(_)) => return Err(self.err(
+                    "plan.max_pairs_per_step",
+                    "either pairs_per_step (exactly K) or max_pairs_per_step (2 to K), not both",
+                )),
+                (Some(k), None) => (PairsPerStep::exactly(k), "plan.pairs_per_step"),
+                (None, Some(k)) => (PairsPerStep::up_to(k), "plan.max_pairs_per_step"),
+                (None, None) => (default_pairs_per_step(model), "plan.model"),
+            };
+        check_pairs_per_step(model, pairs).map_err(|m| self.err(field, m))?;
         let start = match raw.start {
             None => UnitQuaternion::identity(),
             Some(v) => orientation_from_xyzw(v[0], v[1], v[2], v[3]).ok_or_else(|| {
@@ -650,7 +688,7 @@ impl Checker<'_> {
             angle: Degrees(angle).to_radians(),
             scheme,
             model,
-            pairs_per_step: pairs,
+            pairs,
             start,
             limits: StepLimits {
                 min_angle: angle_field(
@@ -678,6 +716,16 @@ impl Checker<'_> {
             },
             max_steps: count("plan.max_steps", raw.max_steps, 200)?,
             beam_width: count("plan.beam_width", raw.beam_width, 24)?,
+            settle_budget: count(
+                "plan.settle_budget",
+                raw.settle_budget,
+                DEFAULT_SETTLE_BUDGET,
+            )?,
+            settles_per_state: count(
+                "plan.settles_per_state",
+                raw.settles_per_state,
+                DEFAULT_SETTLES_PER_STATE,
+            )?,
             angle_tolerance: angle_field(
                 "plan.angle_tolerance_deg",
                 raw.angle_tolerance_deg,
@@ -759,7 +807,7 @@ impl Checker<'_> {
             }
         };
         let models = match raw.models {
-            None => vec![(plan.model, plan.pairs_per_step)],
+            None => vec![(plan.model, plan.pairs)],
             Some(list) if list.is_empty() => {
                 return Err(self.err("sweep.models", "at least one model"))
             }
@@ -770,14 +818,17 @@ impl Checker<'_> {
                     let bad = || {
                         self.err(
                             &field,
-                            format!("\"pivot\" or \"dynamic:K\" (K pairs per step), got \"{n}\""),
+                            format!(
+                                "\"pivot\", \"dynamic\", \"dynamic:K\" (exactly K pairs per \
+                                 step) or \"dynamic:2-K\" (2 to K), got \"{n}\""
+                            ),
                         )
                     };
                     let m = match n.split_once(':') {
-                        None if n == "pivot" => (StepModel::Pivot, 2),
-                        None if n == "dynamic" => (StepModel::Dynamic, 2),
+                        None if n == "pivot" => (StepModel::Pivot, PairsPerStep::exactly(2)),
+                        None if n == "dynamic" => (StepModel::Dynamic, PairsPerStep::exactly(2)),
                         Some(("dynamic", k)) => {
-                            (StepModel::Dynamic, k.parse::<usize>().map_err(|_| bad())?)
+                            (StepModel::Dynamic, parse_pairs_per_step(k).ok_or_else(bad)?)
                         }
                         _ => return Err(bad()),
                     };

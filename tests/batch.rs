@@ -85,7 +85,7 @@ fn jobs_1_and_2_give_identical_bytes() {
     assert_eq!(f1.len(), 9, "{:?}", f1.keys());
     let summary = String::from_utf8(f1["summary.csv"].clone()).unwrap();
     assert_eq!(summary.lines().count(), 5);
-    assert!(summary.contains("\nd-sweep,sweep,48,24 axes,45,weighted;search,pivot,2,"));
+    assert!(summary.contains("\nd-sweep,sweep,48,24 axes,45,weighted;search,dynamic,2-4,"));
     let sweep = String::from_utf8(f1["d-sweep.csv"].clone()).unwrap();
     assert_eq!(sweep.lines().count(), 49);
     assert!(o1.join("timing.csv").is_file());

@@ -1,0 +1,205 @@
+//! The default planner about any axis (dynamic model, 2 to 4 pairs per step, best-first search):
+//! hard axes within the paper's 15 degrees, plans that are what the dynamics does, the pivot
+//! model's floor, and the planner's settings checked.
+
+mod common;
+
+use spherestep::app::{motor, plan_settings, PlanOverrides};
+use spherestep::commutation::{pivot_floor, PairsPerStep, StepModel};
+use spherestep::geometry::{unit, UnitVec};
+use spherestep::planner::{max_axis_error_deg, plan, Scheme};
+use spherestep::scenario::Scenario;
+use spherestep::simulate::simulate;
+use std::path::Path;
+use std::process::Command;
+
+fn proto() -> Scenario {
+    Scenario::load(Path::new("scenarios/prototype.toml")).unwrap()
+}
+
+fn axis(v: [f64; 3]) -> UnitVec {
+    unit(nalgebra::Vector3::new(v[0], v[1], v[2])).unwrap()
+}
+
+/// Axes in the X-Y plane (the paper's hardest case), the four worst of the 500-axis sweep and an
+/// oblique one: all far from every coil's axis line.
+const HARD_AXES: [[f64; 3]; 7] = [
+    [1.0, 0.0, 0.0],
+    [1.0, 1.0, 0.0],
+    [0.8976, -0.1140, -0.4260],
+    [0.39033, 0.69311, -0.60600],
+    [0.9632, -0.1727, -0.2060],
+    [-0.8114, -0.3420, -0.4740],
+    [-1.0, 2.0, -1.0],
+];
+
+#[test]
+fn the_default_planner_turns_hard_axes_within_15_degrees_and_its_plans_replay() {
+    let sc = proto();
+    let mut pairs_used = std::collections::BTreeSet::new();
+    for a in HARD_AXES {
+        let text = format!("{},{},{}", a[0], a[1], a[2]);
+        let s = plan_settings(
+            &sc,
+            &PlanOverrides {
+                axis: Some(text.clone()),
+                angle_deg: Some(90.0),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(s.model, StepModel::Dynamic);
+        assert_eq!(s.pairs, PairsPerStep { min: 2, max: 4 });
+        assert_eq!(s.scheme, Scheme::Search);
+        let p = plan(&motor(&sc), &s);
+        assert!(p.reached, "{text}: {:?}", p.message);
+        let worst = max_axis_error_deg(&p.rows);
+        assert!(worst <= 15.0, "{text}: worst cumulative axis error {worst}");
+        let last = p.rows.last().unwrap().cum_angle_deg;
+        assert!((89.5..100.0).contains(&last), "{text}: ends at {last}");
+        for r in &p.rows[1..] {
+            assert!((2..=4).contains(&r.active.len()), "{text}: {:?}", r.active);
+            assert_eq!(r.active.len(), r.new.len() + 1, "pivot plus the new pairs");
+            pairs_used.insert(r.active.len());
+        }
+        // the plan is what the dynamics does: replayed step by step, within 1 degree
+        let sim = simulate(&sc, &p.rows, Path::new("plan.csv")).unwrap();
+        assert_eq!(sim.len(), p.rows.len());
+        for r in &sim {
+            assert!(r.settled, "{text}: step {} does not settle", r.step);
+            assert!(
+                r.deviation_deg < 1.0,
+                "{text}: step {} lands {} deg off the plan",
+                r.step,
+                r.deviation_deg
+            );
+        }
+    }
+    // the number of pairs is chosen per step, not fixed
+    assert!(pairs_used.len() >= 2, "{pairs_used:?}");
+}
+
+#[test]
+fn the_pivot_floor_bounds_every_pivot_plan_and_the_dynamic_model_goes_below_it() {
+    let sc = proto();
+    // a coil on -Z: no floor about Z
+    assert!(pivot_floor(&sc.torques, &axis([0.0, 0.0, 1.0])).0 < 1e-12);
+    let mut below = 0;
+    for a in HARD_AXES {
+        let n = axis(a);
+        let floor = pivot_floor(&sc.torques, &n).0.to_degrees();
+        // the floor is the nearest coil axis line, of either sign
+        let by_hand = sc
+            .stator
+            .points
+            .iter()
+            .map(|s| s.dot(&n).abs().clamp(0.0, 1.0).acos().to_degrees())
+            .fold(f64::INFINITY, f64::min);
+        assert!((floor - by_hand).abs() < 1e-9);
+        let text = format!("{},{},{}", a[0], a[1], a[2]);
+        let o = |model: &str| PlanOverrides {
+            axis: Some(text.clone()),
+            model: Some(model.into()),
+            ..Default::default()
+        };
+        let pivot = plan(&motor(&sc), &plan_settings(&sc, &o("pivot")).unwrap());
+        if pivot.reached {
+            let w = max_axis_error_deg(&pivot.rows);
+            assert!(
+                w >= floor - 1e-6,
+                "{text}: pivot plan {w} below its floor {floor}"
+            );
+        }
+        let dynamic = plan(&motor(&sc), &plan_settings(&sc, &o("dynamic")).unwrap());
+        if max_axis_error_deg(&dynamic.rows) < floor {
+            below += 1;
+        }
+    }
+    assert!(
+        below >= 5,
+        "the dynamic model beats the floor on {below} of 7"
+    );
+}
+
+fn run(args: &[&str], threads: &str) -> (i32, Vec<u8>, String) {
+    let out = Command::new(common::bin())
+        .args(args)
+        .env("RAYON_NUM_THREADS", threads)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        out.stdout,
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn the_default_plan_is_the_same_bytes_on_one_and_two_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    for t in ["1", "2"] {
+        let f = dir.path().join(format!("plan-{t}.csv"));
+        let (code, json, err) = run(
+            &[
+                "plan",
+                "scenarios/prototype.toml",
+                "--axis",
+                "0.7071,0.7071,0",
+                "--out",
+                f.to_str().unwrap(),
+                "--json",
+            ],
+            t,
+        );
+        assert_eq!(code, 0, "{err}");
+        let json = String::from_utf8(json).unwrap();
+        assert!(json.contains("\"model\":\"dynamic\""), "{json}");
+        assert!(json.contains("\"pairs_per_step\":4"), "{json}");
+        files.push(std::fs::read(f).unwrap());
+    }
+    assert_eq!(files[0], files[1]);
+}
+
+/// `plan` with a scenario of `[plan]` text and extra arguments must fail naming `needles`.
+fn plan_fails_with(plan_section: &str, args: &[&str], needles: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("bad.toml");
+    std::fs::write(&file, format!("[plan]\n{plan_section}\n")).unwrap();
+    let mut all = vec!["plan", file.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let (code, _, err) = run(&all, "1");
+    assert_ne!(code, 0, "must fail: {err}");
+    assert_ne!(code, 101, "a panic is not an error message: {err}");
+    for n in needles {
+        assert!(err.contains(n), "expected '{n}' in: {err}");
+    }
+}
+
+#[test]
+fn pairs_and_budgets_out_of_range_are_refused_naming_the_field() {
+    plan_fails_with(
+        "max_pairs_per_step = 9",
+        &[],
+        &["bad.toml", "plan.max_pairs_per_step", "2 to 8", "2-9"],
+    );
+    plan_fails_with("max_pairs_per_step = 1", &[], &["plan.max_pairs_per_step"]);
+    plan_fails_with(
+        "pairs_per_step = 3\nmax_pairs_per_step = 4",
+        &[],
+        &["plan.max_pairs_per_step", "not both"],
+    );
+    plan_fails_with("settle_budget = 0", &[], &["plan.settle_budget", ">= 1"]);
+    plan_fails_with(
+        "settles_per_state = 0",
+        &[],
+        &["plan.settles_per_state", ">= 1"],
+    );
+    plan_fails_with("", &["--pairs", "2-9"], &["--pairs", "2 to 8"]);
+    plan_fails_with("", &["--pairs", "four"], &["--pairs", "2-K", "four"]);
+    plan_fails_with(
+        "",
+        &["--model", "pivot", "--pairs", "3"],
+        &["--pairs", "pivot model"],
+    );
+}
