@@ -1,6 +1,7 @@
 //! spherestep: commutation, motion planning, settling and hardware replay for spherical stepper
 //! motors (a ball rotor of permanent magnets turned by switching the electromagnets of a small
-//! stator cap). Conventions: ../shared/MODEL.md, summarised in the README.
+//! stator cap). Conventions (frames, quaternion order, units, well shapes, step models,
+//! figures of merit): docs/model.md in the repository, summarised in the README.
 
 pub mod app;
 pub mod batch;
