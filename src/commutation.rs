@@ -9,7 +9,7 @@ use crate::geometry::{
     angular_distance, axis_error, rot_q, rotation_angle, signed_angle_about, CoilId, MagnetId,
     Orientation, Pair, Radians, UnitVec,
 };
-use crate::torque::MagnetTorques;
+use crate::torque::{MagnetTorques, Well};
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -243,8 +243,44 @@ pub struct StepLimits {
     pub search_bound: Radians,
     /// A pair counts as holding only when its magnet ends within this distance of its coil:
     /// steps that leave an active pair further out are discarded (the "certain error" of the
-    /// paper's section 2.1, within the peak of the coil's attraction).
-    pub capture: Radians,
+    /// paper's section 2.1, within the peak of the coil's attraction). `None`: the model's own,
+    /// see [`StepLimits::capture_for`].
+    pub capture: Option<Radians>,
+}
+
+/// The pivot model's capture distance: its geometric prediction holds only while the magnets
+/// stay near their coils.
+pub const PIVOT_CAPTURE: Radians = Radians(6.0 * std::f64::consts::PI / 180.0);
+
+impl StepLimits {
+    /// The capture distance in force: the one given; else [`PIVOT_CAPTURE`] for the pivot
+    /// model, and for the dynamic model the distance at which the well's pull peaks
+    /// ([`peak_pull_distance`]): nearer in, the pull grows as the magnet is pushed out, so the
+    /// pair holds; further out it weakens, and a push takes the magnet away.
+    pub fn capture_for(&self, model: StepModel, well: &Well) -> Radians {
+        match (self.capture, model) {
+            (Some(c), _) => c,
+            (None, StepModel::Pivot) => PIVOT_CAPTURE,
+            (None, StepModel::Dynamic) => peak_pull_distance(well),
+        }
+    }
+}
+
+/// The distance from its coil at which a well pulls a magnet hardest (the largest g(d) up to
+/// the maximum attraction distance, on a grid of 0.01 degrees; the nearest such distance):
+/// sigma for a gaussian well, the cut-off for a cosine well of less than 90 degrees.
+pub fn peak_pull_distance(well: &Well) -> Radians {
+    let step = 0.01f64.to_radians();
+    let n = (well.max_attraction.0 / step).floor() as usize;
+    let (mut best_d, mut best_g) = (0.0, well.g(0.0));
+    for k in 1..=n {
+        let d = k as f64 * step;
+        let g = well.g(d);
+        if g > best_g {
+            (best_d, best_g) = (d, g);
+        }
+    }
+    Radians(best_d)
 }
 
 impl Default for StepLimits {
@@ -255,7 +291,7 @@ impl Default for StepLimits {
             bound_start: ERROR_BOUND_START,
             max_candidates: 8,
             search_bound: Radians(45f64.to_radians()),
-            capture: Radians(6f64.to_radians()),
+            capture: None,
         }
     }
 }
@@ -437,12 +473,13 @@ fn evaluate(
                 .collect()
         }
     };
+    let capture = limits.capture_for(model, &motor.torques.well);
     proposals
         .into_iter()
         .zip(outcomes)
         .filter_map(|((pivot, new), to)| {
             let to = to?;
-            if !holds(motor.torques, &to, limits.capture) {
+            if !holds(motor.torques, &to, capture) {
                 return None;
             }
             let (angle, err) = step_measure(&state.q, &to.q, n);
@@ -640,6 +677,76 @@ pub fn angle_between(a: &Orientation, b: &Orientation) -> Radians {
 mod tests {
     use super::*;
     use crate::geometry::unit;
+
+    fn well(shape: crate::torque::WellShape, max_deg: f64) -> Well {
+        Well {
+            shape,
+            max_attraction: Radians(max_deg.to_radians()),
+        }
+    }
+
+    #[test]
+    fn the_pull_peaks_at_sigma_for_a_gaussian_well_and_at_the_cut_off_for_a_cosine_one() {
+        use crate::torque::WellShape;
+        let g = well(
+            WellShape::Gaussian {
+                strength_j: 0.25,
+                width: Radians(10f64.to_radians()),
+            },
+            30.0,
+        );
+        assert!((peak_pull_distance(&g).0.to_degrees() - 10.0).abs() < 0.011);
+        let c = well(WellShape::Cosine { strength_j: 0.25 }, 40.0);
+        assert!((peak_pull_distance(&c).0.to_degrees() - 40.0).abs() < 0.011);
+        // the capture in force: given, else the model's
+        let mut l = StepLimits::default();
+        assert_eq!(l.capture_for(StepModel::Pivot, &g), PIVOT_CAPTURE);
+        assert_eq!(
+            l.capture_for(StepModel::Dynamic, &g),
+            peak_pull_distance(&g)
+        );
+        l.capture = Some(Radians(0.1));
+        assert_eq!(l.capture_for(StepModel::Dynamic, &g), Radians(0.1));
+    }
+
+    #[test]
+    fn the_prediction_finds_the_rotation_that_puts_every_magnet_on_its_coil() {
+        use crate::torque::{Interaction, WellShape};
+        // three coils, and magnets placed so that one rotation puts each on its coil
+        let stator = vec![
+            Vector3::new(0.0, 0.0, -1.0),
+            Vector3::new(0.3, 0.1, -0.9).normalize(),
+            Vector3::new(-0.2, 0.35, -0.9).normalize(),
+        ];
+        let truth = rot_q(&unit(Vector3::new(0.3, -1.0, 0.2)).unwrap(), Radians(0.25));
+        let rotor: Vec<Vector3<f64>> = stator.iter().map(|s| truth.inverse() * s).collect();
+        let torques = MagnetTorques {
+            rotor,
+            stator,
+            well: well(WellShape::Cosine { strength_j: 0.1 }, 40.0),
+            interaction: Interaction::Pairs,
+        };
+        let q = UnitQuaternion::identity();
+        for set in [
+            vec![Pair::new(0, 0), Pair::new(1, 1)],
+            vec![Pair::new(0, 0), Pair::new(1, 1), Pair::new(2, 2)],
+        ] {
+            let p = predicted_orientation(&torques, &q, &set);
+            assert!(
+                p.angle_to(&truth) < 1e-12,
+                "{set:?}: {}",
+                p.angle_to(&truth)
+            );
+        }
+        // from a start that is itself turned, the prediction composes with it
+        let start = rot_q(&unit(Vector3::z()).unwrap(), Radians(0.1));
+        let p = predicted_orientation(
+            &torques,
+            &start,
+            &[Pair::new(0, 0), Pair::new(1, 1), Pair::new(2, 2)],
+        );
+        assert!(p.angle_to(&truth) < 1e-12);
+    }
 
     #[test]
     fn combinations_are_complete_and_ordered() {

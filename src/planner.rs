@@ -171,7 +171,8 @@ impl Path {
 
 /// Plans a motion.
 pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
-    let inits = initial_states(motor, &s.start, s.model, &s.axis, s.limits.capture);
+    let capture = s.limits.capture_for(s.model, &motor.torques.well);
+    let inits = initial_states(motor, &s.start, s.model, &s.axis, capture);
     let Some(first) = inits.first() else {
         return Plan {
             rows: Vec::new(),
@@ -307,7 +308,7 @@ fn search(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
             message: Some("no initial commutation state".into()),
         };
     };
-    let mut best = greedy_best(motor, s, &root);
+    let mut best = greedy_best(motor, s, &root, better_solution);
     let mut beam = roots;
     let mut deepest = root;
     let wide = PlanSettings {
@@ -337,7 +338,7 @@ fn search(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
                 continue;
             }
             if reached(&c, s) {
-                if better_solution(&c, best.as_ref(), s.angle.0) {
+                if better_solution(&c, best.as_ref(), s) {
                     best = Some(c);
                 }
             } else {
@@ -391,7 +392,12 @@ fn search(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
 
 /// The best of the paper's three greedy plans from `root` that reaches the target, as a
 /// solution the searches must beat.
-fn greedy_best(motor: &Motor, s: &PlanSettings, root: &Path) -> Option<Path> {
+fn greedy_best(
+    motor: &Motor,
+    s: &PlanSettings,
+    root: &Path,
+    better: fn(&Path, Option<&Path>, &PlanSettings) -> bool,
+) -> Option<Path> {
     let mut best: Option<Path> = None;
     for g in [Scheme::Weighted, Scheme::MinAxisError, Scheme::MaxAngle] {
         let q0 = root.state.q;
@@ -413,7 +419,7 @@ fn greedy_best(motor: &Motor, s: &PlanSettings, root: &Path) -> Option<Path> {
                 worst,
                 cum,
             };
-            if better_solution(&cand, best.as_ref(), s.angle.0) {
+            if better(&cand, best.as_ref(), s) {
                 best = Some(cand);
             }
         }
@@ -524,7 +530,7 @@ fn best_first(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
             message: Some("no initial commutation state".into()),
         };
     };
-    let mut best = greedy_best(motor, s, &root);
+    let mut best = greedy_best(motor, s, &root, better_landing);
     let mut deepest = root;
     let mut nodes: Vec<(usize, Path)> = Vec::new();
     let mut open = std::collections::BinaryHeap::new();
@@ -542,7 +548,10 @@ fn best_first(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
             break;
         };
         let (root_id, path) = nodes[node].clone();
-        if best.as_ref().is_some_and(|b| path.worst >= b.worst - 1e-9) {
+        if best
+            .as_ref()
+            .is_some_and(|b| path.worst >= score(b, s) - 1e-9)
+        {
             continue;
         }
         let key = (root_id, sorted(&path.state.active));
@@ -566,11 +575,11 @@ fn best_first(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
         );
         for st in &steps {
             let c = path.extend(st, &q0, &s.axis);
-            if best.as_ref().is_some_and(|b| c.worst > b.worst + 1e-9) {
+            if best.as_ref().is_some_and(|b| c.worst > score(b, s) + 1e-9) {
                 continue;
             }
             if reached(&c, s) {
-                if better_solution(&c, best.as_ref(), s.angle.0) {
+                if better_landing(&c, best.as_ref(), s) {
                     best = Some(c);
                 }
                 continue;
@@ -622,9 +631,33 @@ fn sorted(v: &[Pair]) -> Vec<Pair> {
     v
 }
 
+/// How far a complete plan departs from the motion asked for, rad: its worst cumulative axis
+/// error, or how far it lands past the target (beyond the angle tolerance) if that is more.
+/// Both are angles by which the ball's rotation misses the requested one.
+fn score(p: &Path, s: &PlanSettings) -> f64 {
+    let landing = ((p.cum - s.angle.0).abs() - s.angle_tolerance.0).max(0.0);
+    p.worst.max(landing)
+}
+
+/// The best-first search's order of complete plans: the smaller [`score`] wins; on a tie
+/// (within 1e-9 rad), as [`better_solution`].
+fn better_landing(c: &Path, best: Option<&Path>, s: &PlanSettings) -> bool {
+    match best {
+        None => true,
+        Some(b) => {
+            let (sc, sb) = (score(c, s), score(b, s));
+            if (sc - sb).abs() > 1e-9 {
+                return sc < sb;
+            }
+            better_solution(c, Some(b), s)
+        }
+    }
+}
+
 /// Smaller worst axis error wins; on a tie (within 1e-9 rad), landing nearer the target, then
 /// fewer steps.
-fn better_solution(c: &Path, best: Option<&Path>, target: f64) -> bool {
+fn better_solution(c: &Path, best: Option<&Path>, s: &PlanSettings) -> bool {
+    let target = s.angle.0;
     match best {
         None => true,
         Some(b) => {

@@ -707,7 +707,14 @@ impl Checker<'_> {
                     d.bound_start,
                 )?,
                 max_candidates: count("plan.max_candidates", raw.max_candidates, d.max_candidates)?,
-                capture: angle_field("plan.capture_deg", raw.capture_deg, d.capture)?,
+                capture: match raw.capture_deg {
+                    None => None,
+                    Some(_) => Some(angle_field(
+                        "plan.capture_deg",
+                        raw.capture_deg,
+                        Radians(0.0),
+                    )?),
+                },
                 search_bound: angle_field(
                     "plan.search_bound_deg",
                     raw.search_bound_deg,

@@ -54,7 +54,8 @@ fn the_default_planner_turns_hard_axes_within_15_degrees_and_its_plans_replay() 
         let p = plan(&motor(&sc), &s);
         assert!(p.reached, "{text}: {:?}", p.message);
         let worst = max_axis_error_deg(&p.rows);
-        assert!(worst <= 15.0, "{text}: worst cumulative axis error {worst}");
+        // the paper's bound is 15 degrees; the default planner keeps within 10 (the stretch)
+        assert!(worst <= 10.0, "{text}: worst cumulative axis error {worst}");
         let last = p.rows.last().unwrap().cum_angle_deg;
         assert!((89.5..100.0).contains(&last), "{text}: ends at {last}");
         for r in &p.rows[1..] {
