@@ -109,7 +109,7 @@ fn run() -> Result<()> {
             other += c.other_basin as usize;
             if !c.agrees {
                 outside += 1;
-                if outside <= 5 {
+                if outside <= 3 || c.other_basin {
                     eprintln!(
                         "  kind {k}: {set:?}: {:.3e} rad, t {:.4} / {:.4} s, settled {} / {}",
                         c.angle, f.settle_time_s, r.settle_time_s, f.settled, r.settled

@@ -10,9 +10,10 @@
 //! in tests/settle.rs pin this).
 
 use crate::geometry::{Orientation, Pair};
-use crate::integrator::{integrate_until, OdeSystem, Tolerances};
+use crate::integrator::{integrate_until, End, OdeSystem, Tolerances};
 use crate::torque::{rotation_matrix, TorqueModel};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use ode_solvers::dop_shared::IntegrationError;
 use ode_solvers::{Dopri5, OutputType, SVector, System};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -102,7 +103,50 @@ pub struct SettleResult {
     pub omega_rad_s: f64,
     /// Whether the settle test passed before `t_max`.
     pub settled: bool,
+    /// Why the settle ended (`Settled` exactly when `settled`).
+    pub stop: Stop,
 }
+
+/// Why a settle ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stop {
+    /// The settle test passed.
+    Settled,
+    /// `t_max` came first.
+    TimeLimit,
+    /// The cap on integrator steps came first (`integrator::MAX_ATTEMPTS` for the fast path,
+    /// [`REFERENCE_MAX_STEPS`] for Dopri5): every settle has a bounded cost.
+    StepLimit,
+    /// The step size collapsed: the tolerances cannot be met in double precision.
+    StepSizeUnderflow,
+}
+
+impl Stop {
+    /// A sentence for people.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Stop::Settled => "settled",
+            Stop::TimeLimit => "not settled by t_max",
+            Stop::StepLimit => "stopped by the cap on integrator steps",
+            Stop::StepSizeUnderflow => "stopped: the step size collapsed (tolerances too tight?)",
+        }
+    }
+}
+
+impl From<End> for Stop {
+    fn from(e: End) -> Stop {
+        match e {
+            End::Stopped => Stop::Settled,
+            End::TimeLimit => Stop::TimeLimit,
+            End::StepLimit => Stop::StepLimit,
+            End::StepSizeUnderflow => Stop::StepSizeUnderflow,
+        }
+    }
+}
+
+/// The most steps the Dopri5 path (the reference, and the fast path's tight fallback) takes.
+pub const REFERENCE_MAX_STEPS: u32 = 1_000_000;
 
 /// The equations of motion for one active set.
 pub struct RotorDynamics<'a, M: TorqueModel> {
@@ -232,7 +276,7 @@ pub fn settle_traced<M: TorqueModel>(
     let sys = RotorDynamics::new(model, active, body);
     if sys.body_torque(&y0).norm() < params.torque_tol {
         // Already in equilibrium and at rest.
-        return finish(model, active, &y0, 0.0, 1, 0, true);
+        return finish(model, active, &y0, 0.0, 1, 0, Stop::Settled);
     }
     match params.method {
         Method::Bs32 => settle_fast(&sys, y0, params, trace),
@@ -291,6 +335,7 @@ fn settle_fast<M: TorqueModel>(
     };
     let mut end: Option<EndPhase> = None;
     let (mut newton_evals, mut skip, mut backoff) = (0u32, 0u32, 1u32);
+    let mut near_cutoff = false;
     let out = integrate_until(sys, y0, params.t_max, tol, |t, y, dy| {
         if let Some(tr) = trace.as_deref_mut() {
             tr.push((t, State::from_column_slice(y)));
@@ -310,11 +355,12 @@ fn settle_fast<M: TorqueModel>(
         if nb.norm() > LINEAR_RADIUS * k1 || w.norm() > LINEAR_RADIUS * (k1 / i.x).sqrt() {
             return false;
         }
-        match EndPhase::find(sys, y, t, &mut newton_evals) {
+        match EndPhase::find(sys, y, t, &mut newton_evals, &mut near_cutoff) {
             Some(e) => {
                 end = Some(e);
                 true
             }
+            None if near_cutoff => true,
             None => {
                 // not yet (or never) near a strict minimum: look again later, less often
                 skip = backoff;
@@ -336,7 +382,11 @@ fn settle_fast<M: TorqueModel>(
             t,
             evaluations,
             out.steps,
-            settled,
+            if settled {
+                Stop::Settled
+            } else {
+                Stop::TimeLimit
+            },
         );
     }
     if sys.body.damping <= 0.0 {
@@ -349,10 +399,13 @@ fn settle_fast<M: TorqueModel>(
             out.t,
             evaluations,
             out.steps,
-            false,
+            match out.end {
+                End::Stopped => Stop::TimeLimit,
+                e => e.into(),
+            },
         );
     }
-    if scale.is_some() {
+    if scale.is_some() && matches!(out.end, End::Stopped | End::TimeLimit) {
         // settled (or still moving at t_max), but never near a strict minimum: not sure where
         // along the free direction the ball stops, nor when
         let tight = SettleParams {
@@ -371,7 +424,7 @@ fn settle_fast<M: TorqueModel>(
         out.t,
         evaluations,
         out.steps,
-        out.stopped,
+        out.end.into(),
     )
 }
 
@@ -388,6 +441,13 @@ const NONLINEAR_RTOL: f64 = 1e-3;
 /// 2,000 in another equilibrium; 1e-4 none.
 const NONLINEAR_RTOL_PER_ZETA2: f64 = 2.5e-3;
 const NONLINEAR_RTOL_FLOOR: f64 = 1e-5;
+
+/// A minimum with a magnet closer than this (rad, 2 degrees) to its well's cut-off is not
+/// trusted: the ball came there skirting the discontinuity of the torque at the cut-off, where
+/// whether a magnet drifts out of reach or falls back in is decided by errors a loose tolerance
+/// allows (one set in 4,000 of examples/basins.rs ended 3.4 degrees from the reference's
+/// equilibrium so): the settle is run again at tight tolerances.
+const CUTOFF_SAFETY: f64 = 0.035;
 
 /// Tolerances of the tight integration the fast path falls back to.
 const FALLBACK_RTOL: f64 = 1e-9;
@@ -440,6 +500,7 @@ impl EndPhase {
         y: &[f64; 7],
         t: f64,
         evaluations: &mut u32,
+        near_cutoff: &mut bool,
     ) -> Option<EndPhase> {
         let q_sw = normalized([y[0], y[1], y[2], y[3]]);
         let w = Vector3::new(y[4], y[5], y[6]);
@@ -486,6 +547,10 @@ impl EndPhase {
         let amplitude =
             (delta0.norm_squared() + sys.body.inertia.x * w.norm_squared() / kmin).sqrt();
         if amplitude > LINEAR_RADIUS || margin < 2.0 * amplitude + 1e-9 {
+            return None;
+        }
+        if margin < CUTOFF_SAFETY {
+            *near_cutoff = true;
             return None;
         }
         let modes = eig.eigenvectors;
@@ -620,7 +685,10 @@ fn settle_dopri5<M: TorqueModel>(
         settled_at: None,
     };
     let start = State::from_column_slice(&y0);
-    let mut solver = Dopri5::new(
+    // Hairer's defaults (safety 0.9, beta 0.04, step factors 0.2 to 10), a cap on the steps,
+    // and no stiffness test: a settle is mildly stiff (fast damped modes), which Dopri5 handles
+    // with more steps, and giving up there stopped heavily damped references early.
+    let mut solver = Dopri5::from_param(
         &mut run,
         0.0,
         params.t_max,
@@ -628,9 +696,18 @@ fn settle_dopri5<M: TorqueModel>(
         start,
         params.rtol,
         params.atol,
+        0.9,
+        0.04,
+        0.2,
+        10.0,
+        params.t_max,
+        0.0,
+        REFERENCE_MAX_STEPS,
+        u32::MAX,
+        OutputType::Sparse,
     );
-    solver.set_output(OutputType::Sparse);
     let outcome = solver.integrate();
+    let solver_steps = solver.x_out().len().saturating_sub(1) as u32;
     let y_end = as_array(solver.y_out().last().unwrap_or(&start));
     let t_end = *solver.x_out().last().unwrap_or(&0.0);
     if let Some(trace) = trace {
@@ -645,7 +722,15 @@ fn settle_dopri5<M: TorqueModel>(
     drop(solver);
     let (evals, steps) = match &outcome {
         Ok(stats) => (stats.num_eval, stats.accepted_steps),
-        Err(_) => (0, 0),
+        // ode_solvers keeps its counts private when it stops with an error: at least the
+        // steps it wrote out
+        Err(_) => (0, solver_steps),
+    };
+    let stop = match (&outcome, run.settled_at) {
+        (_, Some(_)) => Stop::Settled,
+        (Ok(_), None) => Stop::TimeLimit,
+        (Err(IntegrationError::StepSizeUnderflow { .. }), None) => Stop::StepSizeUnderflow,
+        (Err(_), None) => Stop::StepLimit,
     };
     finish(
         sys.model,
@@ -654,7 +739,7 @@ fn settle_dopri5<M: TorqueModel>(
         run.settled_at.unwrap_or(t_end),
         evals,
         steps,
-        run.settled_at.is_some(),
+        stop,
     )
 }
 
@@ -665,7 +750,7 @@ fn finish<M: TorqueModel>(
     t: f64,
     evaluations: u32,
     steps: u32,
-    settled: bool,
+    stop: Stop,
 ) -> SettleResult {
     let q = UnitQuaternion::from_quaternion(Quaternion::new(y[3], y[0], y[1], y[2]));
     let r = q.to_rotation_matrix();
@@ -678,7 +763,8 @@ fn finish<M: TorqueModel>(
         energy_j: energy,
         residual_torque_nm: tau.norm(),
         omega_rad_s: Vector3::new(y[4], y[5], y[6]).norm(),
-        settled,
+        settled: stop == Stop::Settled,
+        stop,
     }
 }
 
