@@ -67,7 +67,7 @@ fn run() -> Result<()> {
     let seed: u64 = arg_value(&args, "--seed")?.unwrap_or(17);
     let only: Option<usize> = arg_value(&args, "--kind")?;
     println!(
-        "kind | shape | damping | pairs | sets | settled (ref) | other basin | outside bounds | \
+        "kind | shape | damping | pairs | sets | settled (ref) | other basin | outside bounds | flag differs | \
          worst angle rad | worst dt s | evals fast / ref | ms fast / ref"
     );
     let (mut total_other, mut total_outside) = (0, 0);
@@ -101,12 +101,13 @@ fn run() -> Result<()> {
             .map(|s| settle(&torques, s, &q0, body, params.reference()))
             .collect();
         let t_ref = t.elapsed();
-        let (mut other, mut outside, mut settled) = (0, 0, 0);
+        let (mut other, mut outside, mut settled, mut flag) = (0, 0, 0, 0);
         let (mut worst_angle, mut worst_dt) = (0.0f64, 0.0f64);
         for ((set, f), r) in sets.iter().zip(&fast).zip(&reference) {
             let c = compare(f, r);
             settled += r.settled as usize;
             other += c.other_basin as usize;
+            flag += (!c.same_flag) as usize;
             if !c.agrees {
                 outside += 1;
                 if outside <= 3 || c.other_basin {
@@ -125,7 +126,7 @@ fn run() -> Result<()> {
             v.iter().map(|r| r.evaluations as f64).sum::<f64>() / v.len() as f64
         };
         println!(
-            "{k} | {:?} | {} | {} | {} | {settled} | {other} | {outside} | {worst_angle:.2e} | \
+            "{k} | {:?} | {} | {} | {} | {settled} | {other} | {outside} | {flag} | {worst_angle:.2e} | \
              {worst_dt:.2e} | {:.0} / {:.0} | {:.0} / {:.0}",
             kind.shape,
             kind.damping_ratio,
