@@ -32,7 +32,27 @@ pub struct Outcome<const N: usize> {
     pub steps: u32,
     /// Whether the stop test passed (otherwise `t_max` was reached, or the step size collapsed).
     pub stopped: bool,
+    /// Why the integration ended.
+    pub end: End,
 }
+
+/// Why an integration ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum End {
+    /// The stop test passed.
+    Stopped,
+    /// `t_max` was reached.
+    TimeLimit,
+    /// [`MAX_ATTEMPTS`] steps were tried: a bounded cost whatever the problem's stiffness or
+    /// the tolerances asked (an inertia of 1e-12 needs steps of picoseconds).
+    StepLimit,
+    /// The step size fell below 1e-14 t_max (or the error was not finite): the tolerances
+    /// cannot be met in double precision.
+    StepSizeUnderflow,
+}
+
+/// The most steps (accepted or rejected) one integration tries: 3 evaluations each.
+pub const MAX_ATTEMPTS: u32 = 1_000_000;
 
 const SAFETY: f64 = 0.9;
 const MIN_FACTOR: f64 = 0.2;
@@ -70,7 +90,14 @@ where
     let (mut tmp, mut y_new) = ([0.0; N], [0.0; N]);
     // ln of the error of the last accepted step, and whether the step before this was rejected
     let (mut ln_err_old, mut rejected) = (0.0f64, false);
+    let mut end = End::TimeLimit;
+    let mut attempts = 0u32;
     while t < t_max {
+        attempts += 1;
+        if attempts > MAX_ATTEMPTS {
+            end = End::StepLimit;
+            break;
+        }
         let last = t + h >= t_max;
         if last {
             h = t_max - t;
@@ -99,6 +126,7 @@ where
         }
         let err = (sum / N as f64).sqrt();
         if !err.is_finite() {
+            end = End::StepSizeUnderflow;
             break;
         }
         if err <= 1.0 {
@@ -113,6 +141,7 @@ where
                     evaluations,
                     steps,
                     stopped: true,
+                    end: End::Stopped,
                 };
             }
             // err^-alpha * err_old^beta, with one logarithm and one exponential per step
@@ -126,6 +155,7 @@ where
             h *= (SAFETY / err.cbrt()).max(MIN_FACTOR);
             rejected = true;
             if h < t_max * 1e-14 {
+                end = End::StepSizeUnderflow;
                 break;
             }
         }
@@ -136,6 +166,7 @@ where
         evaluations,
         steps,
         stopped: false,
+        end,
     }
 }
 

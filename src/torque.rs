@@ -22,6 +22,31 @@ pub trait TorqueModel: Sync {
     fn body_torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
         r.transpose() * self.torque(r, active)
     }
+
+    /// The body-frame torque and its derivative with respect to a small body-frame rotation
+    /// (R -> R exp([delta]x)), for the settle's linear end phase; `None` when the model has no
+    /// analytic derivative (the settle then integrates to the end).
+    fn linearize(&self, _r: &Matrix3<f64>, _active: &[Pair]) -> Option<Linearization> {
+        None
+    }
+
+    /// A typical stiffness of one aligned pair (N m / rad): the scale at which the settle looks
+    /// for the linear regime. `None` when the model offers no [`TorqueModel::linearize`].
+    fn stiffness_scale(&self) -> Option<f64> {
+        None
+    }
+}
+
+/// The torque near an orientation, to first order: N_B(delta) = torque + jacobian delta.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Linearization {
+    /// Body-frame torque N_B, N m.
+    pub torque: Vector3<f64>,
+    /// dN_B / d delta, N m / rad (minus the stiffness; symmetric at an equilibrium).
+    pub jacobian: Matrix3<f64>,
+    /// The smallest distance of any attracted magnet's angle from the well's cut-off, rad: the
+    /// torque is smooth (and the linearization good) only within it.
+    pub cutoff_margin: f64,
 }
 
 /// The body-to-world rotation matrix of the quaternion (x, y, z, w), which need not be
@@ -235,6 +260,36 @@ impl Well {
         }
     }
 
+    /// f(d) = g(d) / sin d and f'(d) / sin d, for the torque's derivative; `None` for a table
+    /// (no analytic derivative) and at the antipode. Both 0 beyond the cut-off.
+    #[inline]
+    fn f_and_slope(&self, d: f64, sin_d: f64) -> Option<(f64, f64)> {
+        if d > self.max_attraction.0 {
+            return Some((0.0, 0.0));
+        }
+        if sin_d < 1e-7 && d > 1.0 {
+            return None;
+        }
+        match &self.shape {
+            WellShape::Gaussian { strength_j, width } => {
+                let inv_s2 = 1.0 / (width.0 * width.0);
+                let e = strength_j * inv_s2 * (-0.5 * d * d * inv_s2).exp();
+                // (d / sin d) and (sin d - d cos d) / sin^3 d, by series near 0
+                let (d_over_sin, bracket) = if d < 1e-3 {
+                    (1.0 + d * d / 6.0, 1.0 / 3.0 + 2.0 * d * d / 15.0)
+                } else {
+                    let s3 = sin_d * sin_d * sin_d;
+                    (d / sin_d, (sin_d - d * d.cos()) / s3)
+                };
+                let f = e * d_over_sin;
+                let slope = e * (bracket - d_over_sin * d_over_sin * inv_s2);
+                Some((f, slope))
+            }
+            WellShape::Cosine { strength_j } => Some((*strength_j, 0.0)),
+            WellShape::Table(_) => None,
+        }
+    }
+
     /// Stiffness dg/dd at d = 0 (N m / rad): how hard a single aligned pair holds.
     pub fn stiffness(&self) -> f64 {
         match &self.shape {
@@ -290,6 +345,33 @@ impl MagnetTorques {
         let sin_d = x.norm();
         let d = angle_from_sin_cos(sin_d, c);
         x * self.well.g_over_sin(d, sin_d)
+    }
+
+    /// Adds one pair's body-frame torque and its derivative to `lin` (coil `s` and magnet `p`
+    /// in the body frame): with u = p x s and c = p . s, N = f u and
+    /// dN/d delta = f (s p^T - c 1) - (f'/sin d) u u^T. `None` without an analytic slope.
+    #[inline]
+    fn pair_linearization(
+        &self,
+        p: &Vector3<f64>,
+        s: &Vector3<f64>,
+        lin: &mut Linearization,
+    ) -> Option<()> {
+        let c = p.dot(s);
+        let u = p.cross(s);
+        let sin_d = u.norm();
+        let d = angle_from_sin_cos(sin_d, c);
+        lin.cutoff_margin = lin
+            .cutoff_margin
+            .min((d - self.well.max_attraction.0).abs());
+        if d > self.well.max_attraction.0 {
+            return Some(());
+        }
+        let (f, slope) = self.well.f_and_slope(d, sin_d)?;
+        lin.torque += u * f;
+        lin.jacobian +=
+            (s * p.transpose() - Matrix3::identity() * c) * f - u * u.transpose() * slope;
+        Some(())
     }
 
     /// World positions of all magnets at `r` (used by callers that need the whole picture).
@@ -362,6 +444,38 @@ impl TorqueModel for MagnetTorques {
             }
         }
         tau
+    }
+
+    fn linearize(&self, r: &Matrix3<f64>, active: &[Pair]) -> Option<Linearization> {
+        let mut lin = Linearization {
+            torque: Vector3::zeros(),
+            jacobian: Matrix3::zeros(),
+            cutoff_margin: f64::INFINITY,
+        };
+        match self.interaction {
+            Interaction::Pairs => {
+                for pr in active {
+                    let s = r.tr_mul(&self.stator[pr.coil.0]);
+                    self.pair_linearization(&self.rotor[pr.magnet.0], &s, &mut lin)?;
+                }
+            }
+            Interaction::Coils => {
+                for c in Self::coils(active) {
+                    let s = r.tr_mul(&self.stator[c]);
+                    for m in &self.rotor {
+                        self.pair_linearization(m, &s, &mut lin)?;
+                    }
+                }
+            }
+        }
+        Some(lin)
+    }
+
+    fn stiffness_scale(&self) -> Option<f64> {
+        match self.well.shape {
+            WellShape::Table(_) => None,
+            _ => Some(self.well.stiffness()),
+        }
     }
 }
 
@@ -436,6 +550,59 @@ mod tests {
         let p = m.rotor[0];
         let moved = p + t.cross(&p) * 1e-3;
         assert!(moved.normalize().dot(&m.stator[0]) > p.dot(&m.stator[0]));
+    }
+
+    #[test]
+    fn the_linearization_is_the_torque_and_its_derivative() {
+        // finite differences of the body torque under R -> R exp([delta]x), at orientations
+        // where the pairs are 0 to 25 degrees from their coils (and one beyond the cut-off)
+        let rotor = vec![
+            Vector3::new(0.0, 0.3f64.sin(), -0.3f64.cos()),
+            Vector3::new(0.2f64.sin(), 0.0, -0.2f64.cos()),
+            Vector3::new(-0.3, -0.2, -0.9).normalize(),
+        ];
+        let stator = vec![
+            Vector3::new(0.0, 0.0, -1.0),
+            Vector3::new(0.1, 0.05, -1.0).normalize(),
+            Vector3::new(-0.2, -0.3, -0.9).normalize(),
+        ];
+        let active = [Pair::new(0, 0), Pair::new(1, 1), Pair::new(2, 2)];
+        for w in wells().into_iter().take(2) {
+            let m = MagnetTorques {
+                rotor: rotor.clone(),
+                stator: stator.clone(),
+                well: w,
+                interaction: Interaction::Pairs,
+            };
+            let r = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.05, -0.1, 0.02));
+            let lin = m.linearize(r.matrix(), &active).unwrap();
+            assert!((lin.torque - m.body_torque(r.matrix(), &active)).norm() < 1e-12);
+            let h = 1e-6;
+            for k in 0..3 {
+                let mut e = Vector3::zeros();
+                e[k] = h;
+                let plus = r * nalgebra::Rotation3::from_scaled_axis(e);
+                let minus = r * nalgebra::Rotation3::from_scaled_axis(-e);
+                let fd = (m.body_torque(plus.matrix(), &active)
+                    - m.body_torque(minus.matrix(), &active))
+                    / (2.0 * h);
+                let col = lin.jacobian.column(k);
+                assert!(
+                    (fd - col).norm() < 1e-6 * (1.0 + fd.norm()),
+                    "{fd} vs {col}"
+                );
+            }
+            assert!(lin.cutoff_margin > 0.0 && lin.cutoff_margin < 0.5);
+        }
+        // a table has no analytic slope
+        let m = MagnetTorques {
+            rotor,
+            stator,
+            well: wells().remove(2),
+            interaction: Interaction::Pairs,
+        };
+        assert!(m.linearize(&Matrix3::identity(), &active).is_none());
+        assert!(m.stiffness_scale().is_none());
     }
 
     #[test]

@@ -1,0 +1,91 @@
+//! The fast settle against the reference on random sets (issue 17): the same equilibrium, the
+//! same settled flag and the same settle time, for both well shapes, light, medium and heavy
+//! damping and 2 to 5 pairs. The full 4,000-per-kind measurement is examples/basins.rs.
+
+mod basins_common;
+
+use basins_common::{both, compare, random_sets, setup, Rng, Shape};
+use rayon::prelude::*;
+
+/// Sets per kind: enough to meet the hard cases (a lone pair's free rotation, pairs beyond
+/// reach, saddles) while the reference at rtol 1e-10 keeps the test to seconds.
+const SETS: usize = 240;
+
+fn check(shape: Shape, damping_ratio: f64, seed: u64) {
+    let (torques, body, params) = setup(shape, damping_ratio);
+    let mut rng = Rng::new(seed);
+    let q0 = rng.orientation();
+    let mut sets = Vec::new();
+    for pairs in 2..=5 {
+        sets.extend(random_sets(&torques, &q0, pairs, SETS / 4, &mut rng));
+    }
+    let results: Vec<_> = sets
+        .par_iter()
+        .map(|s| both(&torques, s, &q0, body, params))
+        .collect();
+    let (mut other, mut outside, mut settled) = (0, Vec::new(), 0);
+    for (set, (fast, reference)) in sets.iter().zip(&results) {
+        let c = compare(fast, reference);
+        settled += reference.settled as usize;
+        other += c.other_basin as usize;
+        if !c.agrees {
+            outside.push((set.clone(), c, fast.settle_time_s, reference.settle_time_s));
+        }
+    }
+    let label = format!("{shape:?}, damping {damping_ratio} of critical");
+    assert!(settled > SETS / 2, "{label}: only {settled} settled");
+    assert_eq!(other, 0, "{label}: {other} sets in another equilibrium");
+    // The reference decides "settled" on its own steps: where the test passes only in a brief
+    // dip of a lightly damped oscillation, a finer sampling (the reference at rtol 1e-12, or the
+    // fast path's end phase) may see the dip the reference stepped over, half a period apart.
+    // Some such sets are allowed (light damping dips most: at 0.2 of critical, 7 to 10% of sets in
+    // examples/basins.rs, and half of those agree with the reference at rtol 1e-12 to 5 ms),
+    // never a different equilibrium or flag.
+    let allowed = if damping_ratio < 0.5 {
+        SETS / 8
+    } else {
+        SETS / 30
+    };
+    assert!(
+        outside
+            .iter()
+            .all(|(_, c, _, _)| c.same_flag && c.angle < 1e-4),
+        "{label}: {outside:?}"
+    );
+    assert!(
+        outside.len() <= allowed,
+        "{label}: {} of {} sets outside the settle-time bound: {outside:?}",
+        outside.len(),
+        sets.len()
+    );
+}
+
+#[test]
+fn gaussian_wells_light_damping() {
+    check(Shape::Gaussian, 0.2, 1);
+}
+
+#[test]
+fn gaussian_wells_medium_damping() {
+    check(Shape::Gaussian, 0.7, 2);
+}
+
+#[test]
+fn gaussian_wells_heavy_damping() {
+    check(Shape::Gaussian, 2.0, 3);
+}
+
+#[test]
+fn cosine_wells_light_damping() {
+    check(Shape::Cosine, 0.2, 4);
+}
+
+#[test]
+fn cosine_wells_medium_damping() {
+    check(Shape::Cosine, 0.7, 5);
+}
+
+#[test]
+fn cosine_wells_heavy_damping() {
+    check(Shape::Cosine, 2.0, 6);
+}
