@@ -220,45 +220,16 @@ pub fn render_svg<F: Figure>(fig: &F) -> std::result::Result<String, DrawError> 
     Ok(s)
 }
 
-/// A temporary file next to `target`, with the same extension (the PNG encoder picks its format
-/// by the extension), hidden and named after the process so runs do not collide.
-fn temp_path(target: &Path) -> PathBuf {
-    let name = target
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let ext = target
-        .extension()
-        .map(|e| e.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    target.with_file_name(format!(".{name}.{}.tmp.{ext}", std::process::id()))
-}
-
 fn write_png<F: Figure>(fig: &F, path: &Path) -> Result<()> {
-    let tmp = temp_path(path);
-    let drawn = (|| -> DrawResult {
-        let root = BitMapBackend::new(&tmp, fig.size()).into_drawing_area();
-        root.fill(&WHITE)?;
-        fig.draw(&root)?;
-        root.present()?;
-        Ok(())
-    })();
-    if let Err(e) = drawn {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(plot_err(path, e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
-    })
-}
-
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = temp_path(path);
-    std::fs::write(&tmp, bytes).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
+    crate::output::write_via_temp(path, |tmp| {
+        (|| -> DrawResult {
+            let root = BitMapBackend::new(tmp, fig.size()).into_drawing_area();
+            root.fill(&WHITE)?;
+            fig.draw(&root)?;
+            root.present()?;
+            Ok(())
+        })()
+        .map_err(|e| plot_err(path, e))
     })
 }
 
@@ -268,7 +239,7 @@ pub fn write_figure<F: Figure>(fig: &F, stem: &Path) -> Result<Vec<PathBuf>> {
     let svg_path = with_ext(stem, "svg");
     let png_path = with_ext(stem, "png");
     let svg = render_svg(fig).map_err(|e| plot_err(&svg_path, e))?;
-    write_atomic(&svg_path, svg.as_bytes())?;
+    crate::output::write_atomic(&svg_path, svg.as_bytes())?;
     write_png(fig, &png_path)?;
     Ok(vec![svg_path, png_path])
 }
@@ -890,6 +861,18 @@ impl SweepMap {
                 "sweep map: expected finite, non-zero axes, got {a:?}"
             )));
         }
+        // The colour scale must span a finite range (a span of inf never finishes its ticks).
+        if let Some((_, v)) = self.points.iter().find(|(_, v)| v.is_infinite()) {
+            return Err(DrawError(format!(
+                "sweep map: expected finite values (or NaN: no result), got {v}"
+            )));
+        }
+        let (lo, hi) = self.value_range();
+        if !(hi - lo).is_finite() || lo.abs().max(hi.abs()) > 1e12 {
+            return Err(DrawError(format!(
+                "sweep map: expected values within +-1e12, got {lo} to {hi}"
+            )));
+        }
         Ok(())
     }
 
@@ -1069,6 +1052,16 @@ pub fn parse_sweep(text: &str, path: &Path) -> Result<Vec<SweepPoints>> {
             ));
         }
         let value = num(3)?;
+        // An axis error is an angle: anything else (1e308, inf) would also give the colour
+        // scale an infinite span, which the tick search never finishes.
+        if !(value.is_nan() || (0.0..=180.0 + 1e-9).contains(&value)) {
+            return Err(row_err(
+                line,
+                format!(
+                    "column `max_axis_error_deg`: expected an angle from 0 to 180 degrees (or NaN: no result), got {value}"
+                ),
+            ));
+        }
         let scheme = scheme_col.map(|k| rec.get(k).unwrap_or("").to_string());
         match out.iter_mut().find(|(s, _)| *s == scheme) {
             Some((_, pts)) => pts.push((axis, value)),
@@ -1083,21 +1076,7 @@ pub fn parse_sweep(text: &str, path: &Path) -> Result<Vec<SweepPoints>> {
 
 /// A scheme name made safe for a file name.
 fn file_safe(s: &str) -> String {
-    let t: String = s
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if t.is_empty() {
-        "unnamed".into()
-    } else {
-        t
-    }
+    crate::output::file_safe(s, "unnamed")
 }
 
 /// Draws an existing result CSV (for `spherestep plot`), recognised by its header:

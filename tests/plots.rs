@@ -494,3 +494,32 @@ fn plot_csv_errors() {
         .count();
     assert_eq!(pics, 0);
 }
+
+/// Issue 14, item 10: values of +-1e308 gave the colour scale an infinite span, and drawing
+/// never finished; they are refused (by the map and by `plot`), naming the line.
+#[test]
+fn huge_sweep_values_are_refused_not_drawn_for_ever() {
+    for values in [[1e308, -1e308], [f64::INFINITY, 3.0], [1e300, 0.0]] {
+        let map = SweepMap {
+            title: "t".into(),
+            value_label: "v".into(),
+            points: vec![([1.0, 0.0, 0.0], values[0]), ([0.0, 1.0, 0.0], values[1])],
+        };
+        let e = render_svg(&map).unwrap_err();
+        assert!(e.0.contains("sweep map: expected"), "{}", e.0);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let csv = write(
+        dir.path(),
+        "huge.csv",
+        "axis_x,axis_y,axis_z,max_axis_error_deg\n0,0,1,5\n1,0,0,1e308\n0,1,0,-1e308\n",
+    );
+    let e = plot_csv(&csv, None, None).unwrap_err().to_string();
+    assert!(
+        e.contains("huge.csv: line 3")
+            && e.contains("max_axis_error_deg")
+            && e.contains("0 to 180"),
+        "{e}"
+    );
+    assert!(!dir.path().join("huge.png").exists());
+}
