@@ -477,27 +477,43 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
                 (part, hash, mine)
             }
         };
-        if opts.resume {
-            if up_to_date(&csv, &hash) {
-                report.skipped.push(name);
-                continue;
-            }
-            if opts.shard.is_none() && sc.sweep.is_some() {
-                if let Some(bytes) = merge_parts(&opts.out, &name, &sc, &text)? {
-                    write_with_hash(&csv, &bytes, &hash)?;
-                    report.skipped.push(name);
-                    continue;
-                }
-            }
-        }
-        jobs.push(Job {
+        let job = Job {
             name,
             file,
             scenario: sc,
             cases: mine,
             csv,
             hash,
-        });
+        };
+        let (sc, csv, hash) = (&job.scenario, &job.csv, &job.hash);
+        if opts.resume {
+            let mut ready = up_to_date(csv, hash);
+            if !ready && opts.shard.is_none() && sc.sweep.is_some() {
+                if let Some(bytes) = merge_parts(&opts.out, &job.name, sc, &text)? {
+                    write_with_hash(csv, &bytes, hash)?;
+                    ready = true;
+                }
+            }
+            // Up to date, but with --plots its pictures may be missing (never drawn, or a
+            // kill while drawing): they are drawn from the result file where it holds what
+            // they need; a sweep of one axis draws every plan, so it is computed again.
+            let missing = opts.plots && draws(csv) && !pictures_ok(csv, hash, &opts.out);
+            let from_file = sc.sweep.as_ref().is_none_or(|sw| sw.axes.len() > 1);
+            if ready && !missing {
+                report.skipped.push(job.name);
+                continue;
+            }
+            if ready && from_file {
+                match draw_job(&job, &[], &opts.out) {
+                    Ok(()) => report.skipped.push(job.name),
+                    Err(e) => report
+                        .failed
+                        .push((job.file.display().to_string(), e.to_string())),
+                }
+                continue;
+            }
+        }
+        jobs.push(job);
     }
 
     let total: usize = jobs.iter().map(|j| j.cases.len()).sum();
@@ -630,21 +646,49 @@ fn case_label(c: &Case) -> String {
     }
 }
 
-/// The pictures of a job (`--plots`): a plan's figures and page; a sweep's per-scheme figure
-/// (one motion) or maps (many axes), and the kept plans' figures.
+/// Whether `--plots` draws pictures for this result file (shard parts have none).
+fn draws(csv: &Path) -> bool {
+    !csv.to_string_lossy().contains(".shard-")
+}
+
+/// The list of a result's pictures (`NAME.csv.pictures`): `hash HASH`, then one file name a
+/// line. Written after the last picture, so a kill while drawing leaves none.
+fn pictures_path(csv: &Path) -> PathBuf {
+    let mut s = csv.as_os_str().to_owned();
+    s.push(".pictures");
+    PathBuf::from(s)
+}
+
+/// Whether every picture of the result `csv` (of this `hash`) is in `out`.
+fn pictures_ok(csv: &Path, hash: &str, out: &Path) -> bool {
+    let Ok(text) = std::fs::read_to_string(pictures_path(csv)) else {
+        return false;
+    };
+    let mut lines = text.lines();
+    lines.next().and_then(|l| l.strip_prefix("hash ")) == Some(hash)
+        && lines.all(|f| out.join(f).is_file())
+}
+
+/// The pictures of a job (`--plots`): a plan's figures and page (from its file); a sweep's
+/// per-scheme figure and last plan's (one motion, from `outcomes`) or maps (many axes, from its
+/// file). Their list goes last.
 fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
     let sc = &job.scenario;
-    if job.csv.to_string_lossy().contains(".shard-") {
+    if !draws(&job.csv) {
         return Ok(());
     }
+    let mut files = Vec::new();
     match &sc.sweep {
         None => {
-            if let (Some(c), Some(o)) = (job.cases.first(), outcomes.first()) {
-                report::plan_pictures(
+            if let Some(c) = job.cases.first() {
+                // From the plan as written, so that pictures drawn again by --resume (from the
+                // file) are the same bytes.
+                let rows = crate::planfile::read_plan(&job.csv)?;
+                files = report::plan_pictures(
                     sc,
                     &c.settings.axis,
                     &case_label(c),
-                    &o.rows,
+                    &rows,
                     out,
                     &job.name,
                 )?;
@@ -652,7 +696,7 @@ fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
         }
         Some(sw) => {
             if sw.axes.len() > 1 {
-                report::sweep_pictures(&job.csv, out, &sc.name)?;
+                files = report::sweep_pictures(&job.csv, out, &sc.name)?;
             } else {
                 let plans: Vec<(String, Vec<PlanRow>)> = job
                     .cases
@@ -660,21 +704,27 @@ fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
                     .zip(outcomes)
                     .map(|(c, o)| (case_label(c), o.rows.clone()))
                     .collect();
-                report::schemes_picture(sc, &plans, out, &job.name)?;
+                files = report::schemes_picture(sc, &plans, out, &job.name)?;
                 if let (Some(c), Some(o)) = (job.cases.last(), outcomes.last()) {
-                    report::plan_pictures(
+                    files.extend(report::plan_pictures(
                         sc,
                         &c.settings.axis,
                         &case_label(c),
                         &o.rows,
                         out,
                         &job.name,
-                    )?;
+                    )?);
                 }
             }
         }
     }
-    Ok(())
+    let mut list = format!("hash {}\n", job.hash);
+    for f in &files {
+        if let Some(n) = f.file_name() {
+            list.push_str(&format!("{}\n", n.to_string_lossy()));
+        }
+    }
+    write_atomic(&pictures_path(&job.csv), list.as_bytes())
 }
 
 /// Merges the shard parts of a sweep, when a complete, up-to-date set of them is present.

@@ -212,3 +212,63 @@ fn resume_continues_a_sweep_from_its_saved_cases() {
         assert_eq!(text(&out.join("sw.csv")), expected, "{hash_line} {resume}");
     }
 }
+
+#[test]
+fn resume_with_plots_draws_the_missing_pictures() {
+    let t = tempfile::tempdir().unwrap();
+    let s = t.path().join("scen");
+    std::fs::create_dir_all(&s).unwrap();
+    std::fs::write(s.join("p.toml"), "[plan]\nangle_deg = 30\n").unwrap();
+    std::fs::write(s.join("sw.toml"), SWEEP).unwrap();
+    std::fs::write(
+        s.join("one.toml"),
+        "[plan]\nangle_deg = 30\n[sweep]\nschemes = [\"weighted\", \"search\"]\n",
+    )
+    .unwrap();
+    let out = t.path().join("out");
+    let args = [
+        s.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--plots",
+    ];
+    let r = batch(&args);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let pictures = [
+        "p-fig5.png",
+        "p-fig6.svg",
+        "p.html",
+        "sw_search.png",
+        "sw_weighted.svg",
+        "one-schemes.png",
+        "one-error.png",
+    ];
+    let before: Vec<Vec<u8>> = pictures
+        .iter()
+        .map(|p| std::fs::read(out.join(p)).unwrap())
+        .collect();
+    // A kill while drawing: pictures missing, one cut short in its temporary file.
+    for p in pictures {
+        std::fs::remove_file(out.join(p)).unwrap();
+    }
+    let host = spherestep::output::host_tag();
+    let torn = spherestep::output::temp_path_of(&out.join("p-error.png"), &host, dead_pid());
+    std::fs::write(&torn, b"half a png").unwrap();
+    let mut resume = args.to_vec();
+    resume.push("--resume");
+    let r = batch(&resume);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let said = String::from_utf8_lossy(&r.stdout);
+    // The plan and the many-axis sweep are drawn from their files; the one-axis sweep's
+    // picture needs its plans, so it alone is computed again.
+    assert!(said.contains("1 computed, 2 up to date"), "{said}");
+    for (p, b) in pictures.iter().zip(&before) {
+        let now = std::fs::read(out.join(p)).unwrap();
+        assert!(&now == b, "{p} drawn again, same bytes");
+    }
+    assert!(!torn.exists());
+    // Nothing missing: nothing drawn or computed.
+    let r = batch(&resume);
+    let said = String::from_utf8_lossy(&r.stdout);
+    assert!(said.contains("0 computed, 3 up to date"), "{said}");
+}
