@@ -256,6 +256,7 @@ fn axis_error() -> AxisErrorPlot {
             label: "paper: 15 deg".into(),
             value_deg: 15.0,
         }),
+        target_deg: Some(90.0),
     }
 }
 
@@ -264,23 +265,26 @@ fn figure7_axis_error() {
     let fig = axis_error();
     let (svg, _) = write_and_check(&fig, "figure8");
     assert_well_formed(&svg);
-    let points: usize = fig.series.iter().map(|s| s.points.len()).sum();
-    // A marker per point, and one in each series' legend entry.
-    assert_eq!(count(&svg, "circle"), points + fig.series.len());
     for t in [
-        "rotation angle (deg)",
-        "axis error (deg)",
+        "cumulative rotation angle (deg)",
+        "cumulative axis error (deg)",
         "weighted",
         "min axis error",
         "max angle",
         "paper: 15 deg",
+        "target 90 deg",
         "Axis error vs. rotation angle (Y axis)",
     ] {
         assert!(has_text(&svg, t), "text `{t}`");
     }
-    // Each series' line is one polyline in its colour (and one more in the legend).
-    for c in ["#1F77B4", "#D62728", "#2CA02C"] {
-        assert_eq!(polylines(&svg, c), 2, "colour {c}: line and legend");
+    // Each series' markers are drawn in its colour: one outline per point, plus its legend's.
+    for (k, s) in fig.series.iter().enumerate() {
+        let c = spherestep::plots::series_style(k).color;
+        let hex = format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
+        assert!(
+            polylines_w(&svg, &hex, 2) > s.points.len(),
+            "series {k} ({hex}): a marker per point and in the legend"
+        );
     }
     // Without a reference line, no legend entry for it.
     let mut plain = fig.clone();
@@ -308,6 +312,7 @@ fn sweep_map() {
         title: "Worst axis error over the sphere of axes (weighted)".into(),
         value_label: "worst axis error (deg)".into(),
         points: sweep_points(500),
+        range: None,
     };
     let (svg, img) = write_and_check(&fig, "sweep");
     assert_well_formed(&svg);
@@ -358,6 +363,7 @@ fn bad_data_is_an_error() {
         title: "t".into(),
         value_label: "v".into(),
         points: vec![([0.0, 0.0, 0.0], 1.0)],
+        range: None,
     };
     assert!(render_svg(&map).is_err());
 }
@@ -386,7 +392,10 @@ fn plot_csv_plan() {
     );
     let svg = std::fs::read_to_string(&files[0]).unwrap();
     assert_well_formed(&svg);
-    assert_eq!(count(&svg, "circle"), 4 + 1);
+    // A marker per step (4) and in the legend, in the first series' colour.
+    let c = spherestep::plots::series_style(0).color;
+    let hex = format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
+    assert_eq!(polylines_w(&svg, &hex, 2), 4 + 1);
     assert!(has_text(&svg, "plan_z"));
     assert!(has_text(&svg, "axis error vs. rotation angle: plan_z"));
     let out = dir.path().join("pics");
@@ -504,6 +513,7 @@ fn huge_sweep_values_are_refused_not_drawn_for_ever() {
             title: "t".into(),
             value_label: "v".into(),
             points: vec![([1.0, 0.0, 0.0], values[0]), ([0.0, 1.0, 0.0], values[1])],
+            range: None,
         };
         let e = render_svg(&map).unwrap_err();
         assert!(e.0.contains("sweep map: expected"), "{}", e.0);
@@ -522,4 +532,104 @@ fn huge_sweep_values_are_refused_not_drawn_for_ever() {
         "{e}"
     );
     assert!(!dir.path().join("huge.png").exists());
+}
+
+/// Issue 14, item 16: every series of a scheme figure has its own colour (colour-blind safe),
+/// marker and dash, so identical series stay visible; a zero-error series is lifted off the
+/// frame; the labels say "cumulative"; the target is marked.
+#[test]
+fn scheme_figures_tell_their_series_apart() {
+    use spherestep::plots::{series_style, SERIES_COLORS};
+    let styles: Vec<_> = (0..4).map(series_style).collect();
+    for a in 0..styles.len() {
+        for b in a + 1..styles.len() {
+            let (x, y) = (styles[a], styles[b]);
+            assert!(
+                x.color != y.color && x.marker != y.marker && x.dash != y.dash,
+                "series {a} and {b} share a colour, marker or dash"
+            );
+        }
+    }
+    // Okabe-Ito, no pure red or green: no two colours differ only in red against green.
+    for c in SERIES_COLORS {
+        assert!(
+            {
+                let red = c.0 > 150 && c.1 < 60 && c.2 < 60;
+                let green = c.1 > 150 && c.0 < 60 && c.2 < 60;
+                !red && !green
+            },
+            "{c:?}"
+        );
+    }
+    let same = ErrorSeries {
+        name: "a".into(),
+        points: vec![(0.0, 0.0), (30.0, 0.0), (60.0, 0.0), (90.0, 0.0)],
+    };
+    let fig = AxisErrorPlot {
+        title: "three identical schemes".into(),
+        series: ["a", "b", "c"]
+            .iter()
+            .map(|n| ErrorSeries {
+                name: n.to_string(),
+                ..same.clone()
+            })
+            .collect(),
+        reference: None,
+        target_deg: Some(90.0),
+    };
+    let r = fig.y_range();
+    assert!(
+        r.start < 0.0 && r.end > 0.0,
+        "zero errors above the frame: {r:?}"
+    );
+    let svg = render_svg(&fig).unwrap();
+    assert_well_formed(&svg);
+    assert!(has_text(&svg, "target 90 deg"));
+    // Each of the three identical series shows: a marker per point in its own colour (and
+    // one in the legend).
+    for k in 0..3 {
+        let c = series_style(k).color;
+        let hex = format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
+        assert_eq!(polylines_w(&svg, &hex, 2), 4 + 1, "series {k}");
+    }
+}
+
+/// Issue 14, item 17: the SVGs name the bundled font, not just a generic family.
+#[test]
+fn svgs_name_the_bundled_font() {
+    let svg = render_svg(&axis_error()).unwrap();
+    let families: Vec<&str> = svg
+        .split("font-family=\"")
+        .skip(1)
+        .map(|r| r.split('"').next().unwrap())
+        .collect();
+    assert!(!families.is_empty());
+    for f in families {
+        assert!(f.starts_with("DejaVu Sans"), "font-family {f}");
+    }
+}
+
+/// Issue 14, item 17: a sweep's maps (one per scheme) share one colour scale, so that they
+/// can be compared: the same colour bar whatever each scheme's own range.
+#[test]
+fn a_sweeps_maps_share_one_colour_scale() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("scheme,axis_x,axis_y,axis_z,max_axis_error_deg\n");
+    for (scheme, scale) in [("small", 1.0), ("large", 4.0)] {
+        for (a, v) in sweep_points(40) {
+            text += &format!("{scheme},{},{},{},{}\n", a[0], a[1], a[2], v * scale);
+        }
+    }
+    let csv = write(dir.path(), "sw.csv", &text);
+    let files = plot_csv(&csv, None, Some("t")).unwrap();
+    let bar = |f: &PathBuf| -> Vec<String> {
+        // Every text but the title (which names the scheme).
+        texts(&std::fs::read_to_string(f).unwrap())
+            .into_iter()
+            .filter(|t| !t.contains("scheme"))
+            .collect()
+    };
+    let (a, b) = (bar(&files[0]), bar(&files[2]));
+    assert!(a.len() > 10, "{a:?}");
+    assert_eq!(a, b, "one colour bar for both maps");
 }
