@@ -478,7 +478,7 @@ impl Figure for CommutationPlot {
             .disable_mesh()
             .x_label_formatter(&|v| tick(*v, 1))
             .y_label_formatter(&|v| tick(*v, 1))
-            .x_desc("world x")
+            .x_desc("world x (seen from +Z, above the ball, through it)")
             .y_desc("world y")
             .label_style(text(16))
             .axis_desc_style(text(18))
@@ -526,7 +526,7 @@ impl Figure for CommutationPlot {
         chart.draw_series(boxed.map(|at| {
             EmptyElement::at(at) + Rectangle::new([(-9, -9), (9, 9)], CHOSEN_COLOR.stroke_width(1))
         }))?;
-        let label = text(12);
+        let label = text(LABEL_SIZE);
         chart
             .draw_series(
                 self.coils
@@ -543,13 +543,45 @@ impl Figure for CommutationPlot {
             )?
             .label("rotor magnet, z < 0 (*)")
             .legend(|(x, y)| star!((x + 10, y), 6, MAGNET_COLOR.stroke_width(1)));
-        chart.draw_series(self.coils.iter().enumerate().map(|(i, c)| {
-            EmptyElement::at((c[0], c[1]))
-                + Text::new(i.to_string(), (8, -21), label.color(&COIL_COLOR))
-        }))?;
-        chart.draw_series(self.magnets.iter().map(|(j, p)| {
-            EmptyElement::at((p[0], p[1]))
-                + Text::new(j.to_string(), (10, 1), label.color(&MAGNET_COLOR))
+        // Coil labels first, then the magnets', each where it meets no label and no mark.
+        let labels: Vec<(String, (f64, f64), RGBColor)> = self
+            .coils
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (i.to_string(), (c[0], c[1]), COIL_COLOR))
+            .chain(
+                self.magnets
+                    .iter()
+                    .map(|(j, p)| (j.to_string(), (p[0], p[1]), MAGNET_COLOR)),
+            )
+            .collect();
+        let at: Vec<(i32, i32)> = labels.iter().map(|l| chart.backend_coord(&l.1)).collect();
+        let chosen_at: Vec<(i32, i32)> = self
+            .chosen
+            .iter()
+            .flat_map(|p| {
+                let c = self.coils[p.coil.0];
+                [(c[0], c[1]), self.magnet_xy(p.magnet.0)]
+            })
+            .map(|q| chart.backend_coord(&q))
+            .collect();
+        let marks: Vec<((i32, i32), i32)> = at
+            .iter()
+            .map(|p| (*p, 7))
+            .chain(chosen_at.iter().map(|p| (*p, 10)))
+            .collect();
+        let sizes: Vec<(i32, i32)> = labels
+            .iter()
+            .map(|l| label_size(&l.0, LABEL_SIZE))
+            .collect();
+        let offsets = place_labels(&at, &sizes, &marks);
+        chart.draw_series(labels.iter().zip(offsets).map(|((t, xy, color), off)| {
+            EmptyElement::at(*xy)
+                + Text::new(
+                    t.clone(),
+                    off,
+                    label.color(color).pos(Pos::new(HPos::Left, VPos::Top)),
+                )
         }))?;
         chart
             .configure_series_labels()
@@ -794,6 +826,75 @@ impl Figure for View3d {
             .draw()?;
         Ok(())
     }
+}
+
+/// The font size of point labels (coil and magnet numbers).
+const LABEL_SIZE: u32 = 12;
+
+/// The box (width, height) in pixels that `text` takes at font size `size` (DejaVu Sans: digits
+/// are 0.64 em wide; a little generous for letters).
+pub fn label_size(text: &str, size: u32) -> (i32, i32) {
+    let w = (0.64 * size as f64 * text.chars().count() as f64).ceil() as i32;
+    (w, size as i32)
+}
+
+/// Where labels go: top-left offsets (pixels, from each label's point at `at`) for boxes of
+/// `sizes`, chosen in turn as the first of eight places around the point (then the same
+/// further out) whose box meets neither a label placed before nor a mark (`marks`: centre and
+/// half-size of each drawn symbol); where every place is taken, the least crowded one.
+pub fn place_labels(
+    at: &[(i32, i32)],
+    sizes: &[(i32, i32)],
+    marks: &[((i32, i32), i32)],
+) -> Vec<(i32, i32)> {
+    type Box2 = (i32, i32, i32, i32);
+    let overlap = |a: &Box2, b: &Box2| -> i64 {
+        let w = (a.2.min(b.2) - a.0.max(b.0)).max(0) as i64;
+        let h = (a.3.min(b.3) - a.1.max(b.1)).max(0) as i64;
+        w * h
+    };
+    let mark_boxes: Vec<Box2> = marks
+        .iter()
+        .map(|((x, y), r)| (x - r, y - r, x + r, y + r))
+        .collect();
+    let mut placed: Vec<Box2> = Vec::new();
+    let mut out = Vec::new();
+    for (&(x, y), &(w, h)) in at.iter().zip(sizes) {
+        let mut best: Option<(i64, (i32, i32), Box2)> = None;
+        for g in [9, 16, 26] {
+            let places = [
+                (g, -h / 2),
+                (g, -h - 2),
+                (g, 2),
+                (-w / 2, -h - g),
+                (-w / 2, g),
+                (-w - g, -h / 2),
+                (-w - g, -h - 2),
+                (-w - g, 2),
+            ];
+            for (dx, dy) in places {
+                let b = (x + dx, y + dy, x + dx + w, y + dy + h);
+                let cost: i64 = placed
+                    .iter()
+                    .chain(&mark_boxes)
+                    .map(|o| overlap(&b, o))
+                    .sum();
+                if best.as_ref().is_none_or(|(c, _, _)| cost < *c) {
+                    best = Some((cost, (dx, dy), b));
+                }
+                if cost == 0 {
+                    break;
+                }
+            }
+            if best.as_ref().is_some_and(|(c, _, _)| *c == 0) {
+                break;
+            }
+        }
+        let (_, off, b) = best.unwrap_or((0, (9, -h / 2), (x, y, x + w, y + h)));
+        placed.push(b);
+        out.push(off);
+    }
+    out
 }
 
 /// Rounds a range outwards to a "nice" one starting at `lo` (callers pass 0 or a negative

@@ -180,7 +180,7 @@ fn figure5_commutation_state() {
     // fill and frame.
     assert_eq!(count(&svg, "rect"), 2 * fig.chosen.len() + 1 + 3);
     for t in [
-        "world x",
+        "world x (seen from +Z, above the ball, through it)",
         "world y",
         "candidate pair",
         "chosen pair (boxed)",
@@ -632,4 +632,92 @@ fn a_sweeps_maps_share_one_colour_scale() {
     let (a, b) = (bar(&files[0]), bar(&files[2]));
     assert!(a.len() > 10, "{a:?}");
     assert_eq!(a, b, "one colour bar for both maps");
+}
+
+/// The boxes (x0, y0, x1, y1) of an SVG's texts of font size `svg_size` whose content is a
+/// number (the point labels), drawn from their top left, sized as `label_size` says.
+fn label_boxes(svg: &str, svg_size: &str) -> Vec<(String, (i32, i32, i32, i32))> {
+    svg.split("<text ")
+        .skip(1)
+        .filter(|t| t.contains(&format!("font-size=\"{svg_size}\"")))
+        .filter_map(|t| {
+            let attr = |k: &str| -> Option<f64> {
+                let v = format!(" {t}")
+                    .split(&format!(" {k}=\""))
+                    .nth(1)?
+                    .split('"')
+                    .next()?
+                    .to_string();
+                v.parse().ok()
+            };
+            let body = t
+                .split_once('>')?
+                .1
+                .split("</text>")
+                .next()?
+                .trim()
+                .to_string();
+            body.parse::<usize>().ok()?;
+            assert!(t.contains("text-anchor=\"start\""), "{t}");
+            let (x, y) = (attr("x")? as i32, attr("y")? as i32);
+            let (w, h) = spherestep::plots::label_size(&body, 12);
+            Some((body, (x, y, x + w, y + h)))
+        })
+        .collect()
+}
+
+/// Issue 14, item 17: Figure 5's coil and magnet numbers never overlap each other.
+#[test]
+fn figure5_labels_do_not_overlap() {
+    let svg = render_svg(&commutation()).unwrap();
+    let size = svg
+        .split("<text ")
+        .skip(1)
+        .find(|t| {
+            t.contains("text-anchor=\"start\"")
+                && t.split_once('>')
+                    .is_some_and(|(_, b)| b.trim().starts_with("0\n"))
+        })
+        .and_then(|t| t.split("font-size=\"").nth(1))
+        .and_then(|v| v.split('"').next())
+        .unwrap()
+        .to_string();
+    let boxes = label_boxes(&svg, &size);
+    let fig = commutation();
+    assert_eq!(boxes.len(), fig.coils.len() + fig.magnets.len());
+    for (i, (a, p)) in boxes.iter().enumerate() {
+        for (b, q) in &boxes[i + 1..] {
+            let apart = p.2 <= q.0 || q.2 <= p.0 || p.3 <= q.1 || q.3 <= p.1;
+            assert!(apart, "labels {a} {p:?} and {b} {q:?} overlap");
+        }
+    }
+}
+
+#[test]
+fn place_labels_avoids_taken_places() {
+    use spherestep::plots::place_labels;
+    // Three points in a row, 12 px apart: no two boxes meet, none covers a mark.
+    let at = [(100, 100), (112, 100), (124, 100)];
+    let sizes = [(16, 12); 3];
+    let marks: Vec<_> = at.iter().map(|p| (*p, 6)).collect();
+    let off = place_labels(&at, &sizes, &marks);
+    let boxes: Vec<_> = at
+        .iter()
+        .zip(&off)
+        .map(|(p, o)| (p.0 + o.0, p.1 + o.1, p.0 + o.0 + 16, p.1 + o.1 + 12))
+        .collect();
+    let meet = |a: &(i32, i32, i32, i32), b: &(i32, i32, i32, i32)| {
+        !(a.2 <= b.0 || b.2 <= a.0 || a.3 <= b.1 || b.3 <= a.1)
+    };
+    for (i, a) in boxes.iter().enumerate() {
+        for b in &boxes[i + 1..] {
+            assert!(!meet(a, b), "{boxes:?}");
+        }
+        for (m, r) in &marks {
+            assert!(
+                !meet(a, &(m.0 - r, m.1 - r, m.0 + r, m.1 + r)),
+                "{a:?} on {m:?}"
+            );
+        }
+    }
 }
