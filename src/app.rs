@@ -292,13 +292,16 @@ pub fn motor(sc: &Scenario) -> Motor<'_> {
     }
 }
 
-/// `spherestep plan`: plans, writes the CSV (atomically) when asked, prints the summary.
+/// `spherestep plan`: plans, writes the CSV (atomically) to `out_file` when asked and prints
+/// the summary to `out`; without `out_file` (and without `json`) the CSV alone goes to `out`
+/// and the summary line to `note`, so that `plan ... > plan.csv` gives a plan file.
 pub fn plan_command(
     sc: &Scenario,
     settings: &PlanSettings,
     out_file: Option<&Path>,
     json: bool,
     out: &mut dyn Write,
+    note: &mut dyn Write,
 ) -> Result<Plan> {
     let p = plan(&motor(sc), settings);
     if let Some(path) = out_file {
@@ -319,9 +322,12 @@ pub fn plan_command(
         )
         .map_err(&w)?;
     } else {
-        if out_file.is_none() {
+        let out: &mut dyn Write = if out_file.is_none() {
             write_plan(&p.rows, out)?;
-        }
+            note
+        } else {
+            out
+        };
         let ax = settings.axis;
         let mut text = format!(
             "{}: {} steps about [{:.4}, {:.4}, {:.4}] by {:.2} deg ({} model, {} pairs, {}): \

@@ -139,6 +139,32 @@ pub fn collect_inputs(args: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(files)
 }
 
+/// Names a batch writes itself into `--out` (compared without case).
+const RESERVED_NAMES: [&str; 2] = ["summary", "timing"];
+
+/// Checks that a scenario name can name its files in `--out` (`NAME.csv`, `NAME.csv.hash`,
+/// pictures, a folder of kept plans): a plain file name, not hidden, no path, not one of the
+/// batch's own files, not a shard part, at most 200 bytes. Returns what was expected.
+fn check_name(name: &str) -> std::result::Result<(), String> {
+    let rule = "a name usable as a file name in --out (no `/`, `\\`, `:`, control characters, \
+                no leading `.` or space, not summary or timing, no `.shard-`, at most 200 bytes; \
+                without a `name` field it is the file's name)";
+    let bad = name.is_empty()
+        || name.len() > 200
+        || name.starts_with(['.', ' '])
+        || name.ends_with([' ', '.'])
+        || name.chars().any(|c| {
+            c.is_control() || matches!(c, '/' | '\\' | ':' | '*' | '?' | '"' | '<' | '>' | '|')
+        })
+        || name.contains(".shard-")
+        || RESERVED_NAMES.iter().any(|r| name.eq_ignore_ascii_case(r));
+    if bad {
+        Err(format!("{rule}, got \"{}\"", name.escape_debug()))
+    } else {
+        Ok(())
+    }
+}
+
 /// One planning case of a scenario.
 #[derive(Debug, Clone)]
 struct Case {
@@ -225,15 +251,167 @@ struct Job {
 
 /// The result of one case.
 struct Outcome {
+    /// The plan (empty for a sweep case taken from the progress file).
     rows: Vec<PlanRow>,
     reached: bool,
     seconds: f64,
+    /// The case's row of a sweep CSV.
+    record: Vec<String>,
+    /// Writing the case's kept plan failed.
+    error: Option<Error>,
+}
+
+/// The progress file of a sweep result being computed (`NAME.csv.progress`): a first line
+/// `hash HASH`, then the CSV row of each finished case, appended (one write per row) as the
+/// case ends, so that a killed sweep is continued by `--resume`. Removed once the result is
+/// written.
+fn progress_path(csv: &Path) -> PathBuf {
+    let mut s = csv.as_os_str().to_owned();
+    s.push(".progress");
+    PathBuf::from(s)
+}
+
+/// The finished cases in `csv`'s progress file (case index -> row), when the file belongs to
+/// this `hash`; a row cut short by a kill (no line end, or not a whole row) counts for nothing.
+fn read_progress(csv: &Path, hash: &str) -> BTreeMap<usize, Vec<String>> {
+    let mut done = BTreeMap::new();
+    let Ok(text) = std::fs::read_to_string(progress_path(csv)) else {
+        return done;
+    };
+    let Some((first, rest)) = text.split_once('\n') else {
+        return done;
+    };
+    if first.strip_prefix("hash ") != Some(hash) {
+        return done;
+    }
+    let whole = &rest[..rest.rfind('\n').map_or(0, |k| k + 1)];
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(whole.as_bytes());
+    for rec in rdr.records().flatten() {
+        if rec.len() != SWEEP_HEADER.len() {
+            continue;
+        }
+        if let Ok(case) = rec[0].parse::<usize>() {
+            done.insert(case, rec.iter().map(str::to_string).collect());
+        }
+    }
+    done
+}
+
+/// One CSV row as bytes (with its line end).
+fn csv_line(record: &[String]) -> Result<Vec<u8>> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(record).map_err(csv_err)?;
+    w.into_inner()
+        .map_err(|e| Error::io("<csv>", e.into_error()))
+}
+
+/// Starts a job's progress file with the cases already `done`; the open file, to append to
+/// (`None` when it cannot be written: the sweep then runs without saving progress).
+fn start_progress(
+    job: &Job,
+    done: &BTreeMap<usize, Vec<String>>,
+) -> Option<std::sync::Mutex<std::fs::File>> {
+    let path = progress_path(&job.csv);
+    let mut bytes = format!("hash {}\n", job.hash).into_bytes();
+    for r in done.values() {
+        bytes.extend(csv_line(r).ok()?);
+    }
+    write_atomic(&path, &bytes).ok()?;
+    let f = std::fs::OpenOptions::new().append(true).open(&path).ok()?;
+    Some(std::sync::Mutex::new(f))
+}
+
+/// Appends a finished case's row to the progress file (one write, so a kill leaves whole rows
+/// and at most one torn last row, which is ignored on reading).
+fn append_progress(file: &std::sync::Mutex<std::fs::File>, record: &[String]) {
+    use std::io::Write;
+    if let (Ok(line), Ok(mut f)) = (csv_line(record), file.lock()) {
+        let _ = f.write_all(&line);
+    }
+}
+
+/// Writes a kept plan of a sweep case (`[sweep] keep_plans`).
+fn write_kept_plan(job: &Job, c: &Case, rows: &[PlanRow], out: &Path) -> Result<()> {
+    let mut buf = Vec::new();
+    write_plan(rows, &mut buf)?;
+    let p = out.join(&job.name).join(format!(
+        "case-{}-{}-{}{}.csv",
+        c.index,
+        c.settings.scheme.name(),
+        model_name(c.settings.model),
+        c.settings.pairs
+    ));
+    write_atomic(&p, &buf)
+}
+
+/// Computes a job's cases (those of a sweep found in its progress file with `--resume` are
+/// taken from there), saving each sweep case's row as it ends.
+fn run_cases(job: &Job, opts: &BatchOptions, bar: &indicatif::ProgressBar) -> Vec<Outcome> {
+    let keep_plans = job.scenario.sweep.as_ref().is_some_and(|sw| sw.keep_plans);
+    // A sweep's pictures of one axis draw every case's plan: those need them all computed.
+    let saves = job
+        .scenario
+        .sweep
+        .as_ref()
+        .is_some_and(|sw| !(opts.plots && sw.axes.len() == 1));
+    let done = if saves && opts.resume {
+        read_progress(&job.csv, &job.hash)
+    } else {
+        BTreeMap::new()
+    };
+    let progress = if saves {
+        start_progress(job, &done)
+    } else {
+        None
+    };
+    job.cases
+        .par_iter()
+        .map(|case| {
+            if let Some(record) = done.get(&case.index) {
+                bar.inc(1);
+                return Outcome {
+                    rows: Vec::new(),
+                    reached: record.get(11).is_some_and(|r| r == "true"),
+                    seconds: 0.0,
+                    record: record.clone(),
+                    error: None,
+                };
+            }
+            let t = Instant::now();
+            let p = plan(&motor(&job.scenario), &case.settings);
+            let mut o = Outcome {
+                rows: p.rows,
+                reached: p.reached,
+                seconds: t.elapsed().as_secs_f64(),
+                record: Vec::new(),
+                error: None,
+            };
+            o.record = sweep_record(case, &o, &job.scenario.torques);
+            if keep_plans {
+                o.error = write_kept_plan(job, case, &o.rows, &opts.out).err();
+            }
+            if let (Some(f), None) = (&progress, &o.error) {
+                append_progress(f, &o.record);
+            }
+            bar.inc(1);
+            o
+        })
+        .collect()
 }
 
 /// Runs a batch. Progress goes to `progress` when set; the report says what ran and failed.
 pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport> {
     std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
-    remove_stale_temporaries(&opts.out);
+    // Temporaries of killed runs, here and in the kept plans' folders.
+    crate::output::remove_stale_temporaries(&opts.out);
+    if let Ok(rd) = std::fs::read_dir(&opts.out) {
+        for e in rd.flatten().filter(|e| e.path().is_dir()) {
+            crate::output::remove_stale_temporaries(&e.path());
+        }
+    }
     let mut report = BatchReport::default();
     let mut jobs: Vec<Job> = Vec::new();
     let mut names: BTreeMap<String, PathBuf> = BTreeMap::new();
@@ -258,6 +436,13 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
                 continue;
             }
         };
+        if let Err(expected) = check_name(&sc.name) {
+            report.failed.push((
+                file.display().to_string(),
+                Error::field(file, "name", expected).to_string(),
+            ));
+            continue;
+        }
         if let Some(other) = names.get(&sc.name) {
             report.failed.push((
                 file.display().to_string(),
@@ -294,27 +479,43 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
                 (part, hash, mine)
             }
         };
-        if opts.resume {
-            if up_to_date(&csv, &hash) {
-                report.skipped.push(name);
-                continue;
-            }
-            if opts.shard.is_none() && sc.sweep.is_some() {
-                if let Some(bytes) = merge_parts(&opts.out, &name, &sc, &text)? {
-                    write_with_hash(&csv, &bytes, &hash)?;
-                    report.skipped.push(name);
-                    continue;
-                }
-            }
-        }
-        jobs.push(Job {
+        let job = Job {
             name,
             file,
             scenario: sc,
             cases: mine,
             csv,
             hash,
-        });
+        };
+        let (sc, csv, hash) = (&job.scenario, &job.csv, &job.hash);
+        if opts.resume {
+            let mut ready = up_to_date(csv, hash);
+            if !ready && opts.shard.is_none() && sc.sweep.is_some() {
+                if let Some(bytes) = merge_parts(&opts.out, &job.name, sc, &text)? {
+                    write_with_hash(csv, &bytes, hash)?;
+                    ready = true;
+                }
+            }
+            // Up to date, but with --plots its pictures may be missing (never drawn, or a
+            // kill while drawing): they are drawn from the result file where it holds what
+            // they need; a sweep of one axis draws every plan, so it is computed again.
+            let missing = opts.plots && draws(csv) && !pictures_ok(csv, hash, &opts.out);
+            let from_file = sc.sweep.as_ref().is_none_or(|sw| sw.axes.len() > 1);
+            if ready && !missing {
+                report.skipped.push(job.name);
+                continue;
+            }
+            if ready && from_file {
+                match draw_job(&job, &[], &opts.out) {
+                    Ok(()) => report.skipped.push(job.name),
+                    Err(e) => report
+                        .failed
+                        .push((job.file.display().to_string(), e.to_string())),
+                }
+                continue;
+            }
+        }
+        jobs.push(job);
     }
 
     let total: usize = jobs.iter().map(|j| j.cases.len()).sum();
@@ -334,22 +535,9 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
     let compute = || -> Vec<(f64, Result<()>)> {
         jobs.par_iter()
             .map(|job| {
-                let outcomes: Vec<Outcome> = job
-                    .cases
-                    .par_iter()
-                    .map(|case| {
-                        let t = Instant::now();
-                        let p = plan(&motor(&job.scenario), &case.settings);
-                        bar.inc(1);
-                        Outcome {
-                            rows: p.rows,
-                            reached: p.reached,
-                            seconds: t.elapsed().as_secs_f64(),
-                        }
-                    })
-                    .collect();
+                let outcomes = run_cases(job, opts, &bar);
                 let seconds = outcomes.iter().fold(0.0, |a, o| a + o.seconds);
-                let written = write_job(job, &outcomes, &opts.out).and_then(|()| {
+                let written = write_job(job, &outcomes).and_then(|()| {
                     if opts.plots {
                         draw_job(job, &outcomes, &opts.out)
                     } else {
@@ -395,17 +583,6 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
     Ok(report)
 }
 
-fn remove_stale_temporaries(dir: &Path) {
-    if let Ok(rd) = std::fs::read_dir(dir) {
-        for e in rd.flatten() {
-            let n = e.file_name().to_string_lossy().into_owned();
-            if n.starts_with('.') && n.ends_with(".tmp") {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
-    }
-}
-
 fn csv_err(e: csv::Error) -> Error {
     Error::io("<csv>", std::io::Error::other(e.to_string()))
 }
@@ -434,7 +611,7 @@ fn sweep_record(c: &Case, o: &Outcome, torques: &MagnetTorques) -> Vec<String> {
     ]
 }
 
-fn write_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
+fn write_job(job: &Job, outcomes: &[Outcome]) -> Result<()> {
     match &job.scenario.sweep {
         None => {
             let o = outcomes.first().ok_or_else(|| Error::Arg {
@@ -445,29 +622,21 @@ fn write_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
             write_plan(&o.rows, &mut buf)?;
             write_with_hash(&job.csv, &buf, &job.hash)
         }
-        Some(sw) => {
+        Some(_) => {
+            if let Some(e) = outcomes.iter().find_map(|o| o.error.as_ref()) {
+                return Err(Error::io(&job.csv, std::io::Error::other(e.to_string())));
+            }
             let mut w = csv::Writer::from_writer(Vec::new());
             w.write_record(SWEEP_HEADER).map_err(csv_err)?;
-            for (c, o) in job.cases.iter().zip(outcomes) {
-                w.write_record(sweep_record(c, o, &job.scenario.torques))
-                    .map_err(csv_err)?;
-                if sw.keep_plans {
-                    let mut buf = Vec::new();
-                    write_plan(&o.rows, &mut buf)?;
-                    let p = out.join(&job.name).join(format!(
-                        "case-{}-{}-{}{}.csv",
-                        c.index,
-                        c.settings.scheme.name(),
-                        model_name(c.settings.model),
-                        c.settings.pairs
-                    ));
-                    write_atomic(&p, &buf)?;
-                }
+            for o in outcomes {
+                w.write_record(&o.record).map_err(csv_err)?;
             }
             let bytes = w
                 .into_inner()
                 .map_err(|e| Error::io(&job.csv, e.into_error()))?;
-            write_with_hash(&job.csv, &bytes, &job.hash)
+            write_with_hash(&job.csv, &bytes, &job.hash)?;
+            let _ = std::fs::remove_file(progress_path(&job.csv));
+            Ok(())
         }
     }
 }
@@ -480,21 +649,49 @@ fn case_label(c: &Case) -> String {
     }
 }
 
-/// The pictures of a job (`--plots`): a plan's figures and page; a sweep's per-scheme figure
-/// (one motion) or maps (many axes), and the kept plans' figures.
+/// Whether `--plots` draws pictures for this result file (shard parts have none).
+fn draws(csv: &Path) -> bool {
+    !csv.to_string_lossy().contains(".shard-")
+}
+
+/// The list of a result's pictures (`NAME.csv.pictures`): `hash HASH`, then one file name a
+/// line. Written after the last picture, so a kill while drawing leaves none.
+fn pictures_path(csv: &Path) -> PathBuf {
+    let mut s = csv.as_os_str().to_owned();
+    s.push(".pictures");
+    PathBuf::from(s)
+}
+
+/// Whether every picture of the result `csv` (of this `hash`) is in `out`.
+fn pictures_ok(csv: &Path, hash: &str, out: &Path) -> bool {
+    let Ok(text) = std::fs::read_to_string(pictures_path(csv)) else {
+        return false;
+    };
+    let mut lines = text.lines();
+    lines.next().and_then(|l| l.strip_prefix("hash ")) == Some(hash)
+        && lines.all(|f| out.join(f).is_file())
+}
+
+/// The pictures of a job (`--plots`): a plan's figures and page (from its file); a sweep's
+/// per-scheme figure and last plan's (one motion, from `outcomes`) or maps (many axes, from its
+/// file). Their list goes last.
 fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
     let sc = &job.scenario;
-    if job.csv.to_string_lossy().contains(".shard-") {
+    if !draws(&job.csv) {
         return Ok(());
     }
+    let mut files = Vec::new();
     match &sc.sweep {
         None => {
-            if let (Some(c), Some(o)) = (job.cases.first(), outcomes.first()) {
-                report::plan_pictures(
+            if let Some(c) = job.cases.first() {
+                // From the plan as written, so that pictures drawn again by --resume (from the
+                // file) are the same bytes.
+                let rows = crate::planfile::read_plan(&job.csv)?;
+                files = report::plan_pictures(
                     sc,
                     &c.settings.axis,
                     &case_label(c),
-                    &o.rows,
+                    &rows,
                     out,
                     &job.name,
                 )?;
@@ -502,7 +699,7 @@ fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
         }
         Some(sw) => {
             if sw.axes.len() > 1 {
-                report::sweep_pictures(&job.csv, out, &sc.name)?;
+                files = report::sweep_pictures(&job.csv, out, &sc.name)?;
             } else {
                 let plans: Vec<(String, Vec<PlanRow>)> = job
                     .cases
@@ -510,21 +707,27 @@ fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
                     .zip(outcomes)
                     .map(|(c, o)| (case_label(c), o.rows.clone()))
                     .collect();
-                report::schemes_picture(sc, &plans, out, &job.name)?;
+                files = report::schemes_picture(sc, &plans, out, &job.name)?;
                 if let (Some(c), Some(o)) = (job.cases.last(), outcomes.last()) {
-                    report::plan_pictures(
+                    files.extend(report::plan_pictures(
                         sc,
                         &c.settings.axis,
                         &case_label(c),
                         &o.rows,
                         out,
                         &job.name,
-                    )?;
+                    )?);
                 }
             }
         }
     }
-    Ok(())
+    let mut list = format!("hash {}\n", job.hash);
+    for f in &files {
+        if let Some(n) = f.file_name() {
+            list.push_str(&format!("{}\n", n.to_string_lossy()));
+        }
+    }
+    write_atomic(&pictures_path(&job.csv), list.as_bytes())
 }
 
 /// Merges the shard parts of a sweep, when a complete, up-to-date set of them is present.

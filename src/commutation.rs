@@ -246,7 +246,13 @@ pub struct StepLimits {
     /// paper's section 2.1, within the peak of the coil's attraction). `None`: the model's own,
     /// see [`StepLimits::capture_for`].
     pub capture: Option<Radians>,
+    /// The most coils on at once, while a step switches (the held and the new set together):
+    /// what the supply can power.
+    pub max_coils_on: usize,
 }
+
+/// The prototype's supply (24 V, 100 W) powers four coils at once (about 1 A, 25 W each).
+pub const DEFAULT_MAX_COILS_ON: usize = 4;
 
 /// The pivot model's capture distance: its geometric prediction holds only while the magnets
 /// stay near their coils.
@@ -292,6 +298,7 @@ impl Default for StepLimits {
             max_candidates: 8,
             search_bound: Radians(45f64.to_radians()),
             capture: None,
+            max_coils_on: DEFAULT_MAX_COILS_ON,
         }
     }
 }
@@ -314,7 +321,11 @@ pub fn candidate_steps(
     let mut low = -1.0;
     let mut bound = limits.bound_start.0;
     loop {
-        let proposals = proposals_between(&scored, low, bound, pairs, limits.max_candidates);
+        let proposals = within_supply(
+            &state.active,
+            proposals_between(&scored, low, bound, pairs, limits.max_candidates),
+            limits.max_coils_on,
+        );
         let steps = evaluate(motor, state, n, model, proposals, limits);
         if !steps.is_empty() || bound > std::f64::consts::PI {
             return steps;
@@ -346,18 +357,38 @@ fn scored_by_pivot(
 pub type Proposal = (Pair, Vec<Pair>);
 
 /// Every proposal from `state` whose candidates pass the filter within `bound` (with the
-/// dynamic model's combinations of up to `pairs.max - 1` of the `max_candidates` best
-/// candidates of each pivot), in a deterministic order.
+/// dynamic model's combinations of up to `pairs.max - 1` of the `limits.max_candidates` best
+/// candidates of each pivot) and that the supply can switch ([`within_supply`]), in a
+/// deterministic order.
 pub fn proposals_within(
     motor: &Motor,
     state: &CommutationState,
     n: &UnitVec,
     pairs: PairsPerStep,
     bound: Radians,
-    max_candidates: usize,
+    limits: &StepLimits,
 ) -> Vec<Proposal> {
     let scored = scored_by_pivot(motor, state, n);
-    proposals_between(&scored, -1.0, bound.0, pairs, max_candidates)
+    within_supply(
+        &state.active,
+        proposals_between(&scored, -1.0, bound.0, pairs, limits.max_candidates),
+        limits.max_coils_on,
+    )
+}
+
+/// The proposals whose step never has more than `max_coils_on` coils on: a step switches its
+/// new coils on before the held ones go off (make before break), so for a moment the coils of
+/// both sets are on together.
+fn within_supply(held: &[Pair], proposals: Vec<Proposal>, max_coils_on: usize) -> Vec<Proposal> {
+    proposals
+        .into_iter()
+        .filter(|(_, new)| {
+            let mut coils: Vec<CoilId> = held.iter().chain(new).map(|p| p.coil).collect();
+            coils.sort();
+            coils.dedup();
+            coils.len() <= max_coils_on
+        })
+        .collect()
 }
 
 /// The cheap prediction of where a set leaves the ball from `q`: the rotation that brings its

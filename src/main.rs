@@ -77,7 +77,8 @@ enum Command {
         /// Start orientation qx,qy,qz,qw (default: the scenario's, else identity).
         #[arg(long, allow_hyphen_values = true)]
         from: Option<String>,
-        /// Write the plan CSV here (else it goes to standard output).
+        /// Write the plan CSV here (else it goes alone to standard output, the summary to
+        /// standard error).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print a JSON summary.
@@ -90,7 +91,8 @@ enum Command {
         plan: PathBuf,
         /// Scenario to simulate in (default: the built-in prototype).
         scenario: Option<PathBuf>,
-        /// Write the per-step CSV here (else to standard output).
+        /// Write the per-step CSV here (else it goes alone to standard output, the summary to
+        /// standard error).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print a JSON summary.
@@ -254,7 +256,14 @@ fn run(cli: Cli) -> Result<()> {
                 from,
             };
             let settings = app::plan_settings(&sc, &o)?;
-            let p = app::plan_command(&sc, &settings, out_file.as_deref(), json, &mut out)?;
+            let p = app::plan_command(
+                &sc,
+                &settings,
+                out_file.as_deref(),
+                json,
+                &mut out,
+                &mut std::io::stderr(),
+            )?;
             if !p.reached {
                 anyhow::bail!(
                     "{}",
@@ -276,17 +285,21 @@ fn run(cli: Cli) -> Result<()> {
             let sim = spherestep::simulate::simulate(&sc, &rows, &plan)?;
             let mut buf = Vec::new();
             spherestep::simulate::write_sim(&sim, &mut buf)?;
+            // Without --out the CSV alone goes to standard output, the summary to standard error.
+            let csv_on_stdout = out_file.is_none() && !json;
             match &out_file {
                 Some(p) => spherestep::output::write_atomic(p, &buf)?,
-                None if !json => out.write_all(&buf)?,
+                None if csv_on_stdout => out.write_all(&buf)?,
                 None => {}
             }
             let s = spherestep::simulate::summary(&sim);
             if json {
                 writeln!(out, "{}", serde_json::to_string(&s)?)?;
             } else {
+                let mut stderr = std::io::stderr();
+                let note: &mut dyn Write = if csv_on_stdout { &mut stderr } else { &mut out };
                 writeln!(
-                    out,
+                    note,
                     "{} steps: max deviation {:.3} deg, final deviation {:.3} deg, {} unsettled",
                     s.steps, s.max_deviation_deg, s.final_deviation_deg, s.unsettled_steps
                 )?;

@@ -66,6 +66,26 @@ impl Packing {
         self.points.is_empty()
     }
 
+    /// The first two points (indices, ascending) closer than `tol` (chord length), if any:
+    /// coincident magnets or coils. Sorted by x and swept, so it stays fast for large packings.
+    pub fn coincident(&self, tol: f64) -> Option<(usize, usize)> {
+        let mut order: Vec<usize> = (0..self.points.len()).collect();
+        order.sort_by(|&a, &b| self.points[a].x.total_cmp(&self.points[b].x));
+        let mut best: Option<(usize, usize)> = None;
+        for (k, &a) in order.iter().enumerate() {
+            for &b in &order[k + 1..] {
+                if self.points[b].x - self.points[a].x >= tol {
+                    break;
+                }
+                if (self.points[a].into_inner() - self.points[b].into_inner()).norm() < tol {
+                    let pair = (a.min(b), a.max(b));
+                    best = Some(best.map_or(pair, |p| p.min(pair)));
+                }
+            }
+        }
+        best
+    }
+
     /// Smallest angular distance between two points (pi for fewer than two points).
     pub fn min_separation(&self) -> Radians {
         let mut m = std::f64::consts::PI;
@@ -181,24 +201,60 @@ pub fn parse_points_csv(text: &str) -> Result<Packing, String> {
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .from_reader(text.as_bytes());
+    let headers = rdr.headers().map_err(|e| format!("line 1: {e}"))?.clone();
+    check_header(&headers, &["x", "y", "z"], "point")?;
     let mut pts = Vec::new();
-    for (i, rec) in rdr.records().enumerate() {
-        let rec = rec.map_err(|e| format!("row {}: {e}", i + 1))?;
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| format!("line {}: {e}", csv_line(e.position())))?;
+        let line = csv_line(rec.position());
         if rec.len() != 3 {
-            return Err(format!("row {}: expected 3 columns x,y,z", i + 1));
+            return Err(format!("line {line}: expected 3 columns x,y,z"));
         }
         let mut c = [0.0; 3];
         for (k, f) in rec.iter().enumerate() {
             c[k] = f
                 .trim()
                 .parse::<f64>()
-                .map_err(|_| format!("row {}: '{f}' is not a number", i + 1))?;
+                .map_err(|_| format!("line {line}: '{f}' is not a number"))?;
         }
         let u = unit(Vector3::new(c[0], c[1], c[2]))
-            .ok_or_else(|| format!("row {}: zero or non-finite vector", i + 1))?;
+            .ok_or_else(|| format!("line {line}: zero or non-finite vector"))?;
         pts.push(u);
     }
     Ok(Packing { points: pts })
+}
+
+/// The line number of a CSV record (1-based; 0 when unknown).
+pub(crate) fn csv_line(pos: Option<&csv::Position>) -> u64 {
+    pos.map(|p| p.line()).unwrap_or(0)
+}
+
+/// Checks that a CSV's first row is the expected header (names trimmed, any case). A header is
+/// required, never guessed: a file whose first row is data would otherwise lose that `row`
+/// silently and shift every index after it.
+pub(crate) fn check_header(
+    headers: &csv::StringRecord,
+    expected: &[&str],
+    row: &str,
+) -> Result<(), String> {
+    let found: Vec<String> = headers.iter().map(|h| h.trim().to_lowercase()).collect();
+    if found
+        .iter()
+        .map(String::as_str)
+        .eq(expected.iter().copied())
+    {
+        return Ok(());
+    }
+    let got = headers.iter().collect::<Vec<_>>().join(",");
+    let hint = if !headers.is_empty() && headers.iter().all(|h| h.trim().parse::<f64>().is_ok()) {
+        format!(" (this is a row of numbers: add the header line first, or its {row} is lost)")
+    } else {
+        String::new()
+    };
+    Err(format!(
+        "line 1: expected the header `{}`, got `{got}`{hint}",
+        expected.join(",")
+    ))
 }
 
 /// Writes a packing as the points CSV read by [`parse_points_csv`] (17 significant digits, so

@@ -231,6 +231,21 @@ pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
                 "columns `qx..qw`: expected a non-zero quaternion".into(),
             )
         })?;
+        if rows.is_empty() && step != 0 {
+            return Err(row_err(
+                line,
+                format!(
+                    "column `step`: expected the first row to be step 0 (the initial commutation state), got {step}"
+                ),
+            ));
+        }
+        let settle_time_s = num(14)?;
+        if settle_time_s < 0.0 {
+            return Err(row_err(
+                line,
+                format!("column `settle_time_s`: expected a time >= 0 s, got {settle_time_s}"),
+            ));
+        }
         rows.push(PlanRow {
             step,
             pivot,
@@ -241,7 +256,7 @@ pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
             step_axis_error_deg: num(11)?,
             cum_angle_deg: num(12)?,
             cum_axis_error_deg: num(13)?,
-            settle_time_s: num(14)?,
+            settle_time_s,
         });
         if let Some(prev) = rows.len().checked_sub(2).map(|i| rows[i].step) {
             if step != prev + 1 {

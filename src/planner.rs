@@ -470,27 +470,21 @@ impl PartialOrd for Open {
 fn ranked_proposals(motor: &Motor, s: &PlanSettings, p: &Path) -> Vec<Proposal> {
     let bound = Radians(s.limits.bound_start.0.max(s.limits.search_bound.0));
     let q0 = p.rows[0].q;
-    let mut ranked: Vec<(f64, Proposal)> = proposals_within(
-        motor,
-        &p.state,
-        &s.axis,
-        s.pairs,
-        bound,
-        s.limits.max_candidates,
-    )
-    .into_iter()
-    .filter_map(|(pivot, new)| {
-        let mut set = vec![pivot];
-        set.extend_from_slice(&new);
-        let qp = predicted_orientation(motor.torques, &p.state.q, &set);
-        let (advance, _) = cumulative(&p.state.q, &qp, &s.axis);
-        if advance.0 <= 0.0 {
-            return None;
-        }
-        let (ca, ce) = cumulative(&q0, &qp, &s.axis);
-        Some((rank(p.worst.max(ce.0), ca.0, s.angle.0), (pivot, new)))
-    })
-    .collect();
+    let mut ranked: Vec<(f64, Proposal)> =
+        proposals_within(motor, &p.state, &s.axis, s.pairs, bound, &s.limits)
+            .into_iter()
+            .filter_map(|(pivot, new)| {
+                let mut set = vec![pivot];
+                set.extend_from_slice(&new);
+                let qp = predicted_orientation(motor.torques, &p.state.q, &set);
+                let (advance, _) = cumulative(&p.state.q, &qp, &s.axis);
+                if advance.0 <= 0.0 {
+                    return None;
+                }
+                let (ca, ce) = cumulative(&q0, &qp, &s.axis);
+                Some((rank(p.worst.max(ce.0), ca.0, s.angle.0), (pivot, new)))
+            })
+            .collect();
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
     // The smallest sets are all weighed (few, and the physics least like the springs of the
     // prediction); the larger ones only where the prediction ranks them among the best.

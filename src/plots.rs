@@ -30,8 +30,9 @@ use std::sync::OnceLock;
 
 /// The bundled font (DejaVu Sans; license in `assets/fonts/LICENSE-DejaVu.txt`).
 const FONT_BYTES: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
-/// The family name every text style of this module uses.
-const FONT: &str = "sans-serif";
+/// The family name every text style of this module uses: the bundled font by name (so an SVG
+/// viewer that has it shows the same text as the PNG), then a generic fallback.
+const FONT: &str = "DejaVu Sans, sans-serif";
 
 const COIL_COLOR: RGBColor = RGBColor(31, 119, 180);
 const MAGNET_COLOR: RGBColor = RGBColor(200, 30, 30);
@@ -43,18 +44,101 @@ const DESIRED_COLOR: RGBColor = RGBColor(0, 0, 0);
 const ACTUAL_COLOR: RGBColor = RGBColor(230, 120, 0);
 const GUIDE_COLOR: RGBColor = RGBColor(205, 205, 205);
 const REFERENCE_COLOR: RGBColor = RGBColor(120, 120, 120);
+const TARGET_COLOR: RGBColor = RGBColor(90, 90, 90);
 const NO_RESULT_COLOR: RGBColor = RGBColor(128, 128, 128);
-/// Line colours of the schemes of an [`AxisErrorPlot`], in order (then repeated).
-const SERIES_COLORS: [RGBColor; 8] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(255, 127, 14),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(23, 190, 207),
+/// Colours of the schemes of an [`AxisErrorPlot`], in order (then repeated): the Okabe-Ito
+/// palette, told apart with any colour vision (its yellow left out: too pale on white).
+pub const SERIES_COLORS: [RGBColor; 7] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(0, 0, 0),
 ];
+
+/// The marker of a series of an [`AxisErrorPlot`] (drawn hollow).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Marker {
+    Circle,
+    Square,
+    Triangle,
+    Diamond,
+    Cross,
+}
+
+const MARKERS: [Marker; 5] = [
+    Marker::Circle,
+    Marker::Square,
+    Marker::Triangle,
+    Marker::Diamond,
+    Marker::Cross,
+];
+
+/// Dash patterns (dash, gap in pixels; (0, 0) is a solid line) of the series' lines.
+const DASHES: [(u32, u32); 4] = [(0, 0), (10, 5), (3, 4), (16, 4)];
+
+/// How series `k` of an [`AxisErrorPlot`] is drawn: colour, marker and dash each differ from
+/// those of every other of the first seven series.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SeriesStyle {
+    pub color: RGBColor,
+    pub marker: Marker,
+    pub dash: (u32, u32),
+}
+
+/// The style of series `k`.
+pub fn series_style(k: usize) -> SeriesStyle {
+    SeriesStyle {
+        color: SERIES_COLORS[k % SERIES_COLORS.len()],
+        marker: MARKERS[k % MARKERS.len()],
+        dash: DASHES[k % DASHES.len()],
+    }
+}
+
+/// A marker's outline as a closed path of pixel offsets around its point, `r` pixels out.
+fn marker_path(m: Marker, r: i32) -> Vec<(i32, i32)> {
+    match m {
+        Marker::Circle => (0..=16)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::PI / 8.0;
+                (
+                    (r as f64 * a.cos()).round() as i32,
+                    (r as f64 * a.sin()).round() as i32,
+                )
+            })
+            .collect(),
+        Marker::Square => vec![(-r, -r), (r, -r), (r, r), (-r, r), (-r, -r)],
+        Marker::Triangle => vec![(0, -r - 1), (r + 1, r), (-r - 1, r), (0, -r - 1)],
+        Marker::Diamond => vec![
+            (0, -r - 1),
+            (r + 1, 0),
+            (0, r + 1),
+            (-r - 1, 0),
+            (0, -r - 1),
+        ],
+        Marker::Cross => vec![(-r, -r), (r, r), (0, 0), (r, -r), (-r, r)],
+    }
+}
+
+/// A series' line sample for the legend: the dash pattern over 24 pixels, as four segments
+/// (the unused ones empty).
+fn dash_path(dash: (u32, u32)) -> [Vec<(i32, i32)>; 4] {
+    let mut out: [Vec<(i32, i32)>; 4] = Default::default();
+    if dash.0 == 0 {
+        out[0] = vec![(0, 0), (24, 0)];
+        return out;
+    }
+    let (d, g) = (dash.0.min(12) as i32, dash.1.max(1) as i32);
+    for (k, seg) in out.iter_mut().enumerate() {
+        let x = k as i32 * (d + g);
+        if x < 24 {
+            *seg = vec![(x, 0), ((x + d).min(24), 0)];
+        }
+    }
+    out
+}
 /// Stops of the colour scale of a [`SweepMap`] (viridis, low to high).
 const SCALE: [(u8, u8, u8); 5] = [
     (68, 1, 84),
@@ -134,12 +218,17 @@ pub struct ReferenceLine {
     pub value_deg: f64,
 }
 
-/// Figures 7/8: axis error (deg) against rotation angle (deg), one line per scheme.
+/// Figures 7/8: cumulative axis error (deg) against cumulative rotation angle (deg), one series
+/// per scheme: a mark at each step (the motion is discrete), thin lines joining them, each
+/// series in its own colour, marker and dash ([`series_style`]); markers shrink from the first
+/// series to the last, so identical series stay visible one inside the other.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisErrorPlot {
     pub title: String,
     pub series: Vec<ErrorSeries>,
     pub reference: Option<ReferenceLine>,
+    /// The target rotation angle (deg), marked by a vertical line.
+    pub target_deg: Option<f64>,
 }
 
 /// A value over the sphere of axes, drawn on a longitude/latitude map with a colour bar.
@@ -152,6 +241,9 @@ pub struct SweepMap {
     pub value_label: String,
     /// (axis, value): the axis need not be normalised but must not be zero.
     pub points: Vec<([f64; 3], f64)>,
+    /// The colour scale's range (low, high); `None`: the points' own. Maps to be compared (a
+    /// sweep's schemes) share one.
+    pub range: Option<(f64, f64)>,
 }
 
 fn font_registered() -> bool {
@@ -220,45 +312,16 @@ pub fn render_svg<F: Figure>(fig: &F) -> std::result::Result<String, DrawError> 
     Ok(s)
 }
 
-/// A temporary file next to `target`, with the same extension (the PNG encoder picks its format
-/// by the extension), hidden and named after the process so runs do not collide.
-fn temp_path(target: &Path) -> PathBuf {
-    let name = target
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let ext = target
-        .extension()
-        .map(|e| e.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    target.with_file_name(format!(".{name}.{}.tmp.{ext}", std::process::id()))
-}
-
 fn write_png<F: Figure>(fig: &F, path: &Path) -> Result<()> {
-    let tmp = temp_path(path);
-    let drawn = (|| -> DrawResult {
-        let root = BitMapBackend::new(&tmp, fig.size()).into_drawing_area();
-        root.fill(&WHITE)?;
-        fig.draw(&root)?;
-        root.present()?;
-        Ok(())
-    })();
-    if let Err(e) = drawn {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(plot_err(path, e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
-    })
-}
-
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = temp_path(path);
-    std::fs::write(&tmp, bytes).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
+    crate::output::write_via_temp(path, |tmp| {
+        (|| -> DrawResult {
+            let root = BitMapBackend::new(tmp, fig.size()).into_drawing_area();
+            root.fill(&WHITE)?;
+            fig.draw(&root)?;
+            root.present()?;
+            Ok(())
+        })()
+        .map_err(|e| plot_err(path, e))
     })
 }
 
@@ -268,7 +331,7 @@ pub fn write_figure<F: Figure>(fig: &F, stem: &Path) -> Result<Vec<PathBuf>> {
     let svg_path = with_ext(stem, "svg");
     let png_path = with_ext(stem, "png");
     let svg = render_svg(fig).map_err(|e| plot_err(&svg_path, e))?;
-    write_atomic(&svg_path, svg.as_bytes())?;
+    crate::output::write_atomic(&svg_path, svg.as_bytes())?;
     write_png(fig, &png_path)?;
     Ok(vec![svg_path, png_path])
 }
@@ -415,7 +478,7 @@ impl Figure for CommutationPlot {
             .disable_mesh()
             .x_label_formatter(&|v| tick(*v, 1))
             .y_label_formatter(&|v| tick(*v, 1))
-            .x_desc("world x")
+            .x_desc("world x (seen from +Z, above the ball, through it)")
             .y_desc("world y")
             .label_style(text(16))
             .axis_desc_style(text(18))
@@ -463,7 +526,7 @@ impl Figure for CommutationPlot {
         chart.draw_series(boxed.map(|at| {
             EmptyElement::at(at) + Rectangle::new([(-9, -9), (9, 9)], CHOSEN_COLOR.stroke_width(1))
         }))?;
-        let label = text(12);
+        let label = text(LABEL_SIZE);
         chart
             .draw_series(
                 self.coils
@@ -480,13 +543,45 @@ impl Figure for CommutationPlot {
             )?
             .label("rotor magnet, z < 0 (*)")
             .legend(|(x, y)| star!((x + 10, y), 6, MAGNET_COLOR.stroke_width(1)));
-        chart.draw_series(self.coils.iter().enumerate().map(|(i, c)| {
-            EmptyElement::at((c[0], c[1]))
-                + Text::new(i.to_string(), (8, -21), label.color(&COIL_COLOR))
-        }))?;
-        chart.draw_series(self.magnets.iter().map(|(j, p)| {
-            EmptyElement::at((p[0], p[1]))
-                + Text::new(j.to_string(), (10, 1), label.color(&MAGNET_COLOR))
+        // Coil labels first, then the magnets', each where it meets no label and no mark.
+        let labels: Vec<(String, (f64, f64), RGBColor)> = self
+            .coils
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (i.to_string(), (c[0], c[1]), COIL_COLOR))
+            .chain(
+                self.magnets
+                    .iter()
+                    .map(|(j, p)| (j.to_string(), (p[0], p[1]), MAGNET_COLOR)),
+            )
+            .collect();
+        let at: Vec<(i32, i32)> = labels.iter().map(|l| chart.backend_coord(&l.1)).collect();
+        let chosen_at: Vec<(i32, i32)> = self
+            .chosen
+            .iter()
+            .flat_map(|p| {
+                let c = self.coils[p.coil.0];
+                [(c[0], c[1]), self.magnet_xy(p.magnet.0)]
+            })
+            .map(|q| chart.backend_coord(&q))
+            .collect();
+        let marks: Vec<((i32, i32), i32)> = at
+            .iter()
+            .map(|p| (*p, 7))
+            .chain(chosen_at.iter().map(|p| (*p, 10)))
+            .collect();
+        let sizes: Vec<(i32, i32)> = labels
+            .iter()
+            .map(|l| label_size(&l.0, LABEL_SIZE))
+            .collect();
+        let offsets = place_labels(&at, &sizes, &marks);
+        chart.draw_series(labels.iter().zip(offsets).map(|((t, xy, color), off)| {
+            EmptyElement::at(*xy)
+                + Text::new(
+                    t.clone(),
+                    off,
+                    label.color(color).pos(Pos::new(HPos::Left, VPos::Top)),
+                )
         }))?;
         chart
             .configure_series_labels()
@@ -733,6 +828,75 @@ impl Figure for View3d {
     }
 }
 
+/// The font size of point labels (coil and magnet numbers).
+const LABEL_SIZE: u32 = 12;
+
+/// The box (width, height) in pixels that `text` takes at font size `size` (DejaVu Sans: digits
+/// are 0.64 em wide; a little generous for letters).
+pub fn label_size(text: &str, size: u32) -> (i32, i32) {
+    let w = (0.64 * size as f64 * text.chars().count() as f64).ceil() as i32;
+    (w, size as i32)
+}
+
+/// Where labels go: top-left offsets (pixels, from each label's point at `at`) for boxes of
+/// `sizes`, chosen in turn as the first of eight places around the point (then the same
+/// further out) whose box meets neither a label placed before nor a mark (`marks`: centre and
+/// half-size of each drawn symbol); where every place is taken, the least crowded one.
+pub fn place_labels(
+    at: &[(i32, i32)],
+    sizes: &[(i32, i32)],
+    marks: &[((i32, i32), i32)],
+) -> Vec<(i32, i32)> {
+    type Box2 = (i32, i32, i32, i32);
+    let overlap = |a: &Box2, b: &Box2| -> i64 {
+        let w = (a.2.min(b.2) - a.0.max(b.0)).max(0) as i64;
+        let h = (a.3.min(b.3) - a.1.max(b.1)).max(0) as i64;
+        w * h
+    };
+    let mark_boxes: Vec<Box2> = marks
+        .iter()
+        .map(|((x, y), r)| (x - r, y - r, x + r, y + r))
+        .collect();
+    let mut placed: Vec<Box2> = Vec::new();
+    let mut out = Vec::new();
+    for (&(x, y), &(w, h)) in at.iter().zip(sizes) {
+        let mut best: Option<(i64, (i32, i32), Box2)> = None;
+        for g in [9, 16, 26] {
+            let places = [
+                (g, -h / 2),
+                (g, -h - 2),
+                (g, 2),
+                (-w / 2, -h - g),
+                (-w / 2, g),
+                (-w - g, -h / 2),
+                (-w - g, -h - 2),
+                (-w - g, 2),
+            ];
+            for (dx, dy) in places {
+                let b = (x + dx, y + dy, x + dx + w, y + dy + h);
+                let cost: i64 = placed
+                    .iter()
+                    .chain(&mark_boxes)
+                    .map(|o| overlap(&b, o))
+                    .sum();
+                if best.as_ref().is_none_or(|(c, _, _)| cost < *c) {
+                    best = Some((cost, (dx, dy), b));
+                }
+                if cost == 0 {
+                    break;
+                }
+            }
+            if best.as_ref().is_some_and(|(c, _, _)| *c == 0) {
+                break;
+            }
+        }
+        let (_, off, b) = best.unwrap_or((0, (9, -h / 2), (x, y, x + w, y + h)));
+        placed.push(b);
+        out.push(off);
+    }
+    out
+}
+
 /// Rounds a range outwards to a "nice" one starting at `lo` (callers pass 0 or a negative
 /// minimum).
 fn nice_max(v: f64) -> f64 {
@@ -749,6 +913,30 @@ fn nice_max(v: f64) -> f64 {
 }
 
 impl AxisErrorPlot {
+    fn min_error(&self) -> f64 {
+        self.series
+            .iter()
+            .flat_map(|s| s.points.iter())
+            .map(|p| p.1)
+            .fold(0.0f64, f64::min)
+    }
+
+    /// The axis error range drawn: from 0 (or the negative minimum) up past the largest error
+    /// and the reference; a zero-error series sits a little above the frame, never on it.
+    pub fn y_range(&self) -> std::ops::Range<f64> {
+        let emax = self
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter())
+            .map(|p| p.1)
+            .chain(self.reference.iter().map(|r| r.value_deg))
+            .fold(0.0f64, f64::max);
+        let top = nice_max(emax * 1.15);
+        let emin = self.min_error();
+        let bottom = if emin < 0.0 { -nice_max(-emin) } else { 0.0 };
+        (bottom - 0.03 * (top - bottom))..top
+    }
+
     fn check(&self) -> DrawResult {
         for s in &self.series {
             if let Some(p) = s
@@ -783,13 +971,11 @@ impl Figure for AxisErrorPlot {
         self.check()?;
         let pts = || self.series.iter().flat_map(|s| s.points.iter());
         let (amin, amax) = pts().fold((0.0f64, 0.0f64), |(lo, hi), p| (lo.min(p.0), hi.max(p.0)));
-        let emax = pts()
-            .map(|p| p.1)
-            .chain(self.reference.iter().map(|r| r.value_deg))
-            .fold(0.0f64, f64::max);
-        let emin = pts().map(|p| p.1).fold(0.0f64, f64::min);
+        let amax = amax.max(self.target_deg.unwrap_or(0.0) * 1.05);
         let xs = (if amin < 0.0 { -nice_max(-amin) } else { 0.0 })..nice_max(amax);
-        let ys = (if emin < 0.0 { -nice_max(-emin) } else { 0.0 })..nice_max(emax * 1.15);
+        let ys = self.y_range();
+        // Below zero is only the margin that lifts a zero series off the frame: no ticks there.
+        let no_negative = self.min_error() >= 0.0;
         let area = root.margin(10, 25, 10, 10);
         let mut chart = ChartBuilder::on(&area)
             .caption(&self.title, text(24))
@@ -803,9 +989,15 @@ impl Figure for AxisErrorPlot {
         chart
             .configure_mesh()
             .x_label_formatter(&|v| tick(*v, xd))
-            .y_label_formatter(&|v| tick(*v, yd))
-            .x_desc("rotation angle (deg)")
-            .y_desc("axis error (deg)")
+            .y_label_formatter(&|v| {
+                if no_negative && *v < 0.0 {
+                    String::new()
+                } else {
+                    tick(*v, yd)
+                }
+            })
+            .x_desc("cumulative rotation angle (deg)")
+            .y_desc("cumulative axis error (deg)")
             .label_style(text(16))
             .axis_desc_style(text(18))
             .light_line_style(RGBColor(238, 238, 238))
@@ -828,20 +1020,53 @@ impl Figure for AxisErrorPlot {
                         + PathElement::new(vec![(12, 0), (20, 0)], style)
                 });
         }
+        if let Some(t) = self.target_deg {
+            let (y0, y1) = (chart.y_range().start, chart.y_range().end);
+            let style = TARGET_COLOR.stroke_width(1);
+            chart.draw_series(DashedLineSeries::new(vec![(t, y0), (t, y1)], 6, 4, style))?;
+            chart.draw_series(std::iter::once(Text::new(
+                format!(
+                    "target {} deg",
+                    tick(t, if t.fract() == 0.0 { 0 } else { 1 })
+                ),
+                (t, y1),
+                text(14)
+                    .color(&TARGET_COLOR)
+                    .pos(Pos::new(HPos::Right, VPos::Top)),
+            )))?;
+        }
+        let n = self.series.len() as i32;
         for (k, s) in self.series.iter().enumerate() {
-            let color = SERIES_COLORS[k % SERIES_COLORS.len()];
+            let st = series_style(k);
+            let line = st.color.stroke_width(1);
+            let pts = s.points.iter().copied();
+            if st.dash.0 == 0 {
+                chart.draw_series(LineSeries::new(pts, line))?;
+            } else {
+                chart.draw_series(DashedLineSeries::new(pts, st.dash.0, st.dash.1, line))?;
+            }
+            let r = 3 + 2 * (n - 1 - k as i32).clamp(0, 4);
+            let mark = st.color.stroke_width(2);
             chart
-                .draw_series(LineSeries::new(
-                    s.points.iter().copied(),
-                    color.stroke_width(2),
-                ))?
+                .draw_series(s.points.iter().map(|p| {
+                    EmptyElement::at(*p) + PathElement::new(marker_path(st.marker, r), mark)
+                }))?
                 .label(s.name.clone())
                 .legend(move |(x, y)| {
+                    let [a, b, c, d] = dash_path(st.dash);
                     EmptyElement::at((x, y))
-                        + PathElement::new(vec![(0, 0), (20, 0)], color.stroke_width(2))
-                        + Circle::new((10, 0), 3, color.filled())
+                        + PathElement::new(a, line)
+                        + PathElement::new(b, line)
+                        + PathElement::new(c, line)
+                        + PathElement::new(d, line)
+                        + PathElement::new(
+                            marker_path(st.marker, 4)
+                                .into_iter()
+                                .map(|(u, v)| (u + 12, v))
+                                .collect::<Vec<_>>(),
+                            mark,
+                        )
                 });
-            chart.draw_series(s.points.iter().map(|p| Circle::new(*p, 3, color.filled())))?;
         }
         chart
             .configure_series_labels()
@@ -890,22 +1115,45 @@ impl SweepMap {
                 "sweep map: expected finite, non-zero axes, got {a:?}"
             )));
         }
+        // The colour scale must span a finite range (a span of inf never finishes its ticks).
+        if let Some((_, v)) = self.points.iter().find(|(_, v)| v.is_infinite()) {
+            return Err(DrawError(format!(
+                "sweep map: expected finite values (or NaN: no result), got {v}"
+            )));
+        }
+        let (lo, hi) = self.value_range();
+        if !(hi - lo).is_finite() || lo.abs().max(hi.abs()) > 1e12 {
+            return Err(DrawError(format!(
+                "sweep map: expected values within +-1e12, got {lo} to {hi}"
+            )));
+        }
         Ok(())
     }
 
-    /// The colour scale's range: the finite values' minimum and maximum (widened if equal).
+    /// The colour scale's range: the given one, else the finite values' minimum and maximum
+    /// (widened if equal).
     fn value_range(&self) -> (f64, f64) {
-        let vals = self.points.iter().map(|p| p.1).filter(|v| v.is_finite());
-        let (lo, hi) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        let own = value_range(self.points.iter().map(|p| p.1));
+        match self.range {
+            Some((lo, hi)) => value_range([lo, hi, own.0, own.1].into_iter()),
+            None => own,
+        }
+    }
+}
+
+/// The finite values' minimum and maximum, widened if equal ((0, 1) without any).
+fn value_range(vals: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = vals
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(v), hi.max(v))
         });
-        if !lo.is_finite() {
-            (0.0, 1.0)
-        } else if hi - lo < 1e-9 {
-            (lo - 0.5, hi + 0.5)
-        } else {
-            (lo, hi)
-        }
+    if !lo.is_finite() {
+        (0.0, 1.0)
+    } else if hi - lo < 1e-9 {
+        (lo - 0.5, hi + 0.5)
+    } else {
+        (lo, hi)
     }
 }
 
@@ -1077,6 +1325,16 @@ pub fn parse_sweep_column(text: &str, path: &Path, value: &str) -> Result<Vec<Sw
             ));
         }
         let value = num(3)?;
+        // An axis error is an angle: anything else (1e308, inf) would also give the colour
+        // scale an infinite span, which the tick search never finishes.
+        if !(value.is_nan() || (0.0..=180.0 + 1e-9).contains(&value)) {
+            return Err(row_err(
+                line,
+                format!(
+                    "column `max_axis_error_deg`: expected an angle from 0 to 180 degrees (or NaN: no result), got {value}"
+                ),
+            ));
+        }
         let scheme = scheme_col.map(|k| rec.get(k).unwrap_or("").to_string());
         match out.iter_mut().find(|(s, _)| *s == scheme) {
             Some((_, pts)) => pts.push((axis, value)),
@@ -1091,21 +1349,7 @@ pub fn parse_sweep_column(text: &str, path: &Path, value: &str) -> Result<Vec<Sw
 
 /// A scheme name made safe for a file name.
 fn file_safe(s: &str) -> String {
-    let t: String = s
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if t.is_empty() {
-        "unnamed".into()
-    } else {
-        t
-    }
+    crate::output::file_safe(s, "unnamed")
 }
 
 /// Draws an existing result CSV (for `spherestep plot`), recognised by its header:
@@ -1177,11 +1421,14 @@ pub fn plot_csv(
                     .unwrap_or_else(|| format!("axis error vs. rotation angle: {stem}")),
                 series: vec![plan_series(&stem, &rows)],
                 reference: None,
+                target_deg: None,
             };
             written.extend(write_figure(&fig, &dir.join(&stem))?);
         }
         Kind::Sweep => {
             let groups = parse_sweep(&text, csv_path)?;
+            // One colour scale for all the schemes' maps, so that they can be compared.
+            let range = value_range(groups.iter().flat_map(|g| g.1.iter().map(|p| p.1)));
             for (scheme, points) in groups {
                 let base = title
                     .map(str::to_string)
@@ -1197,6 +1444,7 @@ pub fn plot_csv(
                     title,
                     value_label: "worst axis error (deg)".into(),
                     points,
+                    range: Some(range),
                 };
                 written.extend(write_figure(&fig, &dir.join(file))?);
             }
@@ -1211,6 +1459,7 @@ pub fn plot_csv(
                         ),
                         value_label: "floor of the worst axis error (deg)".into(),
                         points,
+                        range: Some(range),
                     };
                     written.extend(write_figure(
                         &fig,

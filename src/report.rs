@@ -26,6 +26,11 @@ fn reference(sc: &Scenario) -> Option<ReferenceLine> {
     })
 }
 
+/// The target angle of a scenario's motion, degrees.
+fn target_deg(sc: &Scenario) -> f64 {
+    sc.plan.angle.0.to_degrees()
+}
+
 fn arr(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
     [v.x, v.y, v.z]
 }
@@ -121,9 +126,10 @@ pub fn plan_pictures(
     )?);
     out.extend(write_figure(
         &AxisErrorPlot {
-            title: format!("{}: axis error vs rotation angle", sc.name),
+            title: format!("{}: cumulative axis error vs rotation angle", sc.name),
             series: vec![plan_series(label, rows)],
             reference: reference(sc),
+            target_deg: Some(target_deg(sc)),
         },
         &base("error"),
     )?);
@@ -152,9 +158,10 @@ pub fn schemes_picture(
 ) -> Result<Vec<PathBuf>> {
     write_figure(
         &AxisErrorPlot {
-            title: format!("{}: axis error vs rotation angle", sc.name),
+            title: format!("{}: cumulative axis error vs rotation angle", sc.name),
             series: plans.iter().map(|(n, rows)| plan_series(n, rows)).collect(),
             reference: reference(sc),
+            target_deg: Some(target_deg(sc)),
         },
         &dir.join(format!("{stem}-schemes")),
     )

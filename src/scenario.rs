@@ -19,6 +19,9 @@ use std::path::{Path, PathBuf};
 pub const DEFAULT_STRENGTH_J: f64 = 0.25;
 pub const DEFAULT_WIDTH_DEG: f64 = 10.0;
 pub const DEFAULT_MAX_ATTRACTION_DEG: f64 = 30.0;
+/// Two magnets (or two coils) closer than this (chord of the unit sphere, about 6e-5 degrees)
+/// are the same place: refused.
+pub const COINCIDENT_TOL: f64 = 1e-6;
 /// Defaults of the `[body]` section.
 pub const DEFAULT_INERTIA_KG_M2: f64 = 0.023;
 pub const DEFAULT_DAMPING_NMS: f64 = 1.0;
@@ -116,6 +119,7 @@ struct RawPlan {
     error_bound_start_deg: Option<f64>,
     search_bound_deg: Option<f64>,
     capture_deg: Option<f64>,
+    max_coils_on: Option<usize>,
     max_candidates: Option<usize>,
     angle_tolerance_deg: Option<f64>,
 }
@@ -365,10 +369,15 @@ pub fn parse_pairs(text: &str, arg: &str) -> Result<Vec<Pair>> {
         expected: format!("pairs written coil:magnet,coil:magnet (0-based integers), {what}"),
     };
     let mut out = Vec::new();
+    if text.trim().is_empty() {
+        return Err(bad("got nothing"));
+    }
     for item in text.split([',', ';']) {
         let item = item.trim();
         if item.is_empty() {
-            continue;
+            return Err(bad(&format!(
+                "got an empty pair in '{text}' (a stray ',' or ';')"
+            )));
         }
         let (c, m) = item
             .split_once(':')
@@ -471,15 +480,13 @@ impl Checker<'_> {
     }
 
     fn packing(&self, raw: RawPacking, section: &str) -> Result<Packing> {
-        let given = [
+        let given_flags = [
             raw.preset.is_some(),
             raw.points.is_some(),
             raw.file.is_some(),
             raw.group.is_some(),
-        ]
-        .iter()
-        .filter(|b| **b)
-        .count();
+        ];
+        let given = given_flags.iter().filter(|b| **b).count();
         if given > 1 {
             return Err(self.err(
                 section,
@@ -557,6 +564,27 @@ impl Checker<'_> {
         };
         if pk.is_empty() {
             return Err(self.err(section, "at least one point"));
+        }
+        if let Some((a, b)) = pk.coincident(COINCIDENT_TOL) {
+            let what = if section == "rotor" {
+                "magnets"
+            } else {
+                "coils"
+            };
+            let source = ["preset", "points", "file", "group"]
+                .iter()
+                .zip(given_flags)
+                .find(|(_, g)| *g)
+                .map_or("preset", |(n, _)| n);
+            return Err(self.err(
+                &format!("{section}.{source}"),
+                format!(
+                    "distinct {what}, got {what} {a} and {b} at the same place ({:.2e} deg apart)",
+                    crate::geometry::angular_distance(&pk.points[a], &pk.points[b])
+                        .0
+                        .to_degrees()
+                ),
+            ));
         }
         Ok(pk)
     }
@@ -707,6 +735,7 @@ impl Checker<'_> {
                     d.bound_start,
                 )?,
                 max_candidates: count("plan.max_candidates", raw.max_candidates, d.max_candidates)?,
+                max_coils_on: count("plan.max_coils_on", raw.max_coils_on, d.max_coils_on)?,
                 capture: match raw.capture_deg {
                     None => None,
                     Some(_) => Some(angle_field(
@@ -867,23 +896,25 @@ impl Checker<'_> {
     }
 }
 
-/// Reads a torque table CSV: header `angle_deg,torque_nm`, then rows.
+/// Reads a torque table CSV: header `angle_deg,torque_nm` (required), then rows.
 fn read_table(path: &Path) -> std::result::Result<TorqueTable, String> {
     let mut rdr = csv::Reader::from_path(path).map_err(|e| e.to_string())?;
+    let headers = rdr.headers().map_err(|e| format!("line 1: {e}"))?.clone();
+    packing::check_header(&headers, &["angle_deg", "torque_nm"], "row")?;
     let mut rows = Vec::new();
-    for (i, rec) in rdr.records().enumerate() {
-        let rec = rec.map_err(|e| format!("row {}: {e}", i + 1))?;
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| format!("line {}: {e}", packing::csv_line(e.position())))?;
+        let line = packing::csv_line(rec.position());
         if rec.len() != 2 {
             return Err(format!(
-                "row {}: expected 2 columns angle_deg,torque_nm",
-                i + 1
+                "line {line}: expected 2 columns angle_deg,torque_nm"
             ));
         }
         let num = |k: usize| {
             rec[k]
                 .trim()
                 .parse::<f64>()
-                .map_err(|_| format!("row {}: '{}' is not a number", i + 1, &rec[k]))
+                .map_err(|_| format!("line {line}: '{}' is not a number", &rec[k]))
         };
         rows.push((num(0)?, num(1)?));
     }

@@ -58,8 +58,22 @@ fn the_default_planner_turns_hard_axes_within_15_degrees_and_its_plans_replay() 
         assert!(worst <= 10.0, "{text}: worst cumulative axis error {worst}");
         let last = p.rows.last().unwrap().cum_angle_deg;
         assert!((89.5..100.0).contains(&last), "{text}: ends at {last}");
-        for r in &p.rows[1..] {
+        for (prev, r) in p.rows.iter().zip(&p.rows[1..]) {
             assert!((2..=4).contains(&r.active.len()), "{text}: {:?}", r.active);
+            // the supply powers 4 coils: the held and the new set are on together for a moment
+            let mut coils: Vec<usize> = prev
+                .active
+                .iter()
+                .chain(&r.active)
+                .map(|p| p.coil.0)
+                .collect();
+            coils.sort();
+            coils.dedup();
+            assert!(
+                coils.len() <= 4,
+                "{text}: step {} switches {coils:?}",
+                r.step
+            );
             assert_eq!(r.active.len(), r.new.len() + 1, "pivot plus the new pairs");
             pairs_used.insert(r.active.len());
         }

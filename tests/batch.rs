@@ -31,13 +31,7 @@ fn scenarios(dir: &Path) -> PathBuf {
     s
 }
 
-fn batch(args: &[&str]) -> std::process::Output {
-    Command::new(common::bin())
-        .arg("batch")
-        .args(args)
-        .output()
-        .unwrap()
-}
+use common::batch;
 
 /// Every file below `dir` (relative path -> bytes), timing.csv left out (wall time).
 fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {

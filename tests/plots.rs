@@ -180,7 +180,7 @@ fn figure5_commutation_state() {
     // fill and frame.
     assert_eq!(count(&svg, "rect"), 2 * fig.chosen.len() + 1 + 3);
     for t in [
-        "world x",
+        "world x (seen from +Z, above the ball, through it)",
         "world y",
         "candidate pair",
         "chosen pair (boxed)",
@@ -256,6 +256,7 @@ fn axis_error() -> AxisErrorPlot {
             label: "paper: 15 deg".into(),
             value_deg: 15.0,
         }),
+        target_deg: Some(90.0),
     }
 }
 
@@ -264,23 +265,26 @@ fn figure7_axis_error() {
     let fig = axis_error();
     let (svg, _) = write_and_check(&fig, "figure8");
     assert_well_formed(&svg);
-    let points: usize = fig.series.iter().map(|s| s.points.len()).sum();
-    // A marker per point, and one in each series' legend entry.
-    assert_eq!(count(&svg, "circle"), points + fig.series.len());
     for t in [
-        "rotation angle (deg)",
-        "axis error (deg)",
+        "cumulative rotation angle (deg)",
+        "cumulative axis error (deg)",
         "weighted",
         "min axis error",
         "max angle",
         "paper: 15 deg",
+        "target 90 deg",
         "Axis error vs. rotation angle (Y axis)",
     ] {
         assert!(has_text(&svg, t), "text `{t}`");
     }
-    // Each series' line is one polyline in its colour (and one more in the legend).
-    for c in ["#1F77B4", "#D62728", "#2CA02C"] {
-        assert_eq!(polylines(&svg, c), 2, "colour {c}: line and legend");
+    // Each series' markers are drawn in its colour: one outline per point, plus its legend's.
+    for (k, s) in fig.series.iter().enumerate() {
+        let c = spherestep::plots::series_style(k).color;
+        let hex = format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
+        assert!(
+            polylines_w(&svg, &hex, 2) > s.points.len(),
+            "series {k} ({hex}): a marker per point and in the legend"
+        );
     }
     // Without a reference line, no legend entry for it.
     let mut plain = fig.clone();
@@ -308,6 +312,7 @@ fn sweep_map() {
         title: "Worst axis error over the sphere of axes (weighted)".into(),
         value_label: "worst axis error (deg)".into(),
         points: sweep_points(500),
+        range: None,
     };
     let (svg, img) = write_and_check(&fig, "sweep");
     assert_well_formed(&svg);
@@ -358,6 +363,7 @@ fn bad_data_is_an_error() {
         title: "t".into(),
         value_label: "v".into(),
         points: vec![([0.0, 0.0, 0.0], 1.0)],
+        range: None,
     };
     assert!(render_svg(&map).is_err());
 }
@@ -386,7 +392,10 @@ fn plot_csv_plan() {
     );
     let svg = std::fs::read_to_string(&files[0]).unwrap();
     assert_well_formed(&svg);
-    assert_eq!(count(&svg, "circle"), 4 + 1);
+    // A marker per step (4) and in the legend, in the first series' colour.
+    let c = spherestep::plots::series_style(0).color;
+    let hex = format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
+    assert_eq!(polylines_w(&svg, &hex, 2), 4 + 1);
     assert!(has_text(&svg, "plan_z"));
     assert!(has_text(&svg, "axis error vs. rotation angle: plan_z"));
     let out = dir.path().join("pics");
@@ -493,4 +502,222 @@ fn plot_csv_errors() {
         })
         .count();
     assert_eq!(pics, 0);
+}
+
+/// Issue 14, item 10: values of +-1e308 gave the colour scale an infinite span, and drawing
+/// never finished; they are refused (by the map and by `plot`), naming the line.
+#[test]
+fn huge_sweep_values_are_refused_not_drawn_for_ever() {
+    for values in [[1e308, -1e308], [f64::INFINITY, 3.0], [1e300, 0.0]] {
+        let map = SweepMap {
+            title: "t".into(),
+            value_label: "v".into(),
+            points: vec![([1.0, 0.0, 0.0], values[0]), ([0.0, 1.0, 0.0], values[1])],
+            range: None,
+        };
+        let e = render_svg(&map).unwrap_err();
+        assert!(e.0.contains("sweep map: expected"), "{}", e.0);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let csv = write(
+        dir.path(),
+        "huge.csv",
+        "axis_x,axis_y,axis_z,max_axis_error_deg\n0,0,1,5\n1,0,0,1e308\n0,1,0,-1e308\n",
+    );
+    let e = plot_csv(&csv, None, None).unwrap_err().to_string();
+    assert!(
+        e.contains("huge.csv: line 3")
+            && e.contains("max_axis_error_deg")
+            && e.contains("0 to 180"),
+        "{e}"
+    );
+    assert!(!dir.path().join("huge.png").exists());
+}
+
+/// Issue 14, item 16: every series of a scheme figure has its own colour (colour-blind safe),
+/// marker and dash, so identical series stay visible; a zero-error series is lifted off the
+/// frame; the labels say "cumulative"; the target is marked.
+#[test]
+fn scheme_figures_tell_their_series_apart() {
+    use spherestep::plots::{series_style, SERIES_COLORS};
+    let styles: Vec<_> = (0..4).map(series_style).collect();
+    for a in 0..styles.len() {
+        for b in a + 1..styles.len() {
+            let (x, y) = (styles[a], styles[b]);
+            assert!(
+                x.color != y.color && x.marker != y.marker && x.dash != y.dash,
+                "series {a} and {b} share a colour, marker or dash"
+            );
+        }
+    }
+    // Okabe-Ito, no pure red or green: no two colours differ only in red against green.
+    for c in SERIES_COLORS {
+        assert!(
+            {
+                let red = c.0 > 150 && c.1 < 60 && c.2 < 60;
+                let green = c.1 > 150 && c.0 < 60 && c.2 < 60;
+                !red && !green
+            },
+            "{c:?}"
+        );
+    }
+    let same = ErrorSeries {
+        name: "a".into(),
+        points: vec![(0.0, 0.0), (30.0, 0.0), (60.0, 0.0), (90.0, 0.0)],
+    };
+    let fig = AxisErrorPlot {
+        title: "three identical schemes".into(),
+        series: ["a", "b", "c"]
+            .iter()
+            .map(|n| ErrorSeries {
+                name: n.to_string(),
+                ..same.clone()
+            })
+            .collect(),
+        reference: None,
+        target_deg: Some(90.0),
+    };
+    let r = fig.y_range();
+    assert!(
+        r.start < 0.0 && r.end > 0.0,
+        "zero errors above the frame: {r:?}"
+    );
+    let svg = render_svg(&fig).unwrap();
+    assert_well_formed(&svg);
+    assert!(has_text(&svg, "target 90 deg"));
+    // Each of the three identical series shows: a marker per point in its own colour (and
+    // one in the legend).
+    for k in 0..3 {
+        let c = series_style(k).color;
+        let hex = format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
+        assert_eq!(polylines_w(&svg, &hex, 2), 4 + 1, "series {k}");
+    }
+}
+
+/// Issue 14, item 17: the SVGs name the bundled font, not just a generic family.
+#[test]
+fn svgs_name_the_bundled_font() {
+    let svg = render_svg(&axis_error()).unwrap();
+    let families: Vec<&str> = svg
+        .split("font-family=\"")
+        .skip(1)
+        .map(|r| r.split('"').next().unwrap())
+        .collect();
+    assert!(!families.is_empty());
+    for f in families {
+        assert!(f.starts_with("DejaVu Sans"), "font-family {f}");
+    }
+}
+
+/// Issue 14, item 17: a sweep's maps (one per scheme) share one colour scale, so that they
+/// can be compared: the same colour bar whatever each scheme's own range.
+#[test]
+fn a_sweeps_maps_share_one_colour_scale() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("scheme,axis_x,axis_y,axis_z,max_axis_error_deg\n");
+    for (scheme, scale) in [("small", 1.0), ("large", 4.0)] {
+        for (a, v) in sweep_points(40) {
+            text += &format!("{scheme},{},{},{},{}\n", a[0], a[1], a[2], v * scale);
+        }
+    }
+    let csv = write(dir.path(), "sw.csv", &text);
+    let files = plot_csv(&csv, None, Some("t")).unwrap();
+    let bar = |f: &PathBuf| -> Vec<String> {
+        // Every text but the title (which names the scheme).
+        texts(&std::fs::read_to_string(f).unwrap())
+            .into_iter()
+            .filter(|t| !t.contains("scheme"))
+            .collect()
+    };
+    let (a, b) = (bar(&files[0]), bar(&files[2]));
+    assert!(a.len() > 10, "{a:?}");
+    assert_eq!(a, b, "one colour bar for both maps");
+}
+
+/// The boxes (x0, y0, x1, y1) of an SVG's texts of font size `svg_size` whose content is a
+/// number (the point labels), drawn from their top left, sized as `label_size` says.
+fn label_boxes(svg: &str, svg_size: &str) -> Vec<(String, (i32, i32, i32, i32))> {
+    svg.split("<text ")
+        .skip(1)
+        .filter(|t| t.contains(&format!("font-size=\"{svg_size}\"")))
+        .filter_map(|t| {
+            let attr = |k: &str| -> Option<f64> {
+                let v = format!(" {t}")
+                    .split(&format!(" {k}=\""))
+                    .nth(1)?
+                    .split('"')
+                    .next()?
+                    .to_string();
+                v.parse().ok()
+            };
+            let body = t
+                .split_once('>')?
+                .1
+                .split("</text>")
+                .next()?
+                .trim()
+                .to_string();
+            body.parse::<usize>().ok()?;
+            assert!(t.contains("text-anchor=\"start\""), "{t}");
+            let (x, y) = (attr("x")? as i32, attr("y")? as i32);
+            let (w, h) = spherestep::plots::label_size(&body, 12);
+            Some((body, (x, y, x + w, y + h)))
+        })
+        .collect()
+}
+
+/// Issue 14, item 17: Figure 5's coil and magnet numbers never overlap each other.
+#[test]
+fn figure5_labels_do_not_overlap() {
+    let svg = render_svg(&commutation()).unwrap();
+    let size = svg
+        .split("<text ")
+        .skip(1)
+        .find(|t| {
+            t.contains("text-anchor=\"start\"")
+                && t.split_once('>')
+                    .is_some_and(|(_, b)| b.trim().starts_with("0\n"))
+        })
+        .and_then(|t| t.split("font-size=\"").nth(1))
+        .and_then(|v| v.split('"').next())
+        .unwrap()
+        .to_string();
+    let boxes = label_boxes(&svg, &size);
+    let fig = commutation();
+    assert_eq!(boxes.len(), fig.coils.len() + fig.magnets.len());
+    for (i, (a, p)) in boxes.iter().enumerate() {
+        for (b, q) in &boxes[i + 1..] {
+            let apart = p.2 <= q.0 || q.2 <= p.0 || p.3 <= q.1 || q.3 <= p.1;
+            assert!(apart, "labels {a} {p:?} and {b} {q:?} overlap");
+        }
+    }
+}
+
+#[test]
+fn place_labels_avoids_taken_places() {
+    use spherestep::plots::place_labels;
+    // Three points in a row, 12 px apart: no two boxes meet, none covers a mark.
+    let at = [(100, 100), (112, 100), (124, 100)];
+    let sizes = [(16, 12); 3];
+    let marks: Vec<_> = at.iter().map(|p| (*p, 6)).collect();
+    let off = place_labels(&at, &sizes, &marks);
+    let boxes: Vec<_> = at
+        .iter()
+        .zip(&off)
+        .map(|(p, o)| (p.0 + o.0, p.1 + o.1, p.0 + o.0 + 16, p.1 + o.1 + 12))
+        .collect();
+    let meet = |a: &(i32, i32, i32, i32), b: &(i32, i32, i32, i32)| {
+        !(a.2 <= b.0 || b.2 <= a.0 || a.3 <= b.1 || b.3 <= a.1)
+    };
+    for (i, a) in boxes.iter().enumerate() {
+        for b in &boxes[i + 1..] {
+            assert!(!meet(a, b), "{boxes:?}");
+        }
+        for (m, r) in &marks {
+            assert!(
+                !meet(a, &(m.0 - r, m.1 - r, m.0 + r, m.1 + r)),
+                "{a:?} on {m:?}"
+            );
+        }
+    }
 }

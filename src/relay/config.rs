@@ -13,7 +13,7 @@ use std::time::Duration;
 
 /// Default limit on coils on at once: the supply gives 100 W at 24 V; at about 1 A per coil
 /// (25 W) that is four coils. Set it from your coils' measured current.
-pub const DEFAULT_MAX_COILS_ON: usize = 4;
+pub const DEFAULT_MAX_COILS_ON: usize = crate::commutation::DEFAULT_MAX_COILS_ON;
 /// Default limit on one coil's continuous on-time, s.
 pub const DEFAULT_MAX_ON_TIME_S: f64 = 10.0;
 /// Default dwell: the predicted settle time times this factor...

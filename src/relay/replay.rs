@@ -327,6 +327,12 @@ pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
     let channels = settings.channels.unwrap_or(board.default_channels());
     // The same check `connect` makes, before anything else.
     connect(board, channels, settings.slave_address, Link::dry_run())?;
+    if let Some(b) = opts.baud.filter(|b| !(1..=4_000_000).contains(b)) {
+        return Err(RelayError::Arg {
+            arg: "--baud".into(),
+            expected: format!("a baud rate from 1 to 4000000, got {b}"),
+        });
+    }
     let baud = opts.baud.or(settings.baud).unwrap_or(board.default_baud());
     let schedule = schedule(
         &rows,

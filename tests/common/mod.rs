@@ -19,3 +19,25 @@ pub fn identity() -> Orientation {
 pub fn bin() -> std::path::PathBuf {
     std::path::PathBuf::from(env!("CARGO_BIN_EXE_spherestep"))
 }
+
+/// Runs the binary: exit code (-1 if killed), standard output and standard error.
+pub fn run(args: &[&str]) -> (i32, String, String) {
+    let out = std::process::Command::new(bin())
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Runs `spherestep batch ARGS`.
+pub fn batch(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(bin())
+        .arg("batch")
+        .args(args)
+        .output()
+        .unwrap()
+}

@@ -1,0 +1,274 @@
+//! Batch runs keep their files where they belong and their work when killed: a scenario name
+//! must be a plain file name, runs sharing a folder never remove each other's temporary files
+//! (only those of dead processes of this machine), and a sweep's finished cases are saved as
+//! they end so that `--resume` continues a killed sweep.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use common::batch;
+
+fn text(p: &Path) -> String {
+    std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+#[test]
+fn scenario_names_must_be_plain_file_names() {
+    let t = tempfile::tempdir().unwrap();
+    let s = t.path().join("scen");
+    std::fs::create_dir_all(&s).unwrap();
+    let bad = [
+        ("a.toml", "../escaped"),
+        ("b.toml", "summary"),
+        ("c.toml", "Timing"),
+        ("d.toml", "sub/dir"),
+        ("e.toml", ".hidden"),
+        ("f.toml", "x.shard-0-of-2"),
+        ("g.toml", ""),
+    ];
+    for (file, name) in bad {
+        std::fs::write(
+            s.join(file),
+            format!("name = \"{name}\"\n[plan]\nangle_deg = 30\n"),
+        )
+        .unwrap();
+    }
+    std::fs::write(s.join("good.toml"), "[plan]\nangle_deg = 30\n").unwrap();
+    let out = t.path().join("out");
+    let r = batch(&[s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    for (file, name) in bad {
+        let line = err
+            .lines()
+            .find(|l| l.contains(&format!("scenario {}", s.join(file).display())))
+            .unwrap_or_else(|| panic!("{file} not reported: {err}"));
+        assert!(
+            line.contains("field `name`") && line.contains(&format!("got \"{name}\"")),
+            "{line}"
+        );
+    }
+    assert!(
+        !t.path().join("escaped.csv").exists(),
+        "nothing outside --out"
+    );
+    assert!(out.join("good.csv").is_file());
+    let summary = text(&out.join("summary.csv"));
+    assert!(summary.starts_with("name,kind,"), "{summary}");
+    assert_eq!(summary.lines().count(), 2, "{summary}");
+    // --resume over the same folder still works.
+    let r = batch(&[
+        s.join("good.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--resume",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+}
+
+/// The pid of a process that has ended.
+fn dead_pid() -> u32 {
+    let mut c = Command::new("true").spawn().unwrap();
+    let pid = c.id();
+    c.wait().unwrap();
+    pid
+}
+
+#[test]
+fn only_provably_stale_temporaries_are_removed() {
+    let t = tempfile::tempdir().unwrap();
+    let s = t.path().join("a.toml");
+    std::fs::write(&s, "[plan]\nangle_deg = 30\n").unwrap();
+    let out = t.path().join("out");
+    let kept_dir = out.join("sweep-plans");
+    std::fs::create_dir_all(&kept_dir).unwrap();
+    let host = spherestep::output::host_tag();
+    let dead = dead_pid();
+    let temp = |dir: &Path, name: &str, host: &str, pid: u32| -> PathBuf {
+        let p = spherestep::output::temp_path_of(&dir.join(name), host, pid);
+        std::fs::write(&p, b"partial").unwrap();
+        p
+    };
+    // Stale: a dead process of this machine (a CSV, a picture cut short while drawing, one in
+    // a kept plans' folder).
+    let stale = [
+        temp(&out, "s001.csv", &host, dead),
+        temp(&out, "s001-fig5.png", &host, dead),
+        temp(&kept_dir, "case-0.csv", &host, dead),
+    ];
+    // Not provably stale: a live process (this test), another machine's, not our name.
+    let live = [
+        temp(&out, "s002.csv", &host, std::process::id()),
+        temp(&out, "s003.csv", "other-node", dead),
+    ];
+    let foreign = out.join(".notes.tmp");
+    std::fs::write(&foreign, b"mine").unwrap();
+    let r = batch(&[s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    for p in &stale {
+        assert!(!p.exists(), "stale {} left", p.display());
+    }
+    for p in live.iter().chain([&foreign]) {
+        assert!(p.exists(), "{} removed", p.display());
+    }
+    // No temporary of the run itself is left.
+    let own = format!("{host}-");
+    let left: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(&own) && !n.contains(&format!("-{}.", std::process::id())))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
+
+const SWEEP: &str = "[plan]\nangle_deg = 45\n[sweep]\naxes = \"sphere\"\naxis_count = 6\nschemes = [\"weighted\", \"search\"]\n";
+
+/// Replaces the `max_axis_error_deg` of `case` in sweep CSV rows by `value`.
+fn mark(rows: &str, case: usize, value: &str) -> String {
+    rows.lines()
+        .map(|l| {
+            let mut f: Vec<String> = l.split(',').map(str::to_string).collect();
+            if f[0] == case.to_string() {
+                f[10] = value.to_string();
+            }
+            f.join(",") + "\n"
+        })
+        .collect()
+}
+
+#[test]
+fn resume_continues_a_sweep_from_its_saved_cases() {
+    let t = tempfile::tempdir().unwrap();
+    let s = t.path().join("sw.toml");
+    std::fs::write(&s, SWEEP).unwrap();
+    let full = t.path().join("full");
+    let r = batch(&[s.to_str().unwrap(), "--out", full.to_str().unwrap()]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let expected = text(&full.join("sw.csv"));
+    assert!(
+        !full.join("sw.csv.progress").exists(),
+        "removed once written"
+    );
+    let (header, rows) = expected.split_once('\n').unwrap();
+    assert_eq!(rows.lines().count(), 12);
+
+    // A run that cannot write its result (a folder in the way) keeps every finished case.
+    let out = t.path().join("out");
+    std::fs::create_dir_all(out.join("sw.csv").join("blocker")).unwrap();
+    let r = batch(&[s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(r.status.code(), Some(1));
+    let progress = out.join("sw.csv.progress");
+    let saved = text(&progress);
+    let hash = text(&full.join("sw.csv.hash"));
+    let (first, saved_rows) = saved.split_once('\n').unwrap();
+    assert_eq!(first, format!("hash {}", hash.trim()));
+    let mut sorted: Vec<&str> = saved_rows.lines().collect();
+    sorted.sort_by_key(|l| l.split(',').next().unwrap().parse::<usize>().unwrap());
+    assert_eq!(
+        sorted.join("\n") + "\n",
+        rows,
+        "every case saved, the same rows"
+    );
+
+    // Killed half way: cases 0-5 saved (case 3 marked, to see it is not recomputed), a torn
+    // row after them.
+    std::fs::remove_dir_all(out.join("sw.csv")).unwrap();
+    let half: String = rows.lines().take(6).map(|l| format!("{l}\n")).collect();
+    std::fs::write(
+        &progress,
+        format!("{first}\n{}7,weigh", mark(&half, 3, "123.5")),
+    )
+    .unwrap();
+    let r = batch(&[
+        s.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--resume",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(
+        text(&out.join("sw.csv")),
+        format!("{header}\n{}", mark(rows, 3, "123.5")),
+        "saved cases taken, the others computed"
+    );
+    assert!(!progress.exists());
+
+    // A progress file of other content (another hash), or a run without --resume, starts over.
+    for (hash_line, resume) in [("hash 0000", true), (first, false)] {
+        std::fs::remove_file(out.join("sw.csv")).unwrap();
+        std::fs::write(
+            &progress,
+            format!("{hash_line}\n{}", mark(&half, 3, "123.5")),
+        )
+        .unwrap();
+        let mut args = vec![s.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        if resume {
+            args.push("--resume");
+        }
+        let r = batch(&args);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        assert_eq!(text(&out.join("sw.csv")), expected, "{hash_line} {resume}");
+    }
+}
+
+#[test]
+fn resume_with_plots_draws_the_missing_pictures() {
+    let t = tempfile::tempdir().unwrap();
+    let s = t.path().join("scen");
+    std::fs::create_dir_all(&s).unwrap();
+    std::fs::write(s.join("p.toml"), "[plan]\nangle_deg = 30\n").unwrap();
+    std::fs::write(s.join("sw.toml"), SWEEP).unwrap();
+    std::fs::write(
+        s.join("one.toml"),
+        "[plan]\nangle_deg = 30\n[sweep]\nschemes = [\"weighted\", \"search\"]\n",
+    )
+    .unwrap();
+    let out = t.path().join("out");
+    let args = [
+        s.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--plots",
+    ];
+    let r = batch(&args);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let pictures = [
+        "p-fig5.png",
+        "p-fig6.svg",
+        "p.html",
+        "sw_search.png",
+        "sw_weighted.svg",
+        "one-schemes.png",
+        "one-error.png",
+    ];
+    let before: Vec<Vec<u8>> = pictures
+        .iter()
+        .map(|p| std::fs::read(out.join(p)).unwrap())
+        .collect();
+    // A kill while drawing: pictures missing, one cut short in its temporary file.
+    for p in pictures {
+        std::fs::remove_file(out.join(p)).unwrap();
+    }
+    let host = spherestep::output::host_tag();
+    let torn = spherestep::output::temp_path_of(&out.join("p-error.png"), &host, dead_pid());
+    std::fs::write(&torn, b"half a png").unwrap();
+    let mut resume = args.to_vec();
+    resume.push("--resume");
+    let r = batch(&resume);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let said = String::from_utf8_lossy(&r.stdout);
+    // The plan and the many-axis sweep are drawn from their files; the one-axis sweep's
+    // picture needs its plans, so it alone is computed again.
+    assert!(said.contains("1 computed, 2 up to date"), "{said}");
+    for (p, b) in pictures.iter().zip(&before) {
+        let now = std::fs::read(out.join(p)).unwrap();
+        assert!(&now == b, "{p} drawn again, same bytes");
+    }
+    assert!(!torn.exists());
+    // Nothing missing: nothing drawn or computed.
+    let r = batch(&resume);
+    let said = String::from_utf8_lossy(&r.stdout);
+    assert!(said.contains("0 computed, 3 up to date"), "{said}");
+}
