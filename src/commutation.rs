@@ -73,6 +73,20 @@ pub struct Motor<'a> {
     pub settle: SettleParams,
 }
 
+impl Motor<'_> {
+    /// The settle that weighs candidate sets: the motor's, except that a set that does not hold
+    /// the ball is not followed to where it would stop ([`Stop::Unheld`]): it is no candidate
+    /// anyway, and a set that holds settles exactly as `simulate` settles it.
+    ///
+    /// [`Stop::Unheld`]: crate::dynamics::Stop::Unheld
+    pub fn weighing(&self) -> SettleParams {
+        SettleParams {
+            follow_unheld: false,
+            ..self.settle
+        }
+    }
+}
+
 /// The ball's commutation state: its orientation and what holds it there.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CommutationState {
@@ -491,7 +505,7 @@ fn evaluate(
                     s
                 })
                 .collect();
-            settle_many(motor.torques, &sets, &state.q, motor.body, motor.settle)
+            settle_many(motor.torques, &sets, &state.q, motor.body, motor.weighing())
                 .into_iter()
                 .zip(sets)
                 .map(|(r, active)| {
@@ -669,7 +683,7 @@ pub fn initial_states(
             .collect(),
         StepModel::Dynamic => {
             let sets: Vec<Vec<Pair>> = seconds.iter().map(|(_, _, p)| vec![first, *p]).collect();
-            settle_many(motor.torques, &sets, start, motor.body, motor.settle)
+            settle_many(motor.torques, &sets, start, motor.body, motor.weighing())
                 .into_iter()
                 .zip(sets)
                 .map(|(r, active)| {

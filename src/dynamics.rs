@@ -55,6 +55,12 @@ pub struct SettleParams {
     pub atol: f64,
     /// The integrator.
     pub method: Method,
+    /// Where no strict minimum holds the ball (a pair out of reach, a magnet at its well's
+    /// cut-off), where it stops along the free direction depends on the whole coast: `true`
+    /// (the default) integrates it again at tight tolerances to find out; `false` stops there
+    /// and says [`Stop::Unheld`] (for planners, which discard such sets: a set that holds is
+    /// settled the same either way).
+    pub follow_unheld: bool,
 }
 
 impl Default for SettleParams {
@@ -66,6 +72,7 @@ impl Default for SettleParams {
             rtol: 1e-2,
             atol: 1e-5,
             method: Method::Bs32,
+            follow_unheld: true,
         }
     }
 }
@@ -120,6 +127,9 @@ pub enum Stop {
     StepLimit,
     /// The step size collapsed: the tolerances cannot be met in double precision.
     StepSizeUnderflow,
+    /// No strict minimum holds the ball (a direction is free: a pair out of reach, a magnet at
+    /// its well's cut-off), and [`SettleParams::follow_unheld`] said not to follow it.
+    Unheld,
 }
 
 impl Stop {
@@ -130,6 +140,7 @@ impl Stop {
             Stop::TimeLimit => "not settled by t_max",
             Stop::StepLimit => "stopped by the cap on integrator steps",
             Stop::StepSizeUnderflow => "stopped: the step size collapsed (tolerances too tight?)",
+            Stop::Unheld => "not held: no strict minimum holds the ball (not followed further)",
         }
     }
 }
@@ -410,6 +421,17 @@ fn settle_fast<M: TorqueModel>(
     if scale.is_some() && matches!(out.end, End::Stopped | End::TimeLimit) {
         // settled (or still moving at t_max), but never near a strict minimum: not sure where
         // along the free direction the ball stops, nor when
+        if !params.follow_unheld {
+            return finish(
+                sys.model,
+                sys.active,
+                &out.y,
+                out.t,
+                evaluations,
+                out.steps,
+                Stop::Unheld,
+            );
+        }
         let tight = SettleParams {
             rtol: FALLBACK_RTOL,
             atol: FALLBACK_ATOL,

@@ -892,6 +892,7 @@ impl Checker<'_> {
             rtol: self.positive("settle.rtol", raw.rtol, d.rtol)?,
             atol: self.positive("settle.atol", raw.atol, d.atol)?,
             method: raw.method.unwrap_or(d.method),
+            follow_unheld: d.follow_unheld,
         })
     }
 }
