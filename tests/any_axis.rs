@@ -218,3 +218,31 @@ fn pairs_and_budgets_out_of_range_are_refused_naming_the_field() {
         &["--pairs", "pivot model"],
     );
 }
+
+#[test]
+fn weighing_stops_at_sets_that_hold_nothing_and_settles_held_sets_exactly_as_simulate() {
+    use spherestep::dynamics::{settle, Stop};
+    use spherestep::geometry::Pair;
+    let sc = proto();
+    let m = motor(&sc);
+    let q0 = nalgebra::UnitQuaternion::identity();
+    // coil 0 with its nearest magnet holds; magnet 15 is 163.5 degrees from coil 0's neighbour:
+    // out of reach, so one direction is free
+    let (near, _) =
+        spherestep::commutation::nearest_magnet(&sc.torques, spherestep::geometry::CoilId(0), &q0);
+    let loose = [Pair::new(0, near.0), Pair::new(7, 15)];
+    let w = settle(&sc.torques, &loose, &q0, sc.body, m.weighing());
+    assert_eq!(w.stop, Stop::Unheld, "{w:?}");
+    assert!(!w.settled);
+    let full = settle(&sc.torques, &loose, &q0, sc.body, sc.settle);
+    assert_ne!(full.stop, Stop::Unheld, "simulate follows it: {full:?}");
+    // a set that holds: the same result, to the bit
+    let (m7, _) =
+        spherestep::commutation::nearest_magnet(&sc.torques, spherestep::geometry::CoilId(7), &q0);
+    let held = [Pair::new(0, near.0), Pair::new(7, m7.0)];
+    let a = settle(&sc.torques, &held, &q0, sc.body, m.weighing());
+    let b = settle(&sc.torques, &held, &q0, sc.body, sc.settle);
+    assert!(a.settled && b.settled);
+    assert_eq!(a.q, b.q);
+    assert_eq!(a.settle_time_s, b.settle_time_s);
+}
