@@ -693,6 +693,9 @@ impl Figure for View3d {
                 .into_iter()
                 .map(|g| PathElement::new(g, GUIDE_COLOR.stroke_width(1))),
         )?;
+        // Labels are placed last, all together, where they meet no other label and no mark:
+        // (text, point, size, colour), the arrows' first.
+        let mut labels: Vec<Label3d> = Vec::new();
         // World axes, labelled beside their tips (a rotation axis may lie along one).
         for (name, v) in [
             ("x", [1.0, 0.0, 0.0]),
@@ -703,14 +706,12 @@ impl Figure for View3d {
                 vec![to_chart([0.0; 3]), to_chart(scaled(v, 1.3))],
                 REFERENCE_COLOR.stroke_width(1),
             )))?;
-            chart.draw_series(std::iter::once(
-                EmptyElement::at(to_chart(scaled(v, 1.3)))
-                    + Text::new(
-                        format!("world {name}"),
-                        (6, 4),
-                        text(16).color(&REFERENCE_COLOR),
-                    ),
-            ))?;
+            labels.push((
+                format!("world {name}"),
+                to_chart(scaled(v, 1.3)),
+                16,
+                REFERENCE_COLOR,
+            ));
         }
         // Magnets behind the ball first (faded), then the active pairs, then those in front.
         let back: Vec<_> = self.magnets.iter().filter(|(_, p)| !front(*p)).collect();
@@ -747,7 +748,6 @@ impl Figure for View3d {
             )?
             .label("rotor magnet (faded: far side)")
             .legend(|(x, y)| Circle::new((x + 10, y), 4, MAGNET_COLOR.filled()));
-        let label = text(12);
         chart
             .draw_series(self.coils.iter().map(|c| {
                 plus!(
@@ -758,24 +758,27 @@ impl Figure for View3d {
             }))?
             .label("stator coil (+)")
             .legend(|(x, y)| plus!((x + 10, y), 6, COIL_COLOR.stroke_width(2)));
-        chart.draw_series(self.coils.iter().enumerate().map(|(i, c)| {
-            EmptyElement::at(to_chart(scaled(*c, COIL_RADIUS)))
-                + Text::new(i.to_string(), (4, 2), label.color(&COIL_COLOR))
-        }))?;
+        let coil_labels = self.coils.iter().enumerate().map(|(i, c)| {
+            (
+                i.to_string(),
+                to_chart(scaled(*c, COIL_RADIUS)),
+                LABEL_SIZE,
+                COIL_COLOR,
+            )
+        });
+        labels.extend(coil_labels);
         // The axes as arrows from the centre; the heads are drawn in pixels along the
         // projected direction.
-        // The desired axis is labelled left of its tip, the actual one right of it, so that
-        // the labels do not overlap when the axes are close.
         let mut arrows = vec![(
             "desired axis",
             normalise(&self.desired_axis).unwrap_or([0.0, 0.0, 1.0]),
             DESIRED_COLOR,
-            HPos::Right,
         )];
         if let Some(a) = self.actual_axis.as_ref().and_then(normalise) {
-            arrows.push(("actual axis", a, ACTUAL_COLOR, HPos::Left));
+            arrows.push(("actual axis", a, ACTUAL_COLOR));
         }
-        for (name, n, color, side) in arrows {
+        let n_arrows = arrows.len();
+        for (k, (name, n, color)) in arrows.into_iter().enumerate() {
             let tip = to_chart(scaled(n, AXIS_LENGTH));
             let (x0, y0) = spec.translate(&to_chart([0.0; 3]));
             let (x1, y1) = spec.translate(&tip);
@@ -795,16 +798,10 @@ impl Figure for View3d {
                 Vec::new()
             };
             let style = color.stroke_width(3);
-            let dx_label = if matches!(side, HPos::Right) { -10 } else { 10 };
+            labels.insert(k, (name.to_string(), tip, 16, color));
             chart
                 .draw_series(std::iter::once(
-                    EmptyElement::at(tip)
-                        + PathElement::new(head, style)
-                        + Text::new(
-                            name.to_string(),
-                            (dx_label, 0),
-                            text(16).color(&color).pos(Pos::new(side, VPos::Center)),
-                        ),
+                    EmptyElement::at(tip) + PathElement::new(head, style),
                 ))?
                 .label(name)
                 .legend(move |(x, y)| {
@@ -817,6 +814,30 @@ impl Figure for View3d {
                 style,
             )))?;
         }
+        let at: Vec<(i32, i32)> = labels.iter().map(|l| spec.translate(&l.1)).collect();
+        let sizes: Vec<(i32, i32)> = labels.iter().map(|l| label_size(&l.0, l.2)).collect();
+        let marks: Vec<((i32, i32), i32)> = self
+            .coils
+            .iter()
+            .map(|c| (spec.translate(&to_chart(scaled(*c, COIL_RADIUS))), 7))
+            .chain(at.iter().take(n_arrows).map(|p| (*p, 9)))
+            .collect();
+        let offsets = place_labels(&at, &sizes, &marks);
+        chart.draw_series(
+            labels
+                .iter()
+                .zip(offsets)
+                .map(|((t, p, size, color), off)| {
+                    EmptyElement::at(*p)
+                        + Text::new(
+                            t.clone(),
+                            off,
+                            text(*size)
+                                .color(color)
+                                .pos(Pos::new(HPos::Left, VPos::Top)),
+                        )
+                }),
+        )?;
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperLeft)
@@ -827,6 +848,9 @@ impl Figure for View3d {
         Ok(())
     }
 }
+
+/// A label of [`View3d`]: text, chart point, font size, colour.
+type Label3d = (String, (f64, f64, f64), u32, RGBColor);
 
 /// The font size of point labels (coil and magnet numbers).
 const LABEL_SIZE: u32 = 12;
