@@ -313,6 +313,8 @@ fn sweep_map() {
         value_label: "worst axis error (deg)".into(),
         points: sweep_points(500),
         range: None,
+        unreached: Vec::new(),
+        coils: Vec::new(),
     };
     let (svg, img) = write_and_check(&fig, "sweep");
     assert_well_formed(&svg);
@@ -364,6 +366,8 @@ fn bad_data_is_an_error() {
         value_label: "v".into(),
         points: vec![([0.0, 0.0, 0.0], 1.0)],
         range: None,
+        unreached: Vec::new(),
+        coils: Vec::new(),
     };
     assert!(render_svg(&map).is_err());
 }
@@ -514,6 +518,8 @@ fn huge_sweep_values_are_refused_not_drawn_for_ever() {
             value_label: "v".into(),
             points: vec![([1.0, 0.0, 0.0], values[0]), ([0.0, 1.0, 0.0], values[1])],
             range: None,
+            unreached: Vec::new(),
+            coils: Vec::new(),
         };
         let e = render_svg(&map).unwrap_err();
         assert!(e.0.contains("sweep map: expected"), "{}", e.0);
@@ -754,4 +760,37 @@ fn place_labels_avoids_taken_places() {
             );
         }
     }
+}
+
+/// Issue 14, item 17: a sweep map marks the cases that did not reach their target and draws
+/// the coil directions its text explains it by.
+#[test]
+fn sweep_maps_mark_unreached_cases_and_coil_axes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("scheme,axis_x,axis_y,axis_z,max_axis_error_deg,reached\n");
+    let pts = sweep_points(30);
+    for (k, (a, v)) in pts.iter().enumerate() {
+        let reached = k % 10 != 3;
+        text += &format!("w,{},{},{},{v},{reached}\n", a[0], a[1], a[2]);
+    }
+    let csv = write(dir.path(), "sw.csv", &text);
+    let coils = [[0.0, 0.0, -1.0], [0.5, 0.0, -0.8]];
+    let files = spherestep::plots::plot_csv_with_coils(&csv, None, Some("t"), &coils).unwrap();
+    let svg = std::fs::read_to_string(&files[0]).unwrap();
+    assert!(has_text(&svg, "not reached") && has_text(&svg, "coil axis"));
+    // A cross is two black strokes of width 2: three unreached cases and the key's.
+    let crosses = svg
+        .matches("<line opacity=\"1\" stroke=\"#000000\" stroke-width=\"2\"")
+        .count();
+    assert_eq!(crosses, 2 * 3 + 2);
+    // A '+' at both ends of each coil's line (two strokes each), and the key's.
+    assert_eq!(polylines_w(&svg, "#1F77B4", 2), 2 * 2 * coils.len() + 2);
+    // Without a reached column or coils: neither.
+    let plain = write(
+        dir.path(),
+        "plain.csv",
+        "axis_x,axis_y,axis_z,max_axis_error_deg\n0,0,1,2.5\n1,0,0,14\n",
+    );
+    let svg = std::fs::read_to_string(&plot_csv(&plain, None, None).unwrap()[0]).unwrap();
+    assert!(!has_text(&svg, "not reached") && !has_text(&svg, "coil axis"));
 }
