@@ -670,7 +670,7 @@ impl Figure for View3d {
         chart.with_projection(|mut pb| {
             pb.yaw = VIEW_YAW;
             pb.pitch = VIEW_PITCH;
-            pb.scale = 1.3;
+            pb.scale = 1.45;
             pb.into_matrix()
         });
         let spec = chart.as_coord_spec().clone();

@@ -730,7 +730,16 @@ fn figure6_labels_do_not_overlap() {
     ] {
         wanted.push((t.to_string(), 16));
     }
-    assert_apart(&label_boxes(&svg, &wanted));
+    let boxes = label_boxes(&svg, &wanted);
+    assert_apart(&boxes);
+    // All inside the picture (drawn larger now: no wide blank margin, nothing cut off).
+    let (w, h) = fig.size();
+    for (t, b) in &boxes {
+        assert!(
+            b.0 >= 0 && b.1 >= 0 && b.2 <= w as i32 && b.3 <= h as i32,
+            "{t} {b:?}"
+        );
+    }
 }
 
 #[test]
