@@ -699,7 +699,7 @@ fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
         }
         Some(sw) => {
             if sw.axes.len() > 1 {
-                files = report::sweep_pictures(&job.csv, out, &sc.name)?;
+                files = report::sweep_pictures(sc, &job.csv, out)?;
             } else {
                 let plans: Vec<(String, Vec<PlanRow>)> = job
                     .cases

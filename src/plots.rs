@@ -46,6 +46,7 @@ const GUIDE_COLOR: RGBColor = RGBColor(205, 205, 205);
 const REFERENCE_COLOR: RGBColor = RGBColor(120, 120, 120);
 const TARGET_COLOR: RGBColor = RGBColor(90, 90, 90);
 const NO_RESULT_COLOR: RGBColor = RGBColor(128, 128, 128);
+const UNREACHED_COLOR: RGBColor = RGBColor(0, 0, 0);
 /// Colours of the schemes of an [`AxisErrorPlot`], in order (then repeated): the Okabe-Ito
 /// palette, told apart with any colour vision (its yellow left out: too pale on white).
 pub const SERIES_COLORS: [RGBColor; 7] = [
@@ -244,6 +245,11 @@ pub struct SweepMap {
     /// The colour scale's range (low, high); `None`: the points' own. Maps to be compared (a
     /// sweep's schemes) share one.
     pub range: Option<(f64, f64)>,
+    /// Axes of the cases that did not reach their target, marked with a cross.
+    pub unreached: Vec<[f64; 3]>,
+    /// Stator coil directions: a coil's line through the centre is an axis the ball turns
+    /// about easily, drawn as a '+' at both of its ends.
+    pub coils: Vec<[f64; 3]>,
 }
 
 fn font_registered() -> bool {
@@ -664,7 +670,7 @@ impl Figure for View3d {
         chart.with_projection(|mut pb| {
             pb.yaw = VIEW_YAW;
             pb.pitch = VIEW_PITCH;
-            pb.scale = 1.3;
+            pb.scale = 1.45;
             pb.into_matrix()
         });
         let spec = chart.as_coord_spec().clone();
@@ -693,6 +699,9 @@ impl Figure for View3d {
                 .into_iter()
                 .map(|g| PathElement::new(g, GUIDE_COLOR.stroke_width(1))),
         )?;
+        // Labels are placed last, all together, where they meet no other label and no mark:
+        // (text, point, size, colour), the arrows' first.
+        let mut labels: Vec<Label3d> = Vec::new();
         // World axes, labelled beside their tips (a rotation axis may lie along one).
         for (name, v) in [
             ("x", [1.0, 0.0, 0.0]),
@@ -703,14 +712,12 @@ impl Figure for View3d {
                 vec![to_chart([0.0; 3]), to_chart(scaled(v, 1.3))],
                 REFERENCE_COLOR.stroke_width(1),
             )))?;
-            chart.draw_series(std::iter::once(
-                EmptyElement::at(to_chart(scaled(v, 1.3)))
-                    + Text::new(
-                        format!("world {name}"),
-                        (6, 4),
-                        text(16).color(&REFERENCE_COLOR),
-                    ),
-            ))?;
+            labels.push((
+                format!("world {name}"),
+                to_chart(scaled(v, 1.3)),
+                16,
+                REFERENCE_COLOR,
+            ));
         }
         // Magnets behind the ball first (faded), then the active pairs, then those in front.
         let back: Vec<_> = self.magnets.iter().filter(|(_, p)| !front(*p)).collect();
@@ -747,7 +754,6 @@ impl Figure for View3d {
             )?
             .label("rotor magnet (faded: far side)")
             .legend(|(x, y)| Circle::new((x + 10, y), 4, MAGNET_COLOR.filled()));
-        let label = text(12);
         chart
             .draw_series(self.coils.iter().map(|c| {
                 plus!(
@@ -758,24 +764,27 @@ impl Figure for View3d {
             }))?
             .label("stator coil (+)")
             .legend(|(x, y)| plus!((x + 10, y), 6, COIL_COLOR.stroke_width(2)));
-        chart.draw_series(self.coils.iter().enumerate().map(|(i, c)| {
-            EmptyElement::at(to_chart(scaled(*c, COIL_RADIUS)))
-                + Text::new(i.to_string(), (4, 2), label.color(&COIL_COLOR))
-        }))?;
+        let coil_labels = self.coils.iter().enumerate().map(|(i, c)| {
+            (
+                i.to_string(),
+                to_chart(scaled(*c, COIL_RADIUS)),
+                LABEL_SIZE,
+                COIL_COLOR,
+            )
+        });
+        labels.extend(coil_labels);
         // The axes as arrows from the centre; the heads are drawn in pixels along the
         // projected direction.
-        // The desired axis is labelled left of its tip, the actual one right of it, so that
-        // the labels do not overlap when the axes are close.
         let mut arrows = vec![(
             "desired axis",
             normalise(&self.desired_axis).unwrap_or([0.0, 0.0, 1.0]),
             DESIRED_COLOR,
-            HPos::Right,
         )];
         if let Some(a) = self.actual_axis.as_ref().and_then(normalise) {
-            arrows.push(("actual axis", a, ACTUAL_COLOR, HPos::Left));
+            arrows.push(("actual axis", a, ACTUAL_COLOR));
         }
-        for (name, n, color, side) in arrows {
+        let n_arrows = arrows.len();
+        for (k, (name, n, color)) in arrows.into_iter().enumerate() {
             let tip = to_chart(scaled(n, AXIS_LENGTH));
             let (x0, y0) = spec.translate(&to_chart([0.0; 3]));
             let (x1, y1) = spec.translate(&tip);
@@ -795,16 +804,10 @@ impl Figure for View3d {
                 Vec::new()
             };
             let style = color.stroke_width(3);
-            let dx_label = if matches!(side, HPos::Right) { -10 } else { 10 };
+            labels.insert(k, (name.to_string(), tip, 16, color));
             chart
                 .draw_series(std::iter::once(
-                    EmptyElement::at(tip)
-                        + PathElement::new(head, style)
-                        + Text::new(
-                            name.to_string(),
-                            (dx_label, 0),
-                            text(16).color(&color).pos(Pos::new(side, VPos::Center)),
-                        ),
+                    EmptyElement::at(tip) + PathElement::new(head, style),
                 ))?
                 .label(name)
                 .legend(move |(x, y)| {
@@ -817,6 +820,30 @@ impl Figure for View3d {
                 style,
             )))?;
         }
+        let at: Vec<(i32, i32)> = labels.iter().map(|l| spec.translate(&l.1)).collect();
+        let sizes: Vec<(i32, i32)> = labels.iter().map(|l| label_size(&l.0, l.2)).collect();
+        let marks: Vec<((i32, i32), i32)> = self
+            .coils
+            .iter()
+            .map(|c| (spec.translate(&to_chart(scaled(*c, COIL_RADIUS))), 7))
+            .chain(at.iter().take(n_arrows).map(|p| (*p, 9)))
+            .collect();
+        let offsets = place_labels(&at, &sizes, &marks);
+        chart.draw_series(
+            labels
+                .iter()
+                .zip(offsets)
+                .map(|((t, p, size, color), off)| {
+                    EmptyElement::at(*p)
+                        + Text::new(
+                            t.clone(),
+                            off,
+                            text(*size)
+                                .color(color)
+                                .pos(Pos::new(HPos::Left, VPos::Top)),
+                        )
+                }),
+        )?;
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperLeft)
@@ -827,6 +854,9 @@ impl Figure for View3d {
         Ok(())
     }
 }
+
+/// A label of [`View3d`]: text, chart point, font size, colour.
+type Label3d = (String, (f64, f64, f64), u32, RGBColor);
 
 /// The font size of point labels (coil and magnet numbers).
 const LABEL_SIZE: u32 = 12;
@@ -1213,24 +1243,63 @@ impl Figure for SweepMap {
             .filter(|p| !p.1.is_finite())
             .filter_map(|(a, _)| lon_lat(a))
             .collect();
-        if !missing.is_empty() {
-            chart.draw_series(
-                missing
-                    .iter()
-                    .map(|ll| Circle::new(*ll, radius, NO_RESULT_COLOR.stroke_width(2))),
-            )?;
-            // Explained under the colour bar, where it hides no disk.
-            let h = bar_area.dim_in_pixel().1 as i32;
-            let at = (14, h - bottom as i32 / 2);
-            bar_area.draw(
-                &(EmptyElement::at(at)
-                    + Circle::new((0, 0), 6, NO_RESULT_COLOR.stroke_width(2))
-                    + Text::new(
-                        "no result",
-                        (12, 0),
-                        text(14).pos(Pos::new(HPos::Left, VPos::Center)),
-                    )),
-            )?;
+        chart.draw_series(
+            missing
+                .iter()
+                .map(|ll| Circle::new(*ll, radius, NO_RESULT_COLOR.stroke_width(2))),
+        )?;
+        let unreached: Vec<_> = self.unreached.iter().filter_map(lon_lat).collect();
+        let cross = (radius - 1).max(3);
+        chart.draw_series(
+            unreached
+                .iter()
+                .map(|ll| Cross::new(*ll, cross, UNREACHED_COLOR.stroke_width(2))),
+        )?;
+        let coils: Vec<_> = self
+            .coils
+            .iter()
+            .flat_map(|c| [*c, [-c[0], -c[1], -c[2]]])
+            .filter_map(|c| lon_lat(&c))
+            .collect();
+        // White under the blue, so that a '+' shows on any disk.
+        for (r, style) in [(8, WHITE.stroke_width(5)), (7, COIL_COLOR.stroke_width(2))] {
+            chart.draw_series(coils.iter().map(|ll| plus!(*ll, r, style)))?;
+        }
+        // What the marks mean, under the colour bar, where they hide no disk.
+        let h = bar_area.dim_in_pixel().1 as i32;
+        let keys: Vec<(&str, u8)> = [
+            (!missing.is_empty(), ("no result", 0)),
+            (!unreached.is_empty(), ("not reached", 1)),
+            (!coils.is_empty(), ("coil axis", 2)),
+        ]
+        .into_iter()
+        .filter_map(|(on, k)| on.then_some(k))
+        .collect();
+        for (row, (name, kind)) in keys.into_iter().enumerate() {
+            let at = (14, h - bottom as i32 + 8 + 15 * row as i32);
+            let label = Text::new(
+                name,
+                (12, 0),
+                text(12).pos(Pos::new(HPos::Left, VPos::Center)),
+            );
+            match kind {
+                0 => bar_area.draw(
+                    &(EmptyElement::at(at)
+                        + Circle::new((0, 0), 5, NO_RESULT_COLOR.stroke_width(2))
+                        + label),
+                )?,
+                1 => bar_area.draw(
+                    &(EmptyElement::at(at)
+                        + Cross::new((0, 0), 4, UNREACHED_COLOR.stroke_width(2))
+                        + label),
+                )?,
+                _ => bar_area.draw(
+                    &(EmptyElement::at(at)
+                        + PathElement::new(vec![(-5, 0), (5, 0)], COIL_COLOR.stroke_width(2))
+                        + PathElement::new(vec![(0, -5), (0, 5)], COIL_COLOR.stroke_width(2))
+                        + label),
+                )?,
+            }
         }
         // The colour bar, its plotting area level with the map's.
         let mut bar = ChartBuilder::on(&bar_area)
@@ -1347,6 +1416,33 @@ pub fn parse_sweep_column(text: &str, path: &Path, value: &str) -> Result<Vec<Sw
     Ok(out)
 }
 
+/// The axes of a sweep CSV's cases that did not reach their target (column `reached` is
+/// `false`), with their scheme (or None without a `scheme` column); none without `reached`.
+pub fn parse_unreached(text: &str, path: &Path) -> Result<Vec<(Option<String>, [f64; 3])>> {
+    let (mut rdr, headers) = crate::planfile::csv_reader(text, path)?;
+    let col = |name: &str| headers.iter().position(|h| h == name);
+    let (Some(reached), Some(x), Some(y), Some(z)) =
+        (col("reached"), col("axis_x"), col("axis_y"), col("axis_z"))
+    else {
+        return Ok(Vec::new());
+    };
+    let scheme = col("scheme");
+    let mut out = Vec::new();
+    for rec in rdr.records().flatten() {
+        if rec.get(reached) != Some("false") {
+            continue;
+        }
+        let num = |k: usize| rec.get(k).and_then(|v| v.parse::<f64>().ok());
+        if let (Some(a), Some(b), Some(c)) = (num(x), num(y), num(z)) {
+            out.push((
+                scheme.and_then(|k| rec.get(k)).map(str::to_string),
+                [a, b, c],
+            ));
+        }
+    }
+    Ok(out)
+}
+
 /// A scheme name made safe for a file name.
 fn file_safe(s: &str) -> String {
     crate::output::file_safe(s, "unnamed")
@@ -1364,6 +1460,16 @@ pub fn plot_csv(
     csv_path: &Path,
     out_dir: Option<&Path>,
     title: Option<&str>,
+) -> Result<Vec<PathBuf>> {
+    plot_csv_with_coils(csv_path, out_dir, title, &[])
+}
+
+/// [`plot_csv`], with the stator's coil directions drawn on a sweep's maps.
+pub fn plot_csv_with_coils(
+    csv_path: &Path,
+    out_dir: Option<&Path>,
+    title: Option<&str>,
+    coils: &[[f64; 3]],
 ) -> Result<Vec<PathBuf>> {
     let text = std::fs::read_to_string(csv_path).map_err(|e| Error::io(csv_path, e))?;
     let stem = csv_path
@@ -1427,6 +1533,7 @@ pub fn plot_csv(
         }
         Kind::Sweep => {
             let groups = parse_sweep(&text, csv_path)?;
+            let unreached = parse_unreached(&text, csv_path)?;
             // One colour scale for all the schemes' maps, so that they can be compared.
             let range = value_range(groups.iter().flat_map(|g| g.1.iter().map(|p| p.1)));
             for (scheme, points) in groups {
@@ -1445,6 +1552,12 @@ pub fn plot_csv(
                     value_label: "worst axis error (deg)".into(),
                     points,
                     range: Some(range),
+                    unreached: unreached
+                        .iter()
+                        .filter(|u| u.0 == scheme)
+                        .map(|u| u.1)
+                        .collect(),
+                    coils: coils.to_vec(),
                 };
                 written.extend(write_figure(&fig, &dir.join(file))?);
             }

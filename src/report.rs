@@ -8,7 +8,8 @@ use crate::error::Result;
 use crate::geometry::{rotation_axis, UnitVec};
 use crate::planfile::PlanRow;
 use crate::plots::{
-    plan_series, plot_csv, write_figure, AxisErrorPlot, CommutationPlot, ReferenceLine, View3d,
+    plan_series, plot_csv_with_coils, write_figure, AxisErrorPlot, CommutationPlot, ReferenceLine,
+    View3d,
 };
 use crate::scenario::Scenario;
 use crate::view;
@@ -167,7 +168,8 @@ pub fn schemes_picture(
     )
 }
 
-/// The maps of a sweep CSV, one per scheme.
-pub fn sweep_pictures(csv: &Path, dir: &Path, title: &str) -> Result<Vec<PathBuf>> {
-    plot_csv(csv, Some(dir), Some(title))
+/// The maps of a sweep CSV of scenario `sc`, one per scheme, with its coil directions.
+pub fn sweep_pictures(sc: &Scenario, csv: &Path, dir: &Path) -> Result<Vec<PathBuf>> {
+    let coils: Vec<[f64; 3]> = sc.torques.stator.iter().map(arr).collect();
+    plot_csv_with_coils(csv, Some(dir), Some(&sc.name), &coils)
 }

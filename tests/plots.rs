@@ -313,6 +313,8 @@ fn sweep_map() {
         value_label: "worst axis error (deg)".into(),
         points: sweep_points(500),
         range: None,
+        unreached: Vec::new(),
+        coils: Vec::new(),
     };
     let (svg, img) = write_and_check(&fig, "sweep");
     assert_well_formed(&svg);
@@ -364,6 +366,8 @@ fn bad_data_is_an_error() {
         value_label: "v".into(),
         points: vec![([0.0, 0.0, 0.0], 1.0)],
         range: None,
+        unreached: Vec::new(),
+        coils: Vec::new(),
     };
     assert!(render_svg(&map).is_err());
 }
@@ -514,6 +518,8 @@ fn huge_sweep_values_are_refused_not_drawn_for_ever() {
             value_label: "v".into(),
             points: vec![([1.0, 0.0, 0.0], values[0]), ([0.0, 1.0, 0.0], values[1])],
             range: None,
+            unreached: Vec::new(),
+            coils: Vec::new(),
         };
         let e = render_svg(&map).unwrap_err();
         assert!(e.0.contains("sweep map: expected"), "{}", e.0);
@@ -634,62 +640,105 @@ fn a_sweeps_maps_share_one_colour_scale() {
     assert_eq!(a, b, "one colour bar for both maps");
 }
 
-/// The boxes (x0, y0, x1, y1) of an SVG's texts of font size `svg_size` whose content is a
-/// number (the point labels), drawn from their top left, sized as `label_size` says.
-fn label_boxes(svg: &str, svg_size: &str) -> Vec<(String, (i32, i32, i32, i32))> {
+/// A label and its box (x0, y0, x1, y1) in pixels.
+type NamedBox = (String, (i32, i32, i32, i32));
+
+/// The SVG `<text ` elements: (attributes, content).
+fn text_elements(svg: &str) -> Vec<(String, String)> {
     svg.split("<text ")
         .skip(1)
-        .filter(|t| t.contains(&format!("font-size=\"{svg_size}\"")))
         .filter_map(|t| {
-            let attr = |k: &str| -> Option<f64> {
-                let v = format!(" {t}")
-                    .split(&format!(" {k}=\""))
-                    .nth(1)?
-                    .split('"')
-                    .next()?
-                    .to_string();
-                v.parse().ok()
-            };
-            let body = t
-                .split_once('>')?
-                .1
-                .split("</text>")
-                .next()?
-                .trim()
-                .to_string();
-            body.parse::<usize>().ok()?;
-            assert!(t.contains("text-anchor=\"start\""), "{t}");
-            let (x, y) = (attr("x")? as i32, attr("y")? as i32);
-            let (w, h) = spherestep::plots::label_size(&body, 12);
-            Some((body, (x, y, x + w, y + h)))
+            let (attrs, rest) = t.split_once('>')?;
+            let body = rest.split("</text>").next()?.trim().to_string();
+            Some((format!(" {attrs}"), body))
         })
         .collect()
 }
 
-/// Issue 14, item 17: Figure 5's coil and magnet numbers never overlap each other.
-#[test]
-fn figure5_labels_do_not_overlap() {
-    let svg = render_svg(&commutation()).unwrap();
-    let size = svg
-        .split("<text ")
-        .skip(1)
-        .find(|t| {
-            t.contains("text-anchor=\"start\"")
-                && t.split_once('>')
-                    .is_some_and(|(_, b)| b.trim().starts_with("0\n"))
+fn attr<'a>(attrs: &'a str, k: &str) -> Option<&'a str> {
+    attrs.split(&format!(" {k}=\"")).nth(1)?.split('"').next()
+}
+
+/// The boxes (x0, y0, x1, y1) of the labels `wanted` (content, pixel size) of an SVG, drawn
+/// from their top left and sized as `label_size` says; each must be there.
+fn label_boxes(svg: &str, wanted: &[(String, u32)]) -> Vec<NamedBox> {
+    let els = text_elements(svg);
+    wanted
+        .iter()
+        .map(|(body, px)| {
+            let (a, _) = els
+                .iter()
+                .find(|(a, b)| b == body && attr(a, "text-anchor") == Some("start"))
+                .unwrap_or_else(|| panic!("label {body} drawn from its top left"));
+            let x = attr(a, "x").unwrap().parse::<f64>().unwrap() as i32;
+            let y = attr(a, "y").unwrap().parse::<f64>().unwrap() as i32;
+            let (w, h) = spherestep::plots::label_size(body, *px);
+            (body.clone(), (x, y, x + w, y + h))
         })
-        .and_then(|t| t.split("font-size=\"").nth(1))
-        .and_then(|v| v.split('"').next())
-        .unwrap()
-        .to_string();
-    let boxes = label_boxes(&svg, &size);
-    let fig = commutation();
-    assert_eq!(boxes.len(), fig.coils.len() + fig.magnets.len());
+        .collect()
+}
+
+fn assert_apart(boxes: &[NamedBox]) {
     for (i, (a, p)) in boxes.iter().enumerate() {
         for (b, q) in &boxes[i + 1..] {
             let apart = p.2 <= q.0 || q.2 <= p.0 || p.3 <= q.1 || q.3 <= p.1;
             assert!(apart, "labels {a} {p:?} and {b} {q:?} overlap");
         }
+    }
+}
+
+/// Issue 14, item 17: Figure 5's coil and magnet numbers never overlap each other.
+#[test]
+fn figure5_labels_do_not_overlap() {
+    let fig = commutation();
+    let svg = render_svg(&fig).unwrap();
+    // Coil and magnet numbers may repeat (coil 3, magnet 3): each is found once per kind.
+    let els = text_elements(&svg);
+    let mut boxes = Vec::new();
+    for (color, names) in [
+        ("#1F77B4", (0..fig.coils.len()).collect::<Vec<_>>()),
+        ("#C81E1E", fig.magnets.iter().map(|m| m.0).collect()),
+    ] {
+        for n in names {
+            let (a, _) = els
+                .iter()
+                .find(|(a, b)| *b == n.to_string() && attr(a, "fill") == Some(color))
+                .unwrap_or_else(|| panic!("label {n} in {color}"));
+            assert_eq!(attr(a, "text-anchor"), Some("start"));
+            let x = attr(a, "x").unwrap().parse::<f64>().unwrap() as i32;
+            let y = attr(a, "y").unwrap().parse::<f64>().unwrap() as i32;
+            let (w, h) = spherestep::plots::label_size(&n.to_string(), 12);
+            boxes.push((format!("{color} {n}"), (x, y, x + w, y + h)));
+        }
+    }
+    assert_apart(&boxes);
+}
+
+/// Issue 14, item 17: Figure 6's labels (coils, world axes, rotation axes) never overlap.
+#[test]
+fn figure6_labels_do_not_overlap() {
+    let fig = view3d();
+    let svg = render_svg(&fig).unwrap();
+    let mut wanted: Vec<(String, u32)> =
+        (0..fig.coils.len()).map(|i| (i.to_string(), 12)).collect();
+    for t in [
+        "world x",
+        "world y",
+        "world z",
+        "desired axis",
+        "actual axis",
+    ] {
+        wanted.push((t.to_string(), 16));
+    }
+    let boxes = label_boxes(&svg, &wanted);
+    assert_apart(&boxes);
+    // All inside the picture (drawn larger now: no wide blank margin, nothing cut off).
+    let (w, h) = fig.size();
+    for (t, b) in &boxes {
+        assert!(
+            b.0 >= 0 && b.1 >= 0 && b.2 <= w as i32 && b.3 <= h as i32,
+            "{t} {b:?}"
+        );
     }
 }
 
@@ -720,4 +769,37 @@ fn place_labels_avoids_taken_places() {
             );
         }
     }
+}
+
+/// Issue 14, item 17: a sweep map marks the cases that did not reach their target and draws
+/// the coil directions its text explains it by.
+#[test]
+fn sweep_maps_mark_unreached_cases_and_coil_axes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("scheme,axis_x,axis_y,axis_z,max_axis_error_deg,reached\n");
+    let pts = sweep_points(30);
+    for (k, (a, v)) in pts.iter().enumerate() {
+        let reached = k % 10 != 3;
+        text += &format!("w,{},{},{},{v},{reached}\n", a[0], a[1], a[2]);
+    }
+    let csv = write(dir.path(), "sw.csv", &text);
+    let coils = [[0.0, 0.0, -1.0], [0.5, 0.0, -0.8]];
+    let files = spherestep::plots::plot_csv_with_coils(&csv, None, Some("t"), &coils).unwrap();
+    let svg = std::fs::read_to_string(&files[0]).unwrap();
+    assert!(has_text(&svg, "not reached") && has_text(&svg, "coil axis"));
+    // A cross is two black strokes of width 2: three unreached cases and the key's.
+    let crosses = svg
+        .matches("<line opacity=\"1\" stroke=\"#000000\" stroke-width=\"2\"")
+        .count();
+    assert_eq!(crosses, 2 * 3 + 2);
+    // A '+' at both ends of each coil's line (two strokes each), and the key's.
+    assert_eq!(polylines_w(&svg, "#1F77B4", 2), 2 * 2 * coils.len() + 2);
+    // Without a reached column or coils: neither.
+    let plain = write(
+        dir.path(),
+        "plain.csv",
+        "axis_x,axis_y,axis_z,max_axis_error_deg\n0,0,1,2.5\n1,0,0,14\n",
+    );
+    let svg = std::fs::read_to_string(&plot_csv(&plain, None, None).unwrap()[0]).unwrap();
+    assert!(!has_text(&svg, "not reached") && !has_text(&svg, "coil axis"));
 }

@@ -64,7 +64,18 @@
     var t1 = normalize(cross(n, a));
     return [t1, cross(n, t1)];
   }
-  function fmt(x, d) { return (typeof x === "number" && isFinite(x)) ? x.toFixed(d) : "\u2014"; }
+  // ---- pure text helpers (tests/view_text.rs runs them in node) ----
+  // A number with d decimals; a value that rounds to zero is "0.000", never "-0.000".
+  function fmt(x, d) {
+    if (typeof x !== "number" || !isFinite(x)) return "\u2014";
+    var t = x.toFixed(d);
+    return /^-0(\.0*)?$/.test(t) ? t.slice(1) : t;
+  }
+  // A step's predicted settle time: a plan that predicts none (0 s) says so.
+  function settleText(s) {
+    return (typeof s === "number" && isFinite(s) && s > 0) ? fmt(s, 3) + " s" : "not predicted";
+  }
+  // ---- end of pure text helpers ----
   function fmtVec(v, d) {
     return v ? "[" + v.map(function (c) { return fmt(c, d); }).join(", ") + "]" : "\u2014";
   }
@@ -219,8 +230,10 @@
         fill: on ? PAIR_COLORS[k % PAIR_COLORS.length] : COLORS.coil,
         stroke: on ? "#ffffff" : "#5a3413", width: on ? 2.5 : 1, alpha: 0.7
       }, 4);
-      if (state.labels) label(scale(s, COIL_R + 0.17), "c" + i,
-        { color: on ? PAIR_COLORS[k % PAIR_COLORS.length] : "#8b95a7", bold: on });
+      // On the coil's own square, just above it (a point further out along the coil's
+      // direction drifts off the square in perspective, for the rim coils most).
+      if (state.labels) label(p, "c" + i,
+        { color: on ? PAIR_COLORS[k % PAIR_COLORS.length] : "#8b95a7", bold: on, dx: 0, dy: -16 });
     });
 
     // rotor magnets (body frame turned by q)
@@ -448,7 +461,7 @@
     row("step axis error", fmt(st.step_axis_error_deg, 3) + "\u00B0");
     row("cumulative angle", fmt(st.cum_angle_deg, 3) + "\u00B0");
     row("cum. axis error", fmt(st.cum_axis_error_deg, 3) + "\u00B0");
-    row("settle time", fmt(st.settle_time_s, 4) + " s");
+    row("settle time", settleText(st.settle_time_s));
     row('<span style="color:' + COLORS.stepAxis + '">step axis</span>', fmtVec(st.step_axis, 3));
     row('<span style="color:' + COLORS.cumAxis + '">cumulative axis</span>', fmtVec(st.cum_axis, 3));
     if (data.desired_axis) {
