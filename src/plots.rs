@@ -1573,6 +1573,8 @@ pub fn plot_csv_with_coils(
                         value_label: "floor of the worst axis error (deg)".into(),
                         points,
                         range: Some(range),
+                        unreached: Vec::new(),
+                        coils: coils.to_vec(),
                     };
                     written.extend(write_figure(
                         &fig,
