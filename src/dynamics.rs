@@ -2,12 +2,12 @@
 //! with viscous damping under the summed magnet torques, integrated until the ball has settled;
 //! `settle_many` settles many active sets from one orientation in parallel.
 //!
-//! Two integrators reach the same equilibria: the fast path (the default), an allocation-free
-//! Bogacki-Shampine 3(2) stepper from `integrator` at loose tolerances, and the reference path,
-//! ode_solvers' Dopri5 at whatever tolerances are asked (`SettleParams::reference()` is tight).
-//! Where the ball stops is decided by the settle test on an exactly evaluated state, not by the
-//! integration error, which is why the loose tolerances land on the same equilibrium (the tests
-//! in tests/settle.rs pin this).
+//! Two paths reach the same equilibria: the fast path (the default, `settle_fast`), an
+//! allocation-free Bogacki-Shampine 3(2) stepper from `integrator` while the motion is
+//! nonlinear and a closed-form linear end phase about the strict minimum it comes to (with a
+//! tight fallback where it cannot be sure), and the reference path, ode_solvers' Dopri5 at
+//! whatever tolerances are asked (`SettleParams::reference()` is tight). tests/basins.rs and
+//! examples/basins.rs check the one against the other on random sets; tests/settle.rs pins 54.
 
 use crate::geometry::{Orientation, Pair};
 use crate::integrator::{integrate_until, End, OdeSystem, Tolerances};
