@@ -110,7 +110,7 @@ fn run() -> Result<()> {
             flag += (!c.same_flag) as usize;
             if !c.agrees {
                 outside += 1;
-                if outside <= 3 || c.other_basin {
+                if outside <= 3 || c.other_basin || !c.same_flag {
                     eprintln!(
                         "  kind {k}: {set:?}: {:.3e} rad, t {:.4} / {:.4} s, settled {} / {}",
                         c.angle, f.settle_time_s, r.settle_time_s, f.settled, r.settled

@@ -24,7 +24,7 @@ pub trait TorqueModel: Sync {
     }
 
     /// The body-frame torque and its derivative with respect to a small body-frame rotation
-    /// (R -> R exp([delta]x)), for the settle's linear end phase; `None` when the model has no
+    /// (`R -> R exp([delta]x)`), for the settle's linear end phase; `None` when the model has no
     /// analytic derivative (the settle then integrates to the end).
     fn linearize(&self, _r: &Matrix3<f64>, _active: &[Pair]) -> Option<Linearization> {
         None
