@@ -340,7 +340,7 @@ pub fn candidate_steps(
             proposals_between(&scored, low, bound, pairs, limits.max_candidates),
             limits.max_coils_on,
         );
-        let steps = evaluate(motor, state, n, model, proposals, limits);
+        let steps = evaluate_proposals(motor, state, n, model, proposals, limits);
         if !steps.is_empty() || bound > std::f64::consts::PI {
             return steps;
         }
@@ -430,19 +430,6 @@ pub fn predicted_orientation(
     UnitQuaternion::from_rotation_matrix(&rot) * q
 }
 
-/// Step 3's evaluation of chosen proposals with the given model (the public face of it, for
-/// planners that rank proposals before they weigh them).
-pub fn evaluate_proposals(
-    motor: &Motor,
-    state: &CommutationState,
-    n: &UnitVec,
-    model: StepModel,
-    proposals: Vec<Proposal>,
-    limits: &StepLimits,
-) -> Vec<Step> {
-    evaluate(motor, state, n, model, proposals, limits)
-}
-
 /// The (pivot, new pairs) proposals whose candidates lie within `bound`, leaving out those
 /// already weighed at `low` (all their candidates within it).
 fn proposals_between(
@@ -482,8 +469,9 @@ fn proposals_between(
     proposals
 }
 
-/// Step 3's evaluation: where each proposal leaves the ball, keeping the admissible steps.
-fn evaluate(
+/// Step 3's evaluation: where each proposal leaves the ball, keeping the admissible steps
+/// (public for planners that rank proposals before they weigh them).
+pub fn evaluate_proposals(
     motor: &Motor,
     state: &CommutationState,
     n: &UnitVec,

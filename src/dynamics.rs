@@ -402,21 +402,25 @@ fn settle_fast<M: TorqueModel>(
             },
         );
     }
-    if sys.body.damping <= 0.0 {
-        // Undamped, the ball never settles (it was not at rest in equilibrium at the start):
-        // whatever the stepper's own dissipation did, the physics says no.
-        return finish(
+    // where the stepper left the ball, and why it says it stopped
+    let stopped_here = |stop: Stop| {
+        finish(
             sys.model,
             sys.active,
             &out.y,
             out.t,
             evaluations,
             out.steps,
-            match out.end {
-                End::Stopped => Stop::TimeLimit,
-                e => e.into(),
-            },
-        );
+            stop,
+        )
+    };
+    if sys.body.damping <= 0.0 {
+        // Undamped, the ball never settles (it was not at rest in equilibrium at the start):
+        // whatever the stepper's own dissipation did, the physics says no.
+        return stopped_here(match out.end {
+            End::Stopped => Stop::TimeLimit,
+            e => e.into(),
+        });
     }
     let near_rest = |y: &[f64; 7]| {
         Vector3::new(y[4], y[5], y[6]).norm() < NEAR_REST * params.omega_tol
@@ -431,15 +435,7 @@ fn settle_fast<M: TorqueModel>(
         // settled (or nearly at rest at t_max), but never near a strict minimum: not sure where
         // along the free direction the ball stops, nor when
         if !params.follow_unheld {
-            return finish(
-                sys.model,
-                sys.active,
-                &out.y,
-                out.t,
-                evaluations,
-                out.steps,
-                Stop::Unheld,
-            );
+            return stopped_here(Stop::Unheld);
         }
         let tight = SettleParams {
             rtol: FALLBACK_RTOL,
@@ -450,15 +446,7 @@ fn settle_fast<M: TorqueModel>(
         r.evaluations = r.evaluations.saturating_add(evaluations);
         return r;
     }
-    finish(
-        sys.model,
-        sys.active,
-        &out.y,
-        out.t,
-        evaluations,
-        out.steps,
-        out.end.into(),
-    )
+    stopped_here(out.end.into())
 }
 
 /// The loosest relative tolerance of the fast path's nonlinear phase (a looser scenario rtol is

@@ -295,6 +295,27 @@ fn stopped(path: Path, why: String) -> Plan {
     }
 }
 
+/// A search's plan: its best solution, else the deepest partial plan and why it stopped.
+fn outcome(best: Option<Path>, deepest: Path, why: String) -> Plan {
+    match best {
+        Some(b) => Plan {
+            rows: b.rows,
+            reached: true,
+            message: None,
+        },
+        None => stopped(deepest, why),
+    }
+}
+
+/// The plan of a search given no root.
+fn no_initial_state() -> Plan {
+    Plan {
+        rows: Vec::new(),
+        reached: false,
+        message: Some("no initial commutation state".into()),
+    }
+}
+
 /// Beam search: keeps the `beam_width` best partial plans at each depth (best = smallest worst
 /// cumulative axis error, with a credit for progress), expanding them all in parallel; a plan
 /// that reaches the target is a solution, and partial plans already as bad as the best solution
@@ -302,11 +323,7 @@ fn stopped(path: Path, why: String) -> Plan {
 /// candidates too, so the search is never worse than them.
 fn search(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
     let Some(root) = roots.first().cloned() else {
-        return Plan {
-            rows: Vec::new(),
-            reached: false,
-            message: Some("no initial commutation state".into()),
-        };
+        return no_initial_state();
     };
     let mut best = greedy_best(motor, s, &root, better_solution);
     let mut beam = roots;
@@ -377,17 +394,11 @@ fn search(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
         }
         beam = kept;
     }
-    match best {
-        Some(b) => Plan {
-            rows: b.rows,
-            reached: true,
-            message: None,
-        },
-        None => stopped(
-            deepest,
-            "the search found no sequence that reaches the target".into(),
-        ),
-    }
+    outcome(
+        best,
+        deepest,
+        "the search found no sequence that reaches the target".into(),
+    )
 }
 
 /// The best of the paper's three greedy plans from `root` that reaches the target, as a
@@ -518,11 +529,7 @@ type StateIndex = std::collections::HashMap<(usize, Vec<Pair>), Vec<(Orientation
 /// machine and any number of threads.
 fn best_first(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
     let Some(root) = roots.first().cloned() else {
-        return Plan {
-            rows: Vec::new(),
-            reached: false,
-            message: Some("no initial commutation state".into()),
-        };
+        return no_initial_state();
     };
     let mut best = greedy_best(motor, s, &root, better_landing);
     let mut deepest = root;
@@ -603,20 +610,14 @@ fn best_first(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
             nodes.push((root_id, c));
         }
     }
-    match best {
-        Some(b) => Plan {
-            rows: b.rows,
-            reached: true,
-            message: None,
-        },
-        None => stopped(
-            deepest,
-            format!(
-                "the search found no sequence that reaches the target within its budget of {} settles",
-                s.settle_budget
-            ),
+    outcome(
+        best,
+        deepest,
+        format!(
+            "the search found no sequence that reaches the target within its budget of {} settles",
+            s.settle_budget
         ),
-    }
+    )
 }
 
 fn sorted(v: &[Pair]) -> Vec<Pair> {
