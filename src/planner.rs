@@ -171,7 +171,17 @@ impl Path {
 
 /// Plans a motion.
 pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
+    // The capture in force, resolved once (the dynamic model's is a search over its well's
+    // pull), not in every evaluation of a step.
     let capture = s.limits.capture_for(s.model, &motor.torques.well);
+    let resolved = PlanSettings {
+        limits: StepLimits {
+            capture: Some(capture),
+            ..s.limits
+        },
+        ..s.clone()
+    };
+    let s = &resolved;
     let inits = initial_states(motor, &s.start, s.model, &s.axis, capture);
     let Some(first) = inits.first() else {
         return Plan {
@@ -275,13 +285,8 @@ fn greedy(motor: &Motor, s: &PlanSettings, mut path: Path, scheme: Scheme) -> Pl
 
 /// A greedy plan must not cycle between the same active sets.
 fn revisits(seen: &[Vec<Pair>], st: &Step) -> bool {
-    let mut a = st.to.active.clone();
-    a.sort();
-    seen.iter().any(|v| {
-        let mut b = v.clone();
-        b.sort();
-        a == b
-    })
+    let a = sorted(&st.to.active);
+    seen.iter().any(|v| sorted(v) == a)
 }
 
 fn stopped(path: Path, why: String) -> Plan {
