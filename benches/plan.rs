@@ -8,16 +8,15 @@
 
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion};
 use nalgebra::Vector3;
-use spherestep::app::motor;
-use spherestep::geometry::UnitVec;
-use spherestep::planner::plan;
-use spherestep::scenario::Scenario;
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::UnitVec;
+use spherestep::planning::planner::plan;
 use std::time::Duration;
 
 fn bench_default_planner(c: &mut Criterion) {
     let sc = Scenario::load(std::path::Path::new("scenarios/prototype.toml"))
         .expect("scenarios/prototype.toml loads");
-    let motor = motor(&sc);
+    let motor = sc.motor();
     let mut g = c.benchmark_group("plan_default");
     g.sample_size(10);
     g.measurement_time(Duration::from_secs(6));

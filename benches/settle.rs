@@ -15,14 +15,14 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use nalgebra::Vector3;
-use spherestep::commutation::nearest_magnet;
-use spherestep::commutation::Motor;
-use spherestep::dynamics::{settle, settle_many, Method, RotorDynamics, SettleParams};
-use spherestep::geometry::{rot_q, unit, CoilId, Degrees, Orientation, Pair, Radians};
-use spherestep::integrator::OdeSystem;
-use spherestep::planner::plan;
-use spherestep::scenario::{sphere_axes, Scenario};
-use spherestep::torque::{Interaction, MagnetTorques, TorqueModel};
+use spherestep::io::scenario::{sphere_axes, Scenario};
+use spherestep::model::geometry::{rot_q, unit, CoilId, Degrees, Orientation, Pair, Radians};
+use spherestep::physics::dynamics::{settle, settle_many, Method, RotorDynamics, SettleParams};
+use spherestep::physics::integrator::OdeSystem;
+use spherestep::physics::torque::{Interaction, MagnetTorques, TorqueModel};
+use spherestep::planning::commutation::nearest_magnet;
+use spherestep::planning::commutation::Motor;
+use spherestep::planning::planner::plan;
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Duration;

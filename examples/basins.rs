@@ -19,7 +19,7 @@ mod basins_common;
 use anyhow::{bail, Context, Result};
 use basins_common::{compare, random_sets, setup, Kind, Rng, Shape};
 use rayon::prelude::*;
-use spherestep::dynamics::settle;
+use spherestep::physics::dynamics::settle;
 use std::time::Instant;
 
 fn kinds() -> Vec<(Kind, bool)> {
@@ -122,7 +122,7 @@ fn run() -> Result<()> {
                 worst_dt = worst_dt.max(c.dt);
             }
         }
-        let mean = |v: &[spherestep::dynamics::SettleResult]| {
+        let mean = |v: &[spherestep::physics::dynamics::SettleResult]| {
             v.iter().map(|r| r.evaluations as f64).sum::<f64>() / v.len() as f64
         };
         println!(

@@ -13,10 +13,10 @@
 
 use anyhow::{bail, Context, Result};
 use nalgebra::Vector3;
-use spherestep::commutation::nearest_magnet;
-use spherestep::dynamics::{settle, SettleResult};
-use spherestep::geometry::{rot_q, unit, CoilId, Orientation, Pair, Radians};
-use spherestep::scenario::Scenario;
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::{rot_q, unit, CoilId, Orientation, Pair, Radians};
+use spherestep::physics::dynamics::{settle, SettleResult};
+use spherestep::planning::commutation::nearest_magnet;
 use std::fmt::Write as _;
 use std::hint::black_box;
 use std::path::PathBuf;

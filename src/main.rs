@@ -3,8 +3,8 @@
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
-use spherestep::app;
-use spherestep::scenario::{parse_axis, parse_orientation, Scenario};
+use spherestep::commands::{self as app};
+use spherestep::io::scenario::{parse_axis, parse_orientation, Scenario};
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -281,18 +281,17 @@ fn run(cli: Cli) -> Result<()> {
                 Some(p) => Scenario::load(&p)?,
                 None => Scenario::prototype(),
             };
-            let rows = spherestep::planfile::read_plan(&plan)?;
-            let sim = spherestep::simulate::simulate(&sc, &rows, &plan)?;
+            let sim = app::simulate_plan(&sc, &plan)?;
             let mut buf = Vec::new();
-            spherestep::simulate::write_sim(&sim, &mut buf)?;
+            spherestep::planning::simulate::write_sim(&sim, &mut buf)?;
             // Without --out the CSV alone goes to standard output, the summary to standard error.
             let csv_on_stdout = out_file.is_none() && !json;
             match &out_file {
-                Some(p) => spherestep::output::write_atomic(p, &buf)?,
+                Some(p) => spherestep::io::output::write_atomic(p, &buf)?,
                 None if csv_on_stdout => out.write_all(&buf)?,
                 None => {}
             }
-            let s = spherestep::simulate::summary(&sim);
+            let s = spherestep::planning::simulate::summary(&sim);
             if json {
                 writeln!(out, "{}", serde_json::to_string(&s)?)?;
             } else {
@@ -316,19 +315,19 @@ fn run(cli: Cli) -> Result<()> {
             if jobs == Some(0) {
                 anyhow::bail!("argument --jobs: expected a number of threads >= 1, got 0");
             }
-            let opts = spherestep::batch::BatchOptions {
+            let opts = spherestep::commands::batch::BatchOptions {
                 out: out_dir,
                 jobs,
                 shard: shard
                     .as_deref()
-                    .map(spherestep::batch::Shard::parse)
+                    .map(spherestep::commands::batch::Shard::parse)
                     .transpose()?,
                 resume,
                 progress: true,
                 plots,
             };
-            let files = spherestep::batch::collect_inputs(&inputs)?;
-            let report = spherestep::batch::run_batch(&files, &opts)?;
+            let files = spherestep::commands::batch::collect_inputs(&inputs)?;
+            let report = spherestep::commands::batch::run_batch(&files, &opts)?;
             writeln!(
                 out,
                 "{} computed, {} up to date, {} failed",
@@ -392,7 +391,8 @@ fn run(cli: Cli) -> Result<()> {
                 None => Scenario::prototype(),
             };
             let axis = axis.map(|a| parse_axis(&a, "--axis")).transpose()?;
-            let data = spherestep::view::write_view(&plan, &sc, sim.as_deref(), axis, &page)?;
+            let data =
+                spherestep::figures::view::write_view(&plan, &sc, sim.as_deref(), axis, &page)?;
             writeln!(out, "wrote {} ({} steps)", page.display(), data.steps.len())?;
         }
         Command::Plot {
@@ -400,7 +400,7 @@ fn run(cli: Cli) -> Result<()> {
             out: dir,
             title,
         } => {
-            for f in spherestep::plots::plot_csv(&csv, dir.as_deref(), title.as_deref())? {
+            for f in spherestep::figures::plots::plot_csv(&csv, dir.as_deref(), title.as_deref())? {
                 writeln!(out, "wrote {}", f.display())?;
             }
         }

@@ -4,12 +4,12 @@
 
 mod common;
 
-use spherestep::app::{motor, plan_settings, PlanOverrides};
-use spherestep::commutation::{pivot_floor, PairsPerStep, StepModel};
-use spherestep::geometry::{unit, UnitVec};
-use spherestep::planner::{max_axis_error_deg, plan, Scheme};
-use spherestep::scenario::Scenario;
-use spherestep::simulate::simulate;
+use spherestep::commands::{plan_settings, PlanOverrides};
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::{unit, UnitVec};
+use spherestep::planning::commutation::{pivot_floor, PairsPerStep, StepModel};
+use spherestep::planning::planner::{max_axis_error_deg, plan, Scheme};
+use spherestep::planning::simulate::simulate;
 use std::path::Path;
 use std::process::Command;
 
@@ -51,7 +51,7 @@ fn the_default_planner_turns_hard_axes_within_15_degrees_and_its_plans_replay() 
         assert_eq!(s.model, StepModel::Dynamic);
         assert_eq!(s.pairs, PairsPerStep { min: 2, max: 4 });
         assert_eq!(s.scheme, Scheme::Search);
-        let p = plan(&motor(&sc), &s);
+        let p = plan(&sc.motor(), &s);
         assert!(p.reached, "{text}: {:?}", p.message);
         let worst = max_axis_error_deg(&p.rows);
         // the paper's bound is 15 degrees; the default planner keeps within 10 (the stretch)
@@ -78,7 +78,7 @@ fn the_default_planner_turns_hard_axes_within_15_degrees_and_its_plans_replay() 
             pairs_used.insert(r.active.len());
         }
         // the plan is what the dynamics does: replayed step by step, within 1 degree
-        let sim = simulate(&sc, &p.rows, Path::new("plan.csv")).unwrap();
+        let sim = simulate(&sc.motor(), &p.rows);
         assert_eq!(sim.len(), p.rows.len());
         for r in &sim {
             assert!(r.settled, "{text}: step {} does not settle", r.step);
@@ -117,7 +117,7 @@ fn the_pivot_floor_bounds_every_pivot_plan_and_the_dynamic_model_goes_below_it()
             model: Some(model.into()),
             ..Default::default()
         };
-        let pivot = plan(&motor(&sc), &plan_settings(&sc, &o("pivot")).unwrap());
+        let pivot = plan(&sc.motor(), &plan_settings(&sc, &o("pivot")).unwrap());
         if pivot.reached {
             let w = max_axis_error_deg(&pivot.rows);
             assert!(
@@ -125,7 +125,7 @@ fn the_pivot_floor_bounds_every_pivot_plan_and_the_dynamic_model_goes_below_it()
                 "{text}: pivot plan {w} below its floor {floor}"
             );
         }
-        let dynamic = plan(&motor(&sc), &plan_settings(&sc, &o("dynamic")).unwrap());
+        let dynamic = plan(&sc.motor(), &plan_settings(&sc, &o("dynamic")).unwrap());
         if max_axis_error_deg(&dynamic.rows) < floor {
             below += 1;
         }
@@ -221,15 +221,18 @@ fn pairs_and_budgets_out_of_range_are_refused_naming_the_field() {
 
 #[test]
 fn weighing_stops_at_sets_that_hold_nothing_and_settles_held_sets_exactly_as_simulate() {
-    use spherestep::dynamics::{settle, Stop};
-    use spherestep::geometry::Pair;
+    use spherestep::model::geometry::Pair;
+    use spherestep::physics::dynamics::{settle, Stop};
     let sc = proto();
-    let m = motor(&sc);
+    let m = sc.motor();
     let q0 = nalgebra::UnitQuaternion::identity();
     // coil 0 with its nearest magnet holds; magnet 15 is 163.5 degrees from coil 0's neighbour:
     // out of reach, so one direction is free
-    let (near, _) =
-        spherestep::commutation::nearest_magnet(&sc.torques, spherestep::geometry::CoilId(0), &q0);
+    let (near, _) = spherestep::planning::commutation::nearest_magnet(
+        &sc.torques,
+        spherestep::model::geometry::CoilId(0),
+        &q0,
+    );
     let loose = [Pair::new(0, near.0), Pair::new(7, 15)];
     let w = settle(&sc.torques, &loose, &q0, sc.body, m.weighing());
     assert_eq!(w.stop, Stop::Unheld, "{w:?}");
@@ -237,8 +240,11 @@ fn weighing_stops_at_sets_that_hold_nothing_and_settles_held_sets_exactly_as_sim
     let full = settle(&sc.torques, &loose, &q0, sc.body, sc.settle);
     assert_ne!(full.stop, Stop::Unheld, "simulate follows it: {full:?}");
     // a set that holds: the same result, to the bit
-    let (m7, _) =
-        spherestep::commutation::nearest_magnet(&sc.torques, spherestep::geometry::CoilId(7), &q0);
+    let (m7, _) = spherestep::planning::commutation::nearest_magnet(
+        &sc.torques,
+        spherestep::model::geometry::CoilId(7),
+        &q0,
+    );
     let held = [Pair::new(0, near.0), Pair::new(7, m7.0)];
     let a = settle(&sc.torques, &held, &q0, sc.body, m.weighing());
     let b = settle(&sc.torques, &held, &q0, sc.body, sc.settle);

@@ -84,10 +84,10 @@ fn only_provably_stale_temporaries_are_removed() {
     let out = t.path().join("out");
     let kept_dir = out.join("sweep-plans");
     std::fs::create_dir_all(&kept_dir).unwrap();
-    let host = spherestep::output::host_tag();
+    let host = spherestep::io::output::host_tag();
     let dead = dead_pid();
     let temp = |dir: &Path, name: &str, host: &str, pid: u32| -> PathBuf {
-        let p = spherestep::output::temp_path_of(&dir.join(name), host, pid);
+        let p = spherestep::io::output::temp_path_of(&dir.join(name), host, pid);
         std::fs::write(&p, b"partial").unwrap();
         p
     };
@@ -251,8 +251,8 @@ fn resume_with_plots_draws_the_missing_pictures() {
     for p in pictures {
         std::fs::remove_file(out.join(p)).unwrap();
     }
-    let host = spherestep::output::host_tag();
-    let torn = spherestep::output::temp_path_of(&out.join("p-error.png"), &host, dead_pid());
+    let host = spherestep::io::output::host_tag();
+    let torn = spherestep::io::output::temp_path_of(&out.join("p-error.png"), &host, dead_pid());
     std::fs::write(&torn, b"half a png").unwrap();
     let mut resume = args.to_vec();
     resume.push("--resume");

@@ -46,7 +46,7 @@ fn plan_and_simulate_pipe_their_csv_alone() {
         !text.contains("steps about"),
         "no summary in the CSV: {text}"
     );
-    let rows = spherestep::planfile::parse_plan(&text, &plan).unwrap();
+    let rows = spherestep::io::planfile::parse_plan(&text, &plan).unwrap();
     assert!(rows.len() >= 2);
 
     // The redirected plan goes on through simulate (itself redirected), plot and replay.

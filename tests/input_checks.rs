@@ -5,7 +5,8 @@
 
 mod common;
 
-use spherestep::scenario::{parse_pairs, Scenario};
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::parse_pairs;
 use std::path::Path;
 
 use common::run;

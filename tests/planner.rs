@@ -4,15 +4,15 @@
 mod common;
 
 use nalgebra::Vector3;
-use spherestep::app::{motor, plan_settings, PlanOverrides};
-use spherestep::commutation::{
+use spherestep::commands::{plan_settings, PlanOverrides};
+use spherestep::io::planfile::write_plan;
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::{angular_distance, unit, Pair, Radians, UnitVec};
+use spherestep::physics::torque::{Interaction, MagnetTorques};
+use spherestep::planning::commutation::{
     filter_candidates, filter_deviations, pivot_step, rotation_axis_of_step, ERROR_BOUND_START,
 };
-use spherestep::geometry::{angular_distance, unit, Pair, Radians, UnitVec};
-use spherestep::planfile::write_plan;
-use spherestep::planner::{max_axis_error_deg, plan, Plan, PlanSettings};
-use spherestep::scenario::Scenario;
-use spherestep::torque::{Interaction, MagnetTorques};
+use spherestep::planning::planner::{max_axis_error_deg, plan, Plan, PlanSettings};
 use std::path::Path;
 
 fn load(name: &str) -> Scenario {
@@ -76,7 +76,7 @@ fn the_filter_bound_widens_until_something_is_left() {
     ))
     .unwrap();
     let rim = Vector3::new(0.0, -1.0, 0.0);
-    let s = spherestep::geometry::rot_q(&tilt, Radians(10f64.to_radians())) * rim;
+    let s = spherestep::model::geometry::rot_q(&tilt, Radians(10f64.to_radians())) * rim;
     let torques = MagnetTorques {
         rotor: vec![rim],
         stator: vec![s],
@@ -86,7 +86,7 @@ fn the_filter_bound_widens_until_something_is_left() {
     let n = unit(Vector3::z()).unwrap();
     let q = nalgebra::UnitQuaternion::identity();
     // the magnet must be in the bottom hemisphere: tip everything down a little
-    let down = spherestep::geometry::rot_q(&unit(Vector3::x()).unwrap(), Radians(0.3));
+    let down = spherestep::model::geometry::rot_q(&unit(Vector3::x()).unwrap(), Radians(0.3));
     let torques = MagnetTorques {
         rotor: vec![down * rim],
         stator: vec![down * s],
@@ -112,7 +112,10 @@ fn the_filter_bound_widens_until_something_is_left() {
 #[test]
 fn a_pivot_step_is_a_pure_rotation_about_the_pivot_coil() {
     let sc = load("scenarios/prototype.toml");
-    let q = spherestep::geometry::rot_q(&unit(Vector3::new(0.1, 0.5, 1.0)).unwrap(), Radians(0.4));
+    let q = spherestep::model::geometry::rot_q(
+        &unit(Vector3::new(0.1, 0.5, 1.0)).unwrap(),
+        Radians(0.4),
+    );
     for (pivot, cand) in [
         (Pair::new(0, 14), Pair::new(3, 40)),
         (Pair::new(12, 7), Pair::new(9, 33)),
@@ -136,7 +139,7 @@ fn a_pivot_step_is_a_pure_rotation_about_the_pivot_coil() {
 #[test]
 fn the_z_plan_with_a_coil_on_the_axis_keeps_its_axis_error_tiny() {
     let sc = load("scenarios/paper-fig7-z.toml");
-    let p = plan(&motor(&sc), &sc.plan);
+    let p = plan(&sc.motor(), &sc.plan);
     assert!(p.reached, "{:?}", p.message);
     assert!(max_axis_error_deg(&p.rows) < 1e-9);
     let last = p.rows.last().unwrap();
@@ -154,7 +157,7 @@ fn the_paper_targets_are_met_by_both_models() {
         ("scenarios/paper-fig8-y-dynamic3.toml", 15.0),
     ] {
         let sc = load(file);
-        let p = plan(&motor(&sc), &sc.plan);
+        let p = plan(&sc.motor(), &sc.plan);
         assert!(p.reached, "{file}: {:?}", p.message);
         let worst = max_axis_error_deg(&p.rows);
         assert!(worst <= bound, "{file}: worst axis error {worst} > {bound}");
@@ -166,8 +169,8 @@ fn the_search_is_never_worse_than_the_weighted_greedy() {
     let sc = load("scenarios/prototype.toml");
     for (model, pairs) in [("pivot", "2"), ("dynamic", "2"), ("dynamic", "2-4")] {
         for axis in ["0,0,1", "0,1,0", "1,0,0", "1,1,0", "1,0,1", "-1,2,-1"] {
-            let g = plan(&motor(&sc), &settings(&sc, axis, "weighted", model, pairs));
-            let s = plan(&motor(&sc), &settings(&sc, axis, "search", model, pairs));
+            let g = plan(&sc.motor(), &settings(&sc, axis, "weighted", model, pairs));
+            let s = plan(&sc.motor(), &settings(&sc, axis, "search", model, pairs));
             if g.reached {
                 assert!(s.reached, "{model} {axis}: greedy reached, search did not");
                 let (ge, se) = (max_axis_error_deg(&g.rows), max_axis_error_deg(&s.rows));
@@ -188,7 +191,7 @@ fn plans_are_deterministic_whatever_the_thread_count() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| csv_bytes(&plan(&motor(&sc), &sc.plan)))
+            .install(|| csv_bytes(&plan(&sc.motor(), &sc.plan)))
     };
     let one = run(1);
     assert_eq!(one, run(2));
@@ -208,7 +211,7 @@ fn an_unreachable_target_ends_with_a_message_and_keeps_its_steps() {
     )
     .unwrap();
     let sc = Scenario::load(&scen).unwrap();
-    let p = plan(&motor(&sc), &sc.plan);
+    let p = plan(&sc.motor(), &sc.plan);
     assert!(!p.reached);
     assert!(p.message.as_deref().unwrap().contains("target not reached"));
     assert!(!p.rows.is_empty());
@@ -230,15 +233,15 @@ fn an_unreachable_target_ends_with_a_message_and_keeps_its_steps() {
     assert_eq!(v["reached"], false);
     let stderr = String::from_utf8_lossy(&res.stderr);
     assert!(stderr.contains("target not reached"), "{stderr}");
-    let rows = spherestep::planfile::read_plan(&out).unwrap();
+    let rows = spherestep::io::planfile::read_plan(&out).unwrap();
     assert_eq!(rows.len(), p.rows.len());
 }
 
 #[test]
 fn a_dynamic_plan_replays_exactly_in_its_own_scenario() {
     let sc = load("scenarios/paper-fig7-z-dynamic3.toml");
-    let p = plan(&motor(&sc), &sc.plan);
-    let sim = spherestep::simulate::simulate(&sc, &p.rows, Path::new("p.csv")).unwrap();
+    let p = plan(&sc.motor(), &sc.plan);
+    let sim = spherestep::planning::simulate::simulate(&sc.motor(), &p.rows);
     assert_eq!(sim.len(), p.rows.len());
     for r in &sim {
         assert!(
@@ -251,6 +254,6 @@ fn a_dynamic_plan_replays_exactly_in_its_own_scenario() {
     // in broad "coils" wells the same plan drifts: the slop becomes measurable
     let mut broad = sc.clone();
     broad.torques.interaction = Interaction::Coils;
-    let sim = spherestep::simulate::simulate(&broad, &p.rows, Path::new("p.csv")).unwrap();
+    let sim = spherestep::planning::simulate::simulate(&broad.motor(), &p.rows);
     assert!(sim.iter().any(|r| r.deviation_deg > 0.01));
 }

@@ -4,16 +4,16 @@ mod common;
 
 use common::{identity, nearest_magnet};
 use nalgebra::{UnitQuaternion, Vector3};
-use spherestep::dynamics::{settle, settle_many, settle_traced, State};
-use spherestep::geometry::{angular_distance, rot_q, unit, Pair, Radians, UnitVec};
-use spherestep::scenario::Scenario;
-use spherestep::torque::{Interaction, MagnetTorques, TorqueModel, WellShape};
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::{angular_distance, rot_q, unit, Pair, Radians, UnitVec};
+use spherestep::physics::dynamics::{settle, settle_many, settle_traced, State};
+use spherestep::physics::torque::{Interaction, MagnetTorques, TorqueModel, WellShape};
 
 fn proto() -> Scenario {
     Scenario::load(std::path::Path::new("scenarios/prototype.toml")).unwrap()
 }
 
-fn dist(sc: &Scenario, q: &spherestep::geometry::Orientation, p: Pair) -> f64 {
+fn dist(sc: &Scenario, q: &spherestep::model::geometry::Orientation, p: Pair) -> f64 {
     let m = UnitVec::new_normalize(q * sc.rotor.points[p.magnet.0].into_inner());
     angular_distance(&m, &sc.stator.points[p.coil.0]).0
 }
@@ -27,7 +27,7 @@ fn one_pair_settles_with_the_magnet_on_its_coil() {
         let (m, d0) = nearest_magnet(&sc, coil, &q0);
         assert!(d0 > 0.01 && d0 < sc.torques.well.max_attraction.0);
         let pair = Pair {
-            coil: spherestep::geometry::CoilId(coil),
+            coil: spherestep::model::geometry::CoilId(coil),
             magnet: m,
         };
         let r = settle(&sc.torques, &[pair], &q0, sc.body, sc.settle);
@@ -42,16 +42,16 @@ fn one_pair_settles_with_the_magnet_on_its_coil() {
     }
 }
 
-fn two_pairs(sc: &Scenario, q0: &spherestep::geometry::Orientation) -> Vec<Pair> {
+fn two_pairs(sc: &Scenario, q0: &spherestep::model::geometry::Orientation) -> Vec<Pair> {
     let (m0, _) = nearest_magnet(sc, 0, q0);
     let (m1, _) = nearest_magnet(sc, 7, q0);
     vec![
         Pair {
-            coil: spherestep::geometry::CoilId(0),
+            coil: spherestep::model::geometry::CoilId(0),
             magnet: m0,
         },
         Pair {
-            coil: spherestep::geometry::CoilId(7),
+            coil: spherestep::model::geometry::CoilId(7),
             magnet: m1,
         },
     ]
@@ -106,7 +106,7 @@ fn total_energy_never_rises_with_damping() {
 }
 
 /// 27 active sets of 2, 3 and 4 pairs from three starts, each magnet the nearest to its coil.
-fn pinned_sets(sc: &Scenario) -> Vec<(spherestep::geometry::Orientation, Vec<Pair>)> {
+fn pinned_sets(sc: &Scenario) -> Vec<(spherestep::model::geometry::Orientation, Vec<Pair>)> {
     let starts = [
         rot_q(&unit(Vector3::new(0.2, 1.0, 0.4)).unwrap(), Radians(0.08)),
         rot_q(&unit(Vector3::new(1.0, -0.3, 0.1)).unwrap(), Radians(0.2)),
@@ -129,7 +129,7 @@ fn pinned_sets(sc: &Scenario) -> Vec<(spherestep::geometry::Orientation, Vec<Pai
             let set = coils
                 .iter()
                 .map(|&c| Pair {
-                    coil: spherestep::geometry::CoilId(c),
+                    coil: spherestep::model::geometry::CoilId(c),
                     magnet: nearest_magnet(sc, c, &q0).0,
                 })
                 .collect();
@@ -146,7 +146,10 @@ fn the_fast_path_lands_where_the_reference_integration_does() {
     let mut sc = proto();
     let sets = pinned_sets(&sc);
     assert_eq!(sets.len(), 27);
-    assert_eq!(sc.settle.method, spherestep::dynamics::Method::Bs32);
+    assert_eq!(
+        sc.settle.method,
+        spherestep::physics::dynamics::Method::Bs32
+    );
     let (mut worst, mut settled) = (0.0f64, 0);
     for shape in [
         sc.torques.well.shape.clone(),
@@ -236,11 +239,11 @@ fn settle_many_equals_the_serial_loop_exactly() {
             let (mb, _) = nearest_magnet(&sc, b, &q0);
             sets.push(vec![
                 Pair {
-                    coil: spherestep::geometry::CoilId(a),
+                    coil: spherestep::model::geometry::CoilId(a),
                     magnet: ma,
                 },
                 Pair {
-                    coil: spherestep::geometry::CoilId(b),
+                    coil: spherestep::model::geometry::CoilId(b),
                     magnet: mb,
                 },
             ]);
@@ -261,7 +264,7 @@ fn coils_interaction_attracts_every_magnet_in_range() {
     let q0 = identity();
     let (m, _) = nearest_magnet(&sc, 0, &q0);
     let pair = [Pair {
-        coil: spherestep::geometry::CoilId(0),
+        coil: spherestep::model::geometry::CoilId(0),
         magnet: m,
     }];
     let r = q0.to_rotation_matrix();
@@ -273,8 +276,8 @@ fn coils_interaction_attracts_every_magnet_in_range() {
     let mut in_range = 0;
     for (j, _) in sc.rotor.points.iter().enumerate() {
         let one = [Pair {
-            coil: spherestep::geometry::CoilId(0),
-            magnet: spherestep::geometry::MagnetId(j),
+            coil: spherestep::model::geometry::CoilId(0),
+            magnet: spherestep::model::geometry::MagnetId(j),
         }];
         sc.torques.interaction = Interaction::Pairs;
         let (t, _) = sc.torques.torque_energy(r.matrix(), &one);

@@ -2,9 +2,9 @@
 //! bounded cost and says which limit stopped it, the reference says why it stopped.
 
 use nalgebra::Vector3;
-use spherestep::dynamics::{settle, Method, SettleParams, Stop};
-use spherestep::geometry::{rot_q, unit, Pair, Radians};
-use spherestep::scenario::Scenario;
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::{rot_q, unit, Pair, Radians};
+use spherestep::physics::dynamics::{settle, Method, SettleParams, Stop};
 
 fn proto() -> Scenario {
     Scenario::load(std::path::Path::new("scenarios/prototype.toml")).unwrap()
@@ -18,7 +18,7 @@ fn an_undamped_ball_is_never_settled() {
     sc.body.damping = 0.0;
     sc.settle.t_max = 100.0;
     let set = [Pair::new(0, 14), Pair::new(12, 26)];
-    let q0 = spherestep::geometry::Orientation::identity();
+    let q0 = spherestep::model::geometry::Orientation::identity();
     let r = settle(&sc.torques, &set, &q0, sc.body, sc.settle);
     assert!(!r.settled, "{r:?}");
     assert_eq!(r.stop, Stop::TimeLimit);
@@ -31,9 +31,9 @@ fn an_undamped_ball_is_never_settled() {
         let q0 = rot_q(&unit(Vector3::from(*axis)).unwrap(), Radians(0.1));
         // each coil with the magnet nearest to it, 0 to 20 degrees away: pairs that hold
         let near = |c: usize| {
-            let m = spherestep::commutation::nearest_magnet(
+            let m = spherestep::planning::commutation::nearest_magnet(
                 &sc.torques,
-                spherestep::geometry::CoilId(c),
+                spherestep::model::geometry::CoilId(c),
                 &q0,
             );
             Pair::new(c, m.0 .0)
@@ -52,7 +52,7 @@ fn a_lightly_damped_ball_settles_when_the_reference_says() {
     sc.body.damping *= 0.02;
     sc.settle.t_max = 100.0;
     let set = [Pair::new(0, 14), Pair::new(12, 26)];
-    let q0 = spherestep::geometry::Orientation::identity();
+    let q0 = spherestep::model::geometry::Orientation::identity();
     let fast = settle(&sc.torques, &set, &q0, sc.body, sc.settle);
     let reference = settle(&sc.torques, &set, &q0, sc.body, sc.settle.reference());
     assert!(reference.settled, "{reference:?}");
@@ -78,7 +78,7 @@ fn every_settle_has_a_bounded_cost_and_says_what_stopped_it() {
     let r = settle(&sc.torques, &set, &q0, sc.body, sc.settle);
     assert_eq!(r.stop, Stop::StepLimit, "{r:?}");
     assert!(!r.settled);
-    assert!(r.evaluations <= 3 * spherestep::integrator::MAX_ATTEMPTS + 100);
+    assert!(r.evaluations <= 3 * spherestep::physics::integrator::MAX_ATTEMPTS + 100);
     // an impossible tolerance: the step size collapses, and the result says so
     let sc = proto();
     let tight = SettleParams {

@@ -1,9 +1,9 @@
 //! Tests of `spherestep view`: the page embeds the plan and the packings as JSON (parsed back
 //! here), references nothing outside itself, and a bad input gives an error and no page.
 
-use spherestep::planfile::read_plan;
-use spherestep::scenario::Scenario;
-use spherestep::view::{extract_data_json, write_view, SCRIPT, STYLE, TEMPLATE};
+use spherestep::figures::view::{extract_data_json, write_view, SCRIPT, STYLE, TEMPLATE};
+use spherestep::io::planfile::read_plan;
+use spherestep::io::scenario::Scenario;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -49,7 +49,7 @@ fn page_embeds_plan_and_packings() {
     let out = dir.path().join("plan.html");
     let plan_path = data_dir().join("view_plan_z.csv");
     let sc = Scenario::prototype();
-    let axis = spherestep::scenario::parse_axis("0,0,2", "--axis").unwrap();
+    let axis = spherestep::io::scenario::parse_axis("0,0,2", "--axis").unwrap();
     write_view(
         &plan_path,
         &sc,
@@ -71,7 +71,7 @@ fn page_embeds_plan_and_packings() {
     for (s, r) in steps.iter().zip(&plan) {
         assert_eq!(s["step"].as_u64().unwrap() as usize, r.step);
         let q: Vec<f64> = serde_json::from_value(s["q"].clone()).unwrap();
-        let want = spherestep::geometry::xyzw(&r.q);
+        let want = spherestep::model::geometry::xyzw(&r.q);
         for k in 0..4 {
             assert!(
                 (q[k] - want[k]).abs() < 1e-12,
@@ -94,7 +94,7 @@ fn page_embeds_plan_and_packings() {
     assert_eq!(rotor.len(), 80);
     assert_eq!(stator.len(), 16);
     // (serde_json's own parser may be 1 ulp off; browsers parse the shortest form exactly)
-    let same = |a: &[f64; 3], b: &spherestep::geometry::UnitVec| {
+    let same = |a: &[f64; 3], b: &spherestep::model::geometry::UnitVec| {
         (0..3).all(|k| (a[k] - b[k]).abs() <= 1e-15)
     };
     for (a, b) in rotor.iter().zip(&sc.rotor.points) {

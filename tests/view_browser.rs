@@ -130,10 +130,10 @@ fn page_runs_in_headless_chromium() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let plan = spherestep::planfile::read_plan(&data.join("view_plan_z.csv")).unwrap();
+    let plan = spherestep::io::planfile::read_plan(&data.join("view_plan_z.csv")).unwrap();
     let plan_q: Vec<Vec<f64>> = plan
         .iter()
-        .map(|r| spherestep::geometry::xyzw(&r.q).to_vec())
+        .map(|r| spherestep::model::geometry::xyzw(&r.q).to_vec())
         .collect();
 
     let url = format!("file://{}#selftest", page.display());

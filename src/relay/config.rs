@@ -5,7 +5,7 @@
 
 use super::{BoardKind, Channel};
 use crate::error::{Error, Result};
-use crate::geometry::CoilId;
+use crate::model::geometry::CoilId;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -13,7 +13,7 @@ use std::time::Duration;
 
 /// Default limit on coils on at once: the supply gives 100 W at 24 V; at about 1 A per coil
 /// (25 W) that is four coils. Set it from your coils' measured current.
-pub const DEFAULT_MAX_COILS_ON: usize = crate::commutation::DEFAULT_MAX_COILS_ON;
+pub const DEFAULT_MAX_COILS_ON: usize = crate::planning::commutation::DEFAULT_MAX_COILS_ON;
 /// Default limit on one coil's continuous on-time, s.
 pub const DEFAULT_MAX_ON_TIME_S: f64 = 10.0;
 /// Default dwell: the predicted settle time times this factor...
@@ -274,7 +274,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("slave_address") && e.contains("1..=247"), "{e}");
-        let e = crate::scenario::Scenario::from_toml(
+        let e = crate::io::scenario::Scenario::from_toml(
             "[relay]\nmax_coils_on = 0\n",
             Path::new("s.toml"),
         )

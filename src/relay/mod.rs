@@ -15,7 +15,7 @@ pub mod replay;
 pub use config::{CoilMap, RelayConfig, RelaySettings, SwitchOrder};
 pub use link::Link;
 
-use crate::geometry::CoilId;
+use crate::model::geometry::CoilId;
 use std::fmt;
 use std::path::PathBuf;
 use std::str::FromStr;

@@ -9,9 +9,9 @@
 use super::{
     connect, hex, BoardKind, Channel, Link, RelayBoard, RelayError, RelaySettings, SwitchOrder,
 };
-use crate::geometry::CoilId;
-use crate::planfile::{read_plan, PlanRow};
-use crate::scenario::Scenario;
+use crate::io::planfile::{read_plan, PlanRow};
+use crate::io::scenario::Scenario;
+use crate::model::geometry::CoilId;
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -836,7 +836,7 @@ impl Runner<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Pair;
+    use crate::model::geometry::Pair;
     use nalgebra::UnitQuaternion;
 
     fn row(step: usize, active: &[(usize, usize)], settle: f64) -> PlanRow {

@@ -4,10 +4,10 @@
 #![allow(dead_code)]
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
-use spherestep::dynamics::{settle, Body, SettleParams, SettleResult};
-use spherestep::geometry::{Orientation, Pair, Radians};
-use spherestep::scenario::Scenario;
-use spherestep::torque::{MagnetTorques, Well, WellShape};
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::{Orientation, Pair, Radians};
+use spherestep::physics::dynamics::{settle, Body, SettleParams, SettleResult};
+use spherestep::physics::torque::{MagnetTorques, Well, WellShape};
 
 /// splitmix64: a small deterministic generator (same numbers on every machine).
 pub struct Rng(u64);

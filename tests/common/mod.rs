@@ -2,12 +2,12 @@
 #![allow(dead_code)]
 
 use nalgebra::UnitQuaternion;
-use spherestep::geometry::{CoilId, MagnetId, Orientation};
-use spherestep::scenario::Scenario;
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::{CoilId, MagnetId, Orientation};
 
 /// The magnet nearest to coil `coil` at orientation `q`, and its distance (radians).
 pub fn nearest_magnet(sc: &Scenario, coil: usize, q: &Orientation) -> (MagnetId, f64) {
-    let (m, d) = spherestep::commutation::nearest_magnet(&sc.torques, CoilId(coil), q);
+    let (m, d) = spherestep::planning::commutation::nearest_magnet(&sc.torques, CoilId(coil), q);
     (m, d.0)
 }
 

@@ -18,8 +18,8 @@
 //! sweep), for `spherestep plot`. Indices are 0-based, angles in degrees.
 
 use crate::error::{Error, Result};
-use crate::geometry::Pair;
-use crate::planfile::{self, PlanRow};
+use crate::io::planfile::{self, PlanRow};
+use crate::model::geometry::Pair;
 use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 /// The bundled font (DejaVu Sans; license in `assets/fonts/LICENSE-DejaVu.txt`).
-const FONT_BYTES: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+const FONT_BYTES: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 /// The family name every text style of this module uses: the bundled font by name (so an SVG
 /// viewer that has it shows the same text as the PNG), then a generic fallback.
 const FONT: &str = "DejaVu Sans, sans-serif";
@@ -319,7 +319,7 @@ pub fn render_svg<F: Figure>(fig: &F) -> std::result::Result<String, DrawError> 
 }
 
 fn write_png<F: Figure>(fig: &F, path: &Path) -> Result<()> {
-    crate::output::write_via_temp(path, |tmp| {
+    crate::io::output::write_via_temp(path, |tmp| {
         (|| -> DrawResult {
             let root = BitMapBackend::new(tmp, fig.size()).into_drawing_area();
             root.fill(&WHITE)?;
@@ -337,7 +337,7 @@ pub fn write_figure<F: Figure>(fig: &F, stem: &Path) -> Result<Vec<PathBuf>> {
     let svg_path = with_ext(stem, "svg");
     let png_path = with_ext(stem, "png");
     let svg = render_svg(fig).map_err(|e| plot_err(&svg_path, e))?;
-    crate::output::write_atomic(&svg_path, svg.as_bytes())?;
+    crate::io::output::write_atomic(&svg_path, svg.as_bytes())?;
     write_png(fig, &png_path)?;
     Ok(vec![svg_path, png_path])
 }
@@ -1355,14 +1355,15 @@ pub fn parse_sweep(text: &str, path: &Path) -> Result<Vec<SweepPoints>> {
 }
 
 /// The column of a sweep CSV with the pivot model's floor per axis (see
-/// [`crate::commutation::pivot_floor`]).
+/// [`crate::planning::commutation::pivot_floor`]).
 pub const FLOOR_COLUMN: &str = "pivot_floor_deg";
 
 /// Reads a sweep CSV like [`parse_sweep`], with the values of column `value` in place of
 /// `max_axis_error_deg`.
 pub fn parse_sweep_column(text: &str, path: &Path, value: &str) -> Result<Vec<SweepPoints>> {
-    let row_err = |line: usize, message: String| crate::planfile::row_error(path, line, message);
-    let (mut rdr, headers) = crate::planfile::csv_reader(text, path)?;
+    let row_err =
+        |line: usize, message: String| crate::io::planfile::row_error(path, line, message);
+    let (mut rdr, headers) = crate::io::planfile::csv_reader(text, path)?;
     let col = |name: &str| headers.iter().position(|h| h == name);
     let columns = [SWEEP_COLUMNS[0], SWEEP_COLUMNS[1], SWEEP_COLUMNS[2], value];
     let idx = columns
@@ -1419,7 +1420,7 @@ pub fn parse_sweep_column(text: &str, path: &Path, value: &str) -> Result<Vec<Sw
 /// The axes of a sweep CSV's cases that did not reach their target (column `reached` is
 /// `false`), with their scheme (or None without a `scheme` column); none without `reached`.
 pub fn parse_unreached(text: &str, path: &Path) -> Result<Vec<(Option<String>, [f64; 3])>> {
-    let (mut rdr, headers) = crate::planfile::csv_reader(text, path)?;
+    let (mut rdr, headers) = crate::io::planfile::csv_reader(text, path)?;
     let col = |name: &str| headers.iter().position(|h| h == name);
     let (Some(reached), Some(x), Some(y), Some(z)) =
         (col("reached"), col("axis_x"), col("axis_y"), col("axis_z"))
@@ -1445,7 +1446,7 @@ pub fn parse_unreached(text: &str, path: &Path) -> Result<Vec<(Option<String>, [
 
 /// A scheme name made safe for a file name.
 fn file_safe(s: &str) -> String {
-    crate::output::file_safe(s, "unnamed")
+    crate::io::output::file_safe(s, "unnamed")
 }
 
 /// Draws an existing result CSV (for `spherestep plot`), recognised by its header:

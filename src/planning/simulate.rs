@@ -2,14 +2,13 @@
 //! coil sequence through the dynamic model of a scenario (any well shape, "coils" interaction
 //! allowed) and reports, per step, how far the simulated ball is from the plan's prediction.
 
-use crate::dynamics::settle;
 use crate::error::{Error, Result};
-use crate::geometry::{xyzw, Orientation};
-use crate::planfile::PlanRow;
-use crate::scenario::Scenario;
+use crate::model::geometry::{xyzw, Orientation};
+use crate::physics::dynamics::settle;
+use crate::planning::commutation::Motor;
+use crate::planning::plan::PlanRow;
 use serde::Serialize;
 use std::io::Write;
-use std::path::Path;
 
 /// One replayed step.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -32,24 +31,17 @@ pub struct SimSummary {
     pub unsettled_steps: usize,
 }
 
-/// Replays `rows` in `sc`: starts at rest at row 0's predicted orientation, settles under each
-/// row's active set in turn from where the previous one left the ball.
-pub fn simulate(sc: &Scenario, rows: &[PlanRow], plan_path: &Path) -> Result<Vec<SimRow>> {
-    for (k, r) in rows.iter().enumerate() {
-        sc.check_active(&r.active, "active")
-            .map_err(|e| Error::Row {
-                file: plan_path.to_path_buf(),
-                line: k + 2,
-                message: format!("{e} (in scenario {})", sc.path.display()),
-            })?;
-    }
+/// Replays `rows` on `motor`: starts at rest at row 0's predicted orientation, settles under
+/// each row's active set in turn from where the previous one left the ball. The rows' indices
+/// must be the motor's (the caller checks them against its scenario).
+pub fn simulate(motor: &Motor, rows: &[PlanRow]) -> Vec<SimRow> {
     let mut q = match rows.first() {
         Some(r) => r.q,
-        None => return Ok(Vec::new()),
+        None => return Vec::new(),
     };
     let mut out = Vec::with_capacity(rows.len());
     for r in rows {
-        let res = settle(&sc.torques, &r.active, &q, sc.body, sc.settle);
+        let res = settle(motor.torques, &r.active, &q, motor.body, motor.settle);
         q = res.q;
         out.push(SimRow {
             step: r.step,
@@ -59,7 +51,7 @@ pub fn simulate(sc: &Scenario, rows: &[PlanRow], plan_path: &Path) -> Result<Vec
             settle_time_s: res.settle_time_s,
         });
     }
-    Ok(out)
+    out
 }
 
 /// Summarises a replay.

@@ -1,7 +1,7 @@
 //! The finite rotation groups of the Platonic solids, T (12), O (24) and I (60), and the orbit
 //! of a generator point under a group: the raw material of semi-regular packings.
 
-use crate::geometry::{rot, unit, Radians, UnitVec};
+use crate::model::geometry::{rot, unit, Radians, UnitVec};
 use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;

@@ -3,16 +3,16 @@
 //! for a set of plans of one motion, one Figure 7/8 with a line per scheme; for a sweep, the
 //! maps of the worst axis error. Built from scenarios and result files, drawn by `plots`.
 
-use crate::commutation::{filter_candidates, ERROR_BOUND_START};
 use crate::error::Result;
-use crate::geometry::{rotation_axis, UnitVec};
-use crate::planfile::PlanRow;
-use crate::plots::{
+use crate::figures::plots::{
     plan_series, plot_csv_with_coils, write_figure, AxisErrorPlot, CommutationPlot, ReferenceLine,
     View3d,
 };
-use crate::scenario::Scenario;
-use crate::view;
+use crate::figures::view;
+use crate::io::scenario::Scenario;
+use crate::model::geometry::{rotation_axis, UnitVec};
+use crate::planning::commutation::{filter_candidates, ERROR_BOUND_START};
+use crate::planning::plan::PlanRow;
 use std::path::{Path, PathBuf};
 
 /// The paper's bound for a scenario's motion, drawn as a reference line.
@@ -145,7 +145,7 @@ pub fn plan_pictures(
             title: Some(format!("spherestep plan: {}", sc.name)),
         },
     )?;
-    crate::output::write_atomic(&page, view::render_html(&data)?.as_bytes())?;
+    crate::io::output::write_atomic(&page, view::render_html(&data)?.as_bytes())?;
     out.push(page);
     Ok(out)
 }

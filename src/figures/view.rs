@@ -12,18 +12,18 @@
 //! a rename), so an error never leaves a half-written page behind.
 
 use crate::error::{Error, Result};
-use crate::geometry::{rotation_angle, rotation_axis, xyzw, Orientation, Pair, UnitVec};
-use crate::planfile::{read_plan, PlanRow};
-use crate::scenario::Scenario;
+use crate::io::planfile::{read_plan, PlanRow};
+use crate::io::scenario::Scenario;
+use crate::model::geometry::{rotation_angle, rotation_axis, xyzw, Orientation, Pair, UnitVec};
 use serde::Serialize;
 use std::path::Path;
 
 /// The page template; `{{STYLE}}`, `{{SCRIPT}}` and `{{DATA}}` are filled in.
-pub const TEMPLATE: &str = include_str!("../assets/view/view.html");
+pub const TEMPLATE: &str = include_str!("../../assets/view/view.html");
 /// The page's style sheet.
-pub const STYLE: &str = include_str!("../assets/view/view.css");
+pub const STYLE: &str = include_str!("../../assets/view/view.css");
 /// The page's script: the renderer, the controls and the `#selftest` hook.
-pub const SCRIPT: &str = include_str!("../assets/view/view.js");
+pub const SCRIPT: &str = include_str!("../../assets/view/view.js");
 
 /// Columns a simulate results file must have.
 pub const SIM_COLUMNS: [&str; 5] = ["step", "qx", "qy", "qz", "qw"];
@@ -133,8 +133,9 @@ pub fn read_sim(path: &Path) -> Result<Vec<SimRow>> {
 
 /// Parses simulate results text (`path` names it in errors).
 pub fn parse_sim(text: &str, path: &Path) -> Result<Vec<SimRow>> {
-    let row_err = |line: usize, message: String| crate::planfile::row_error(path, line, message);
-    let (mut rdr, headers) = crate::planfile::csv_reader(text, path)?;
+    let row_err =
+        |line: usize, message: String| crate::io::planfile::row_error(path, line, message);
+    let (mut rdr, headers) = crate::io::planfile::csv_reader(text, path)?;
     let mut idx = [0usize; 5];
     for (k, name) in SIM_COLUMNS.iter().enumerate() {
         idx[k] = headers.iter().position(|h| h == *name).ok_or_else(|| {
@@ -177,7 +178,7 @@ pub fn parse_sim(text: &str, path: &Path) -> Result<Vec<SimRow>> {
                 format!("column `step`: expected each step once, got step {step} again"),
             ));
         }
-        let q = crate::geometry::orientation_from_xyzw(
+        let q = crate::model::geometry::orientation_from_xyzw(
             num(idx[1], "qx")?,
             num(idx[2], "qy")?,
             num(idx[3], "qz")?,
@@ -396,7 +397,7 @@ pub fn write_view(
         .map(|n| format!("spherestep plan: {}", n.to_string_lossy()));
     let data = view_data(&plan, plan_path, sc, &ViewOptions { axis, sim, title })?;
     let html = render_html(&data)?;
-    crate::output::write_atomic(out, html.as_bytes())?;
+    crate::io::output::write_atomic(out, html.as_bytes())?;
     Ok(data)
 }
 
@@ -413,8 +414,8 @@ pub fn extract_data_json(html: &str) -> Option<&str> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::rot_q;
-    use crate::geometry::{unit, Radians};
+    use crate::model::geometry::rot_q;
+    use crate::model::geometry::{unit, Radians};
     use nalgebra::Vector3;
 
     fn z() -> UnitVec {

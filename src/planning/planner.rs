@@ -4,13 +4,13 @@
 //! paper's three greedy schemes, and a beam search that looks ahead for the smallest worst
 //! cumulative axis error.
 
-use crate::commutation::Proposal;
-use crate::commutation::{
+use crate::model::geometry::{Orientation, Pair, Radians, UnitVec};
+use crate::planning::commutation::Proposal;
+use crate::planning::commutation::{
     candidate_steps, cumulative, evaluate_proposals, initial_states, predicted_orientation,
     proposals_within, CommutationState, Motor, PairsPerStep, Step, StepLimits, StepModel,
 };
-use crate::geometry::{Orientation, Pair, Radians, UnitVec};
-use crate::planfile::PlanRow;
+use crate::planning::plan::PlanRow;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 

@@ -6,16 +6,15 @@
 //! Files are written atomically, and a content hash beside each lets `--resume` skip finished
 //! work. A failing scenario is reported by name while the others still run.
 
-use crate::app::motor;
-use crate::commutation::{pivot_floor, StepModel};
 use crate::error::{Error, Result};
-use crate::geometry::UnitVec;
-use crate::output::write_atomic;
-use crate::planfile::{parse_plan, write_plan, PlanRow};
-use crate::planner::{max_axis_error_deg, plan, total_settle_time, PlanSettings};
-use crate::report;
-use crate::scenario::Scenario;
-use crate::torque::MagnetTorques;
+use crate::figures::report;
+use crate::io::output::write_atomic;
+use crate::io::planfile::{parse_plan, write_plan, PlanRow};
+use crate::io::scenario::Scenario;
+use crate::model::geometry::UnitVec;
+use crate::physics::torque::MagnetTorques;
+use crate::planning::commutation::{pivot_floor, StepModel};
+use crate::planning::planner::{max_axis_error_deg, plan, total_settle_time, PlanSettings};
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
@@ -381,7 +380,7 @@ fn run_cases(job: &Job, opts: &BatchOptions, bar: &indicatif::ProgressBar) -> Ve
                 };
             }
             let t = Instant::now();
-            let p = plan(&motor(&job.scenario), &case.settings);
+            let p = plan(&job.scenario.motor(), &case.settings);
             let mut o = Outcome {
                 rows: p.rows,
                 reached: p.reached,
@@ -406,10 +405,10 @@ fn run_cases(job: &Job, opts: &BatchOptions, bar: &indicatif::ProgressBar) -> Ve
 pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport> {
     std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
     // Temporaries of killed runs, here and in the kept plans' folders.
-    crate::output::remove_stale_temporaries(&opts.out);
+    crate::io::output::remove_stale_temporaries(&opts.out);
     if let Ok(rd) = std::fs::read_dir(&opts.out) {
         for e in rd.flatten().filter(|e| e.path().is_dir()) {
-            crate::output::remove_stale_temporaries(&e.path());
+            crate::io::output::remove_stale_temporaries(&e.path());
         }
     }
     let mut report = BatchReport::default();
@@ -686,7 +685,7 @@ fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()> {
             if let Some(c) = job.cases.first() {
                 // From the plan as written, so that pictures drawn again by --resume (from the
                 // file) are the same bytes.
-                let rows = crate::planfile::read_plan(&job.csv)?;
+                let rows = crate::io::planfile::read_plan(&job.csv)?;
                 files = report::plan_pictures(
                     sc,
                     &c.settings.axis,

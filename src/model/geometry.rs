@@ -2,9 +2,11 @@
 //! numerically safe angle/axis extraction, and the small typed wrappers (degrees, radians, unit
 //! vectors, coil and magnet indices) that keep units and indices from being confused.
 
+use crate::error::{Error, Result};
 use nalgebra::{Matrix3, Quaternion, Rotation3, Unit, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 use std::fmt;
+use std::str::FromStr;
 
 /// A unit vector in R^3 (a point on the unit sphere).
 pub type UnitVec = Unit<Vector3<f64>>;
@@ -87,6 +89,43 @@ impl fmt::Display for Pair {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}:{}", self.coil, self.magnet)
     }
+}
+
+/// One pair written `coil:magnet` (0-based), the form `Display` writes.
+impl FromStr for Pair {
+    type Err = ();
+    fn from_str(s: &str) -> std::result::Result<Pair, ()> {
+        let (c, m) = s.split_once(':').ok_or(())?;
+        match (c.trim().parse::<usize>(), m.trim().parse::<usize>()) {
+            (Ok(c), Ok(m)) => Ok(Pair::new(c, m)),
+            _ => Err(()),
+        }
+    }
+}
+
+/// Parses an active set written `coil:magnet,coil:magnet` (0-based) or with `;` separators.
+pub fn parse_pairs(text: &str, arg: &str) -> Result<Vec<Pair>> {
+    let bad = |what: &str| Error::Arg {
+        arg: arg.into(),
+        expected: format!("pairs written coil:magnet,coil:magnet (0-based integers), {what}"),
+    };
+    let mut out = Vec::new();
+    if text.trim().is_empty() {
+        return Err(bad("got nothing"));
+    }
+    for item in text.split([',', ';']) {
+        let item = item.trim();
+        if item.is_empty() {
+            return Err(bad(&format!(
+                "got an empty pair in '{text}' (a stray ',' or ';')"
+            )));
+        }
+        out.push(item.parse().map_err(|()| bad(&format!("got '{item}'")))?);
+    }
+    if out.is_empty() {
+        return Err(bad("got nothing"));
+    }
+    Ok(out)
 }
 
 /// Angular distance on the sphere, d(a, b) = acos(clamp(a . b, -1, 1)), in [0, pi].

@@ -7,8 +7,8 @@
 //! `new_coil`/`new_magnet` list the newly energised pairs, joined by `;` when there are several.
 
 use crate::error::{Error, Result};
-use crate::geometry::{orientation_from_xyzw, xyzw, Orientation, Pair};
-use crate::scenario::parse_pairs;
+use crate::model::geometry::{orientation_from_xyzw, parse_pairs, xyzw, Pair};
+pub use crate::planning::plan::PlanRow;
 use std::io::Write;
 use std::path::Path;
 
@@ -30,26 +30,6 @@ pub const HEADER: [&str; 15] = [
     "cum_axis_error_deg",
     "settle_time_s",
 ];
-
-/// One step of a plan.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlanRow {
-    pub step: usize,
-    /// The held pair that stays on through the step (none for step 0).
-    pub pivot: Option<Pair>,
-    /// The pairs switched on by this step.
-    pub new: Vec<Pair>,
-    /// Everything energised after the step.
-    pub active: Vec<Pair>,
-    /// Predicted orientation after the step (body to world).
-    pub q: Orientation,
-    pub step_angle_deg: f64,
-    pub step_axis_error_deg: f64,
-    pub cum_angle_deg: f64,
-    pub cum_axis_error_deg: f64,
-    /// Predicted settle time of the step, s.
-    pub settle_time_s: f64,
-}
 
 fn join(v: impl Iterator<Item = String>) -> String {
     v.collect::<Vec<_>>().join(";")

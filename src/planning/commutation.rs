@@ -4,12 +4,12 @@
 //! leaves the ball: `pivot` (geometric, the held pair as stationary point) and `dynamic` (the
 //! candidate set settled by the engine). The planner chooses among the steps made here.
 
-use crate::dynamics::{settle_many, Body, SettleParams};
-use crate::geometry::{
+use crate::model::geometry::{
     angular_distance, axis_error, rot_q, rotation_angle, signed_angle_about, CoilId, MagnetId,
     Orientation, Pair, Radians, UnitVec,
 };
-use crate::torque::{MagnetTorques, Well};
+use crate::physics::dynamics::{settle_many, Body, SettleParams};
+use crate::physics::torque::{MagnetTorques, Well};
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -78,7 +78,7 @@ impl Motor<'_> {
     /// the ball is not followed to where it would stop ([`Stop::Unheld`]): it is no candidate
     /// anyway, and a set that holds settles exactly as `simulate` settles it.
     ///
-    /// [`Stop::Unheld`]: crate::dynamics::Stop::Unheld
+    /// [`Stop::Unheld`]: crate::physics::dynamics::Stop::Unheld
     pub fn weighing(&self) -> SettleParams {
         SettleParams {
             follow_unheld: false,
@@ -698,7 +698,7 @@ pub fn cumulative(q0: &Orientation, qk: &Orientation, n: &UnitVec) -> (Radians, 
 
 /// The rotation axis of a step's rotation ΔR (`None` for no rotation).
 pub fn rotation_axis_of_step(d: &Orientation) -> Option<UnitVec> {
-    crate::geometry::rotation_axis(d)
+    crate::model::geometry::rotation_axis(d)
 }
 
 /// Unsigned angle of a rotation between two orientations.
@@ -709,9 +709,9 @@ pub fn angle_between(a: &Orientation, b: &Orientation) -> Radians {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::unit;
+    use crate::model::geometry::unit;
 
-    fn well(shape: crate::torque::WellShape, max_deg: f64) -> Well {
+    fn well(shape: crate::physics::torque::WellShape, max_deg: f64) -> Well {
         Well {
             shape,
             max_attraction: Radians(max_deg.to_radians()),
@@ -720,7 +720,7 @@ mod tests {
 
     #[test]
     fn the_pull_peaks_at_sigma_for_a_gaussian_well_and_at_the_cut_off_for_a_cosine_one() {
-        use crate::torque::WellShape;
+        use crate::physics::torque::WellShape;
         let g = well(
             WellShape::Gaussian {
                 strength_j: 0.25,
@@ -744,7 +744,7 @@ mod tests {
 
     #[test]
     fn the_prediction_finds_the_rotation_that_puts_every_magnet_on_its_coil() {
-        use crate::torque::{Interaction, WellShape};
+        use crate::physics::torque::{Interaction, WellShape};
         // three coils, and magnets placed so that one rotation puts each on its coil
         let stator = vec![
             Vector3::new(0.0, 0.0, -1.0),

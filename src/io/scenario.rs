@@ -2,14 +2,16 @@
 //! damping, how to settle. Unknown keys are rejected; every value is checked, and an error names
 //! the file, the field and what was expected. Every section has defaults (the prototype).
 
-use crate::commutation::{PairsPerStep, StepLimits, StepModel};
-use crate::dynamics::{Body, Method, SettleParams};
 use crate::error::{Error, Result};
-use crate::geometry::{orientation_from_xyzw, unit, Degrees, Pair, Radians, UnitVec};
-use crate::packing::{self, Cap, Packing, SemiRegular};
-use crate::planner::{PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET};
-use crate::symmetry::Group;
-use crate::torque::{Interaction, MagnetTorques, TorqueTable, Well, WellShape};
+use crate::model::geometry::{orientation_from_xyzw, unit, Degrees, Pair, Radians, UnitVec};
+use crate::model::packing::{self, Cap, Packing, SemiRegular};
+use crate::model::symmetry::Group;
+use crate::physics::dynamics::{Body, Method, SettleParams};
+use crate::physics::torque::{Interaction, MagnetTorques, TorqueTable, Well, WellShape};
+use crate::planning::commutation::{Motor, PairsPerStep, StepLimits, StepModel};
+use crate::planning::planner::{
+    PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET,
+};
 use nalgebra::UnitQuaternion;
 use nalgebra::Vector3;
 use serde::Deserialize;
@@ -209,6 +211,15 @@ impl Scenario {
             .expect("the defaults form a valid scenario")
     }
 
+    /// The motor view of the scenario that commutation, planning and simulation need.
+    pub fn motor(&self) -> Motor<'_> {
+        Motor {
+            torques: &self.torques,
+            body: self.body,
+            settle: self.settle,
+        }
+    }
+
     /// Reads and checks a scenario file.
     pub fn load(path: &Path) -> Result<Scenario> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
@@ -362,39 +373,6 @@ pub fn default_pairs_per_step(model: StepModel) -> PairsPerStep {
     }
 }
 
-/// Parses an active set written `coil:magnet,coil:magnet` (0-based) or with `;` separators.
-pub fn parse_pairs(text: &str, arg: &str) -> Result<Vec<Pair>> {
-    let bad = |what: &str| Error::Arg {
-        arg: arg.into(),
-        expected: format!("pairs written coil:magnet,coil:magnet (0-based integers), {what}"),
-    };
-    let mut out = Vec::new();
-    if text.trim().is_empty() {
-        return Err(bad("got nothing"));
-    }
-    for item in text.split([',', ';']) {
-        let item = item.trim();
-        if item.is_empty() {
-            return Err(bad(&format!(
-                "got an empty pair in '{text}' (a stray ',' or ';')"
-            )));
-        }
-        let (c, m) = item
-            .split_once(':')
-            .ok_or_else(|| bad(&format!("got '{item}'")))?;
-        let c = c.trim().parse::<usize>();
-        let m = m.trim().parse::<usize>();
-        match (c, m) {
-            (Ok(c), Ok(m)) => out.push(Pair::new(c, m)),
-            _ => return Err(bad(&format!("got '{item}'"))),
-        }
-    }
-    if out.is_empty() {
-        return Err(bad("got nothing"));
-    }
-    Ok(out)
-}
-
 /// Parses `x,y,z` into a unit vector (normalised; zero and NaN refused).
 pub fn parse_axis(text: &str, arg: &str) -> Result<UnitVec> {
     let v = parse_numbers::<3>(text, arg, "x,y,z")?;
@@ -405,11 +383,13 @@ pub fn parse_axis(text: &str, arg: &str) -> Result<UnitVec> {
 }
 
 /// Parses `qx,qy,qz,qw` into an orientation (normalised; zero and NaN refused).
-pub fn parse_orientation(text: &str, arg: &str) -> Result<crate::geometry::Orientation> {
+pub fn parse_orientation(text: &str, arg: &str) -> Result<crate::model::geometry::Orientation> {
     let v = parse_numbers::<4>(text, arg, "qx,qy,qz,qw")?;
-    crate::geometry::orientation_from_xyzw(v[0], v[1], v[2], v[3]).ok_or_else(|| Error::Arg {
-        arg: arg.into(),
-        expected: format!("a non-zero, finite quaternion qx,qy,qz,qw, got '{text}'"),
+    crate::model::geometry::orientation_from_xyzw(v[0], v[1], v[2], v[3]).ok_or_else(|| {
+        Error::Arg {
+            arg: arg.into(),
+            expected: format!("a non-zero, finite quaternion qx,qy,qz,qw, got '{text}'"),
+        }
     })
 }
 
@@ -580,7 +560,7 @@ impl Checker<'_> {
                 &format!("{section}.{source}"),
                 format!(
                     "distinct {what}, got {what} {a} and {b} at the same place ({:.2e} deg apart)",
-                    crate::geometry::angular_distance(&pk.points[a], &pk.points[b])
+                    crate::model::geometry::angular_distance(&pk.points[a], &pk.points[b])
                         .0
                         .to_degrees()
                 ),

@@ -3,7 +3,7 @@
 //! [`TorqueModel`] trait through which the dynamics sees them (so that another physical model,
 //! e.g. dipoles, can be added without touching the integrator).
 
-use crate::geometry::{Orientation, Pair, Radians};
+use crate::model::geometry::{Orientation, Pair, Radians};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 

@@ -1,18 +1,21 @@
 //! The commands behind the command line, as library functions that take plain arguments and
 //! write to a given output, so that they are testable without spawning the binary.
 
-use crate::commutation::{Motor, StepModel};
-use crate::dynamics::{settle, settle_many, SettleResult};
+pub mod batch;
+
 use crate::error::{Error, Result};
-use crate::geometry::{xyzw, Degrees, Orientation, Pair};
-use crate::output::write_atomic;
-use crate::packing::{self, points_csv};
-use crate::planfile::write_plan;
-use crate::planner::{plan, Plan, PlanSettings, Scheme};
-use crate::scenario::{
-    check_pairs_per_step, default_pairs_per_step, parse_axis, parse_orientation, parse_pairs,
+use crate::io::output::write_atomic;
+use crate::io::planfile::{read_plan, write_plan};
+use crate::io::scenario::{
+    check_pairs_per_step, default_pairs_per_step, parse_axis, parse_orientation,
     parse_pairs_per_step, Scenario,
 };
+use crate::model::geometry::{parse_pairs, xyzw, Degrees, Orientation, Pair};
+use crate::model::packing::{self, points_csv};
+use crate::physics::dynamics::{settle, settle_many, SettleResult};
+use crate::planning::commutation::StepModel;
+use crate::planning::planner::{plan, Plan, PlanSettings, Scheme};
+use crate::planning::simulate::{simulate, SimRow};
 use std::io::Write;
 use std::path::Path;
 
@@ -283,15 +286,6 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
     Ok(s)
 }
 
-/// The motor view of a scenario that commutation needs.
-pub fn motor(sc: &Scenario) -> Motor<'_> {
-    Motor {
-        torques: &sc.torques,
-        body: sc.body,
-        settle: sc.settle,
-    }
-}
-
 /// `spherestep plan`: plans, writes the CSV (atomically) to `out_file` when asked and prints
 /// the summary to `out`; without `out_file` (and without `json`) the CSV alone goes to `out`
 /// and the summary line to `note`, so that `plan ... > plan.csv` gives a plan file.
@@ -303,7 +297,7 @@ pub fn plan_command(
     out: &mut dyn Write,
     note: &mut dyn Write,
 ) -> Result<Plan> {
-    let p = plan(&motor(sc), settings);
+    let p = plan(&sc.motor(), settings);
     if let Some(path) = out_file {
         let mut buf = Vec::new();
         write_plan(&p.rows, &mut buf)?;
@@ -351,4 +345,19 @@ pub fn plan_command(
         writeln!(out, "{text}").map_err(&w)?;
     }
     Ok(p)
+}
+
+/// Reads the plan at `plan_path`, checks its pairs against the scenario and replays it in the
+/// scenario's physics (`spherestep simulate`).
+pub fn simulate_plan(sc: &Scenario, plan_path: &Path) -> Result<Vec<SimRow>> {
+    let rows = read_plan(plan_path)?;
+    for (k, r) in rows.iter().enumerate() {
+        sc.check_active(&r.active, "active")
+            .map_err(|e| Error::Row {
+                file: plan_path.to_path_buf(),
+                line: k + 2,
+                message: format!("{e} (in scenario {})", sc.path.display()),
+            })?;
+    }
+    Ok(simulate(&sc.motor(), &rows))
 }

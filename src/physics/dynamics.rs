@@ -9,9 +9,9 @@
 //! whatever tolerances are asked (`SettleParams::reference()` is tight). tests/basins.rs and
 //! examples/basins.rs check the one against the other on random sets; tests/settle.rs pins 54.
 
-use crate::geometry::{Orientation, Pair};
-use crate::integrator::{integrate_until, End, OdeSystem, Tolerances};
-use crate::torque::{rotation_matrix, TorqueModel};
+use crate::model::geometry::{Orientation, Pair};
+use crate::physics::integrator::{integrate_until, End, OdeSystem, Tolerances};
+use crate::physics::torque::{rotation_matrix, TorqueModel};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use ode_solvers::dop_shared::IntegrationError;
 use ode_solvers::{Dopri5, OutputType, SVector, System};

@@ -1,0 +1,6 @@
+//! The files: scenarios in TOML (`scenario`), plans in CSV (`planfile`) and the one place that
+//! writes a file whole or not at all (`output`).
+
+pub mod output;
+pub mod planfile;
+pub mod scenario;

@@ -1,0 +1,7 @@
+//! The motor's geometry: vectors, orientations, angles and indices (`geometry`), the symmetry
+//! groups (`symmetry`) and the packings of rotor magnets and stator coils (`packing`).
+//! Nothing here knows about forces or time.
+
+pub mod geometry;
+pub mod packing;
+pub mod symmetry;
