@@ -356,7 +356,8 @@ fn run(cli: Cli) -> Result<()> {
             verify,
             map,
         } => {
-            use spherestep::relay::replay::{self, Mode, ReplayOptions};
+            use spherestep::commands::replay::{self, ReplayOptions};
+            use spherestep::relay::replay::{stdin_lines, Mode};
             use std::sync::{atomic::AtomicBool, atomic::Ordering, Arc};
             let stop = Arc::new(AtomicBool::new(false));
             let flag = stop.clone();
@@ -376,7 +377,7 @@ fn run(cli: Cli) -> Result<()> {
                 log,
                 verify,
             };
-            let input = (mode == Mode::Step && !dry_run).then(replay::stdin_lines);
+            let input = (mode == Mode::Step && !dry_run).then(stdin_lines);
             replay::run(&opts, stop, input, &mut out)?;
         }
         Command::View {
