@@ -37,7 +37,7 @@ impl Args {
         };
         let sim = app::simulate_plan(&sc, &plan)?;
         let mut buf = Vec::new();
-        spherestep::planning::simulate::write_sim(&sim, &mut buf)?;
+        spherestep::io::simfile::write_sim(&sim, &mut buf)?;
         // Without --out the CSV alone goes to standard output, the summary to standard error.
         let csv_on_stdout = out_file.is_none() && !json;
         match &out_file {
