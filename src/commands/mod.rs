@@ -257,16 +257,10 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
         })?;
     }
     if let Some(m) = &o.model {
-        s.model = match m.as_str() {
-            "pivot" => StepModel::Pivot,
-            "dynamic" => StepModel::Dynamic,
-            _ => {
-                return Err(Error::Arg {
-                    arg: "--model".into(),
-                    expected: format!("pivot or dynamic, got '{m}'"),
-                })
-            }
-        };
+        s.model = StepModel::from_name(m).ok_or_else(|| Error::Arg {
+            arg: "--model".into(),
+            expected: format!("pivot or dynamic, got '{m}'"),
+        })?;
         if o.pairs.is_none() {
             s.pairs = default_pairs_per_step(s.model);
         }

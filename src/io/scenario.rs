@@ -841,8 +841,9 @@ impl Checker<'_> {
                         )
                     };
                     let m = match n.split_once(':') {
-                        None if n == "pivot" => (StepModel::Pivot, PairsPerStep::exactly(2)),
-                        None if n == "dynamic" => (StepModel::Dynamic, PairsPerStep::exactly(2)),
+                        None => StepModel::from_name(n)
+                            .map(|m| (m, PairsPerStep::exactly(2)))
+                            .ok_or_else(bad)?,
                         Some(("dynamic", k)) => {
                             (StepModel::Dynamic, parse_pairs_per_step(k).ok_or_else(bad)?)
                         }

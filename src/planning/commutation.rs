@@ -24,6 +24,24 @@ pub enum StepModel {
     Dynamic,
 }
 
+impl StepModel {
+    /// Every step model, in the order their names are listed to users.
+    pub const ALL: [StepModel; 2] = [StepModel::Pivot, StepModel::Dynamic];
+
+    /// The model's name in scenarios, on the command line and in result files.
+    pub fn name(self) -> &'static str {
+        match self {
+            StepModel::Pivot => "pivot",
+            StepModel::Dynamic => "dynamic",
+        }
+    }
+
+    /// The model of a name written by [`StepModel::name`].
+    pub fn from_name(name: &str) -> Option<StepModel> {
+        StepModel::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
 /// How many pairs are on after a step: the pivot kept from the held set plus `min - 1` to
 /// `max - 1` new pairs. The pivot model takes exactly two; the dynamic model any of 2..=8.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -112,10 +112,7 @@ impl Plan {
             reached: self.reached,
             total_settle_time_s: total_settle_time(&self.rows),
             scheme: s.scheme.name().to_string(),
-            model: match s.model {
-                StepModel::Pivot => "pivot".into(),
-                StepModel::Dynamic => "dynamic".into(),
-            },
+            model: s.model.name().into(),
             pairs_per_step: s.pairs.max,
             message: self.message.clone(),
         }
