@@ -5,8 +5,8 @@
 //! candidate set settled by the engine). The planner chooses among the steps made here.
 
 use crate::model::geometry::{
-    angular_distance, axis_error, rot_q, rotation_angle, signed_angle_about, CoilId, MagnetId,
-    Orientation, Pair, Radians, UnitVec,
+    angular_distance, axis_error, rot_q, signed_angle_about, CoilId, MagnetId, Orientation, Pair,
+    Radians, UnitVec,
 };
 use crate::physics::dynamics::{settle_many, Body, SettleParams};
 use crate::physics::torque::{MagnetTorques, Well};
@@ -112,6 +112,26 @@ pub struct CommutationState {
     pub active: Vec<Pair>,
     /// Predicted settle time of the move into this state, s (0 for the geometric model).
     pub settle_time_s: f64,
+}
+
+/// Weighs candidate sets from `from` in parallel: the state each settles to, `None` for a set
+/// that does not hold the ball (see [`Motor::weighing`]).
+pub fn settled_states(
+    motor: &Motor,
+    sets: Vec<Vec<Pair>>,
+    from: &Orientation,
+) -> Vec<Option<CommutationState>> {
+    settle_many(motor.torques, &sets, from, motor.body, motor.weighing())
+        .into_iter()
+        .zip(sets)
+        .map(|(r, active)| {
+            r.settled.then_some(CommutationState {
+                q: r.q,
+                active,
+                settle_time_s: r.settle_time_s,
+            })
+        })
+        .collect()
 }
 
 /// A candidate pair from the distance array.
@@ -511,17 +531,7 @@ pub fn evaluate_proposals(
                     s
                 })
                 .collect();
-            settle_many(motor.torques, &sets, &state.q, motor.body, motor.weighing())
-                .into_iter()
-                .zip(sets)
-                .map(|(r, active)| {
-                    r.settled.then_some(CommutationState {
-                        q: r.q,
-                        active,
-                        settle_time_s: r.settle_time_s,
-                    })
-                })
-                .collect()
+            settled_states(motor, sets, &state.q)
         }
     };
     let capture = limits.capture_for(model, &motor.torques.well);
@@ -689,17 +699,7 @@ pub fn initial_states(
             .collect(),
         StepModel::Dynamic => {
             let sets: Vec<Vec<Pair>> = seconds.iter().map(|(_, _, p)| vec![first, *p]).collect();
-            settle_many(motor.torques, &sets, start, motor.body, motor.weighing())
-                .into_iter()
-                .zip(sets)
-                .map(|(r, active)| {
-                    r.settled.then_some(CommutationState {
-                        q: r.q,
-                        active,
-                        settle_time_s: r.settle_time_s,
-                    })
-                })
-                .collect()
+            settled_states(motor, sets, start)
         }
     };
     states
@@ -717,11 +717,6 @@ pub fn cumulative(q0: &Orientation, qk: &Orientation, n: &UnitVec) -> (Radians, 
 /// The rotation axis of a step's rotation ΔR (`None` for no rotation).
 pub fn rotation_axis_of_step(d: &Orientation) -> Option<UnitVec> {
     crate::model::geometry::rotation_axis(d)
-}
-
-/// Unsigned angle of a rotation between two orientations.
-pub fn angle_between(a: &Orientation, b: &Orientation) -> Radians {
-    rotation_angle(&(b * a.inverse()))
 }
 
 #[cfg(test)]
