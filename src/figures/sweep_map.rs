@@ -68,8 +68,11 @@ const BOTTOM: u32 = 50;
 /// The width of the colour bar's area at the right of the map, pixels.
 const BAR_WIDTH: i32 = 140;
 
-/// Map coordinates (longitude / LON_UNIT, latitude / LAT_UNIT) of a non-zero axis.
-fn lon_lat(v: &[f64; 3]) -> Option<(f64, f64)> {
+/// A point of the map: longitude / LON_UNIT, latitude / LAT_UNIT.
+type MapPoint = (f64, f64);
+
+/// Map coordinates of a non-zero axis.
+fn lon_lat(v: &[f64; 3]) -> Option<MapPoint> {
     let n = normalise(v)?;
     Some((
         n[1].atan2(n[0]).to_degrees() / LON_UNIT,
@@ -142,13 +145,12 @@ impl SweepMap {
         (0.5 * spacing_deg * pw / 360.0).clamp(2.0, 14.0).round() as i32
     }
 
-    /// The values: a disk in the scale's colour for each finite one (the worst on top), a grey
-    /// ring for each missing one. Returns whether any is missing.
-    fn draw_values<'a, DB: DrawingBackend + 'a>(
+    /// A disk in the scale's colour for each finite value, the worst on top.
+    fn draw_disks<'a, DB: DrawingBackend + 'a>(
         &self,
         chart: &mut Chart2d<'a, DB>,
         radius: i32,
-    ) -> Result<bool, DrawError> {
+    ) -> DrawResult {
         let (lo, hi) = self.value_range();
         let mut finite: Vec<_> = self
             .points
@@ -162,52 +164,54 @@ impl SweepMap {
                 Circle::new(*ll, radius, scale_color((v - lo) / (hi - lo)).filled())
             }),
         )?;
-        let missing: Vec<_> = self
-            .points
-            .iter()
-            .filter(|p| !p.1.is_finite())
-            .filter_map(|(a, _)| lon_lat(a))
-            .collect();
+        Ok(())
+    }
+
+    /// Map points of the axes without a result, of those not reached, and of both ends of
+    /// each coil's axis.
+    fn marked_axes(&self) -> [Vec<MapPoint>; 3] {
+        let missing = self.points.iter().filter(|p| !p.1.is_finite());
+        let coil_ends = self.coils.iter().flat_map(|c| [*c, [-c[0], -c[1], -c[2]]]);
+        [
+            missing.filter_map(|(a, _)| lon_lat(a)).collect(),
+            self.unreached.iter().filter_map(lon_lat).collect(),
+            coil_ends.filter_map(|c| lon_lat(&c)).collect(),
+        ]
+    }
+
+    /// Everything on the map after its axes: the disks, then a grey ring for each missing
+    /// value, a cross on each axis not reached and a '+' at both ends of each coil's axis
+    /// (white under the blue, so that it shows on any disk). Returns the kinds of mark shown.
+    fn draw_marks<'a, DB: DrawingBackend + 'a>(
+        &self,
+        chart: &mut Chart2d<'a, DB>,
+        radius: i32,
+    ) -> Result<Vec<Key>, DrawError> {
+        self.draw_disks(chart, radius)?;
+        let [missing, unreached, coils] = self.marked_axes();
         chart.draw_series(
             missing
                 .iter()
                 .map(|ll| Circle::new(*ll, radius, NO_RESULT_COLOR.stroke_width(2))),
         )?;
-        Ok(!missing.is_empty())
-    }
-
-    /// A cross on each axis not reached. Returns whether there is any.
-    fn draw_unreached<'a, DB: DrawingBackend + 'a>(
-        &self,
-        chart: &mut Chart2d<'a, DB>,
-        radius: i32,
-    ) -> Result<bool, DrawError> {
-        let unreached: Vec<_> = self.unreached.iter().filter_map(lon_lat).collect();
         let cross = (radius - 1).max(3);
         chart.draw_series(
             unreached
                 .iter()
                 .map(|ll| Cross::new(*ll, cross, UNREACHED_COLOR.stroke_width(2))),
         )?;
-        Ok(!unreached.is_empty())
-    }
-
-    /// A '+' at both ends of each coil's axis, white under the blue so that it shows on any
-    /// disk. Returns whether there is any.
-    fn draw_coil_axes<'a, DB: DrawingBackend + 'a>(
-        &self,
-        chart: &mut Chart2d<'a, DB>,
-    ) -> Result<bool, DrawError> {
-        let coils: Vec<_> = self
-            .coils
-            .iter()
-            .flat_map(|c| [*c, [-c[0], -c[1], -c[2]]])
-            .filter_map(|c| lon_lat(&c))
-            .collect();
         for (r, style) in [(8, WHITE.stroke_width(5)), (7, COIL_COLOR.stroke_width(2))] {
             chart.draw_series(coils.iter().map(|ll| plus!(*ll, r, style)))?;
         }
-        Ok(!coils.is_empty())
+        let shown = [
+            (missing, Key::NoResult),
+            (unreached, Key::NotReached),
+            (coils, Key::CoilAxis),
+        ];
+        Ok(shown
+            .into_iter()
+            .filter_map(|(at, k)| (!at.is_empty()).then_some(k))
+            .collect())
     }
 }
 
@@ -318,16 +322,7 @@ impl Figure for SweepMap {
         let (map_area, bar_area) =
             area.split_horizontally(area.dim_in_pixel().0 as i32 - BAR_WIDTH);
         let mut chart = map_chart(&map_area)?;
-        let radius = self.disk_radius(&map_area);
-        let shown = [
-            (self.draw_values(&mut chart, radius)?, Key::NoResult),
-            (self.draw_unreached(&mut chart, radius)?, Key::NotReached),
-            (self.draw_coil_axes(&mut chart)?, Key::CoilAxis),
-        ];
-        let keys: Vec<Key> = shown
-            .into_iter()
-            .filter_map(|(on, k)| on.then_some(k))
-            .collect();
+        let keys = self.draw_marks(&mut chart, self.disk_radius(&map_area))?;
         draw_keys(&bar_area, &keys)?;
         draw_colour_bar(&bar_area, self.value_range(), &self.value_label)
     }

@@ -390,6 +390,15 @@ mod tests {
         assert!(e.contains("p.csv: line 4") && e.contains("coil 99"), "{e}");
     }
 
+    /// The page's data for [`plan`] on the prototype, with simulate results `sim`.
+    fn view_data_with_sim(sim: Vec<SimRecord>) -> Result<ViewData> {
+        let opts = ViewOptions {
+            sim: Some(sim),
+            ..Default::default()
+        };
+        view_data(&plan(), Path::new("p.csv"), &Scenario::prototype(), &opts)
+    }
+
     #[test]
     fn sim_file_is_checked_and_matched() {
         let e = parse_sim("step,qx,qy,qz\n0,0,0,0\n", Path::new("s.csv"))
@@ -408,33 +417,13 @@ mod tests {
             Path::new("s.csv"),
         )
         .unwrap();
-        let sc = Scenario::prototype();
-        let d = view_data(
-            &plan(),
-            Path::new("p.csv"),
-            &sc,
-            &ViewOptions {
-                sim: Some(rows),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let d = view_data_with_sim(rows).unwrap();
         let sim = d.sim.unwrap();
         assert!(sim[0].deviation_deg < 1e-3, "{:?}", sim[0]);
         assert_eq!(sim[1].deviation_deg, 7.5);
         assert!((sim[1].computed_deviation_deg - 0.2f64.to_degrees()).abs() < 1e-9);
         let far = parse_sim("step,qx,qy,qz,qw\n9,0,0,0,1\n", Path::new("s.csv")).unwrap();
-        let e = view_data(
-            &plan(),
-            Path::new("p.csv"),
-            &sc,
-            &ViewOptions {
-                sim: Some(far),
-                ..Default::default()
-            },
-        )
-        .unwrap_err()
-        .to_string();
+        let e = view_data_with_sim(far).unwrap_err().to_string();
         assert!(e.contains("--sim") && e.contains("step 9"), "{e}");
     }
 
