@@ -14,7 +14,6 @@ use crate::figures::style::{
 use crate::model::geometry::Pair;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::RGBColor;
 
 /// Figure 5: the commutation state projected on the X-Y plane.
 #[derive(Debug, Clone, PartialEq)]
@@ -143,11 +142,8 @@ impl CommutationPlot {
     /// The numbers of the coils first, then the magnets', each where it meets no label and no
     /// mark (the points' marks and the boxes of the chosen pairs).
     fn draw_numbers<'a, DB: DrawingBackend + 'a>(&self, chart: &mut Chart2d<'a, DB>) -> DrawResult {
-        let label = |n: usize, p: &[f64; 2], color: RGBColor| PointLabel {
-            text: n.to_string(),
-            at: (p[0], p[1]),
-            size: LABEL_SIZE,
-            color,
+        let label = |n: usize, p: &[f64; 2], color| {
+            PointLabel::new(n.to_string(), (p[0], p[1]), LABEL_SIZE, color)
         };
         let labels: Vec<PointLabel<(f64, f64)>> = self
             .coils

@@ -26,6 +26,17 @@ pub(crate) struct PointLabel<C> {
     pub color: RGBColor,
 }
 
+impl<C> PointLabel<C> {
+    pub(crate) fn new(text: impl Into<String>, at: C, size: u32, color: RGBColor) -> Self {
+        PointLabel {
+            text: text.into(),
+            at,
+            size,
+            color,
+        }
+    }
+}
+
 /// The box (width, height) in pixels that `text` takes at font size `size` (DejaVu Sans: digits
 /// are 0.64 em wide; a little generous for letters).
 pub fn label_size(text: &str, size: u32) -> (i32, i32) {

@@ -57,6 +57,7 @@ const VIEW_YAW: f64 = 0.6;
 const VIEW_PITCH: f64 = -0.5;
 const COIL_RADIUS: f64 = 1.1;
 const AXIS_LENGTH: f64 = 1.45;
+const WORLD_AXIS_LENGTH: f64 = 1.3;
 
 impl View3d {
     fn check(&self) -> DrawResult {
@@ -156,31 +157,27 @@ impl View3d {
         &self,
         spec: &Cartesian3d<RangedCoordf64, RangedCoordf64, RangedCoordf64>,
     ) -> (Vec<PointLabel<ChartPoint>>, Vec<Mark>) {
-        let label = |text: &str, at: ChartPoint, size: u32, color: RGBColor| PointLabel {
-            text: text.to_string(),
-            at,
-            size,
-            color,
-        };
         let tips: Vec<_> = self
             .arrows()
             .into_iter()
-            .map(|(name, n, color)| label(name, to_chart(scaled(n, AXIS_LENGTH)), 16, color))
+            .map(|(name, n, color)| {
+                PointLabel::new(name, to_chart(scaled(n, AXIS_LENGTH)), 16, color)
+            })
             .collect();
         let marks = (0..self.coils.len())
             .map(|i| (spec.translate(&self.coil_point(i)), 7))
             .chain(tips.iter().map(|l| (spec.translate(&l.at), 9)))
             .collect();
         let world = WORLD_AXES.map(|(name, v)| {
-            label(
-                &format!("world {name}"),
-                to_chart(scaled(v, 1.3)),
+            PointLabel::new(
+                format!("world {name}"),
+                to_chart(scaled(v, WORLD_AXIS_LENGTH)),
                 16,
                 REFERENCE_COLOR,
             )
         });
         let coils = (0..self.coils.len())
-            .map(|i| label(&i.to_string(), self.coil_point(i), LABEL_SIZE, COIL_COLOR));
+            .map(|i| PointLabel::new(i.to_string(), self.coil_point(i), LABEL_SIZE, COIL_COLOR));
         let labels = tips.into_iter().chain(world).chain(coils).collect();
         (labels, marks)
     }
@@ -232,11 +229,12 @@ fn draw_guides<'a, DB: DrawingBackend + 'a>(chart: &mut Chart3d<'a, DB>) -> Draw
     Ok(())
 }
 
-/// The world axes, from the centre to 1.3 (a rotation axis may lie along one).
+/// The world axes, from the centre to a little outside the coils (a rotation axis may lie
+/// along one).
 fn draw_world_axes<'a, DB: DrawingBackend + 'a>(chart: &mut Chart3d<'a, DB>) -> DrawResult {
     for (_, v) in WORLD_AXES {
         chart.draw_series(std::iter::once(PathElement::new(
-            vec![to_chart([0.0; 3]), to_chart(scaled(v, 1.3))],
+            vec![to_chart([0.0; 3]), to_chart(scaled(v, WORLD_AXIS_LENGTH))],
             REFERENCE_COLOR.stroke_width(1),
         )))?;
     }
