@@ -722,7 +722,7 @@ pub fn rotation_axis_of_step(d: &Orientation) -> Option<UnitVec> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::geometry::unit;
+    use crate::model::geometry::{rotation_angle, unit};
 
     fn well(shape: crate::physics::torque::WellShape, max_deg: f64) -> Well {
         Well {
