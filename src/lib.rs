@@ -14,6 +14,35 @@
 //! 7. [`commands`]: one function per command of the binary, and batches of scenarios.
 //!
 //! [`error`] is shared by all layers.
+//!
+//! Plan a motion on the built-in prototype (its `[plan]` defaults: 90 degrees about Z) and
+//! replay the plan through the dynamics:
+//!
+//! ```
+//! use spherestep::io::scenario::Scenario;
+//! use spherestep::planning::planner::{max_axis_error_deg, plan};
+//! use spherestep::planning::simulate::simulate;
+//!
+//! let sc = Scenario::prototype();
+//! let p = plan(&sc.motor(), &sc.plan);
+//! assert!(p.reached && max_axis_error_deg(&p.rows) < 15.0);
+//! let sim = simulate(&sc.motor(), &p.rows);
+//! assert!(sim.iter().all(|s| s.deviation_deg < 1e-6));
+//! ```
+//!
+//! Settle the ball under one active set of coil:magnet pairs:
+//!
+//! ```
+//! use spherestep::io::scenario::Scenario;
+//! use spherestep::model::geometry::parse_pairs;
+//! use spherestep::physics::dynamics::settle;
+//!
+//! let sc = Scenario::prototype();
+//! let pairs = parse_pairs("0:14,12:26", "pairs").unwrap();
+//! let q0 = nalgebra::UnitQuaternion::identity();
+//! let r = settle(&sc.torques, &pairs, &q0, sc.body, sc.settle);
+//! assert!(r.settled && r.residual_torque_nm < sc.settle.torque_tol);
+//! ```
 
 pub mod commands;
 pub mod error;
