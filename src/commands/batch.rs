@@ -172,10 +172,7 @@ struct Case {
 }
 
 fn model_name(m: StepModel) -> &'static str {
-    match m {
-        StepModel::Pivot => "pivot",
-        StepModel::Dynamic => "dynamic",
-    }
+    m.name()
 }
 
 /// The cases of a scenario, in their fixed order (models, schemes, angles, axes).
@@ -645,6 +642,7 @@ fn case_label(c: &Case) -> String {
     match s.model {
         StepModel::Pivot => s.scheme.name().to_string(),
         StepModel::Dynamic => format!("{} (dynamic, {} pairs)", s.scheme.name(), s.pairs),
+        StepModel::Coils => format!("{} (coil sets, {} coils)", s.scheme.name(), s.pairs),
     }
 }
 

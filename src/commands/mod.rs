@@ -259,10 +259,11 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
         s.model = match m.as_str() {
             "pivot" => StepModel::Pivot,
             "dynamic" => StepModel::Dynamic,
+            "coils" => StepModel::Coils,
             _ => {
                 return Err(Error::Arg {
                     arg: "--model".into(),
-                    expected: format!("pivot or dynamic, got '{m}'"),
+                    expected: format!("pivot, dynamic or coils, got '{m}'"),
                 })
             }
         };
@@ -324,7 +325,7 @@ pub fn plan_command(
         };
         let ax = settings.axis;
         let mut text = format!(
-            "{}: {} steps about [{:.4}, {:.4}, {:.4}] by {:.2} deg ({} model, {} pairs, {}): \
+            "{}: {} steps about [{:.4}, {:.4}, {:.4}] by {:.2} deg ({} model, {} {}, {}): \
              final angle {:.2} deg, worst axis error {:.2} deg, {}",
             sc.name,
             s.steps,
@@ -334,6 +335,7 @@ pub fn plan_command(
             settings.angle.0.to_degrees(),
             s.model,
             settings.pairs,
+            settings.model.unit(),
             s.scheme,
             s.final_angle_deg,
             s.max_axis_error_deg,

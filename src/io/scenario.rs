@@ -8,7 +8,9 @@ use crate::model::packing::{self, Cap, Packing, SemiRegular};
 use crate::model::symmetry::Group;
 use crate::physics::dynamics::{Body, Method, SettleParams};
 use crate::physics::torque::{Interaction, MagnetTorques, TorqueTable, Well, WellShape};
-use crate::planning::commutation::{Motor, PairsPerStep, StepLimits, StepModel};
+use crate::planning::commutation::{
+    default_step_model, Motor, PairsPerStep, StepLimits, StepModel,
+};
 use crate::planning::planner::{
     PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET,
 };
@@ -243,7 +245,13 @@ impl Scenario {
         let well_and_interaction = ck.magnets(raw.magnets.unwrap_or_default())?;
         let body = ck.body(raw.body.unwrap_or_default())?;
         let settle = ck.settle(raw.settle.unwrap_or_default())?;
-        let plan = ck.plan(raw.plan.unwrap_or_default())?;
+        let torques = MagnetTorques {
+            rotor: rotor.points.iter().map(|p| p.into_inner()).collect(),
+            stator: stator.points.iter().map(|p| p.into_inner()).collect(),
+            well: well_and_interaction.0,
+            interaction: well_and_interaction.1,
+        };
+        let plan = ck.plan(raw.plan.unwrap_or_default(), &torques)?;
         let sweep = match raw.sweep {
             None => None,
             Some(sw) => Some(ck.sweep(sw, &plan)?),
@@ -273,12 +281,6 @@ impl Scenario {
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "scenario".into())
         });
-        let torques = MagnetTorques {
-            rotor: rotor.points.iter().map(|p| p.into_inner()).collect(),
-            stator: stator.points.iter().map(|p| p.into_inner()).collect(),
-            well: well_and_interaction.0,
-            interaction: well_and_interaction.1,
-        };
         Ok(Scenario {
             path: path.to_path_buf(),
             name,
@@ -335,7 +337,8 @@ impl Scenario {
     }
 }
 
-/// Checks a step model's pairs per step: the pivot model takes exactly 2, the dynamic 2 to 8.
+/// Checks a step model's pairs per step: the pivot model takes exactly 2, the dynamic 2 to 8;
+/// the coil-set model 2 to 8 coils on after each step.
 pub fn check_pairs_per_step(
     model: StepModel,
     pairs: PairsPerStep,
@@ -349,6 +352,12 @@ pub fn check_pairs_per_step(
         }
         StepModel::Dynamic => Err(format!(
             "2 to {limit} pairs per step for the dynamic model, got {pairs}"
+        )),
+        StepModel::Coils if pairs.min >= 2 && pairs.min <= pairs.max && pairs.max <= limit => {
+            Ok(())
+        }
+        StepModel::Coils => Err(format!(
+            "2 to {limit} coils on after each step for the coil-set model, got {pairs}"
         )),
     }
 }
@@ -365,11 +374,11 @@ pub fn parse_pairs_per_step(s: &str) -> Option<PairsPerStep> {
 }
 
 /// The pairs per step a model takes when none are given: the paper's 2 for the pivot model,
-/// any of 2 to 4 chosen per step for the dynamic model.
+/// any of 2 to 4 chosen per step for the dynamic model (and coils for the coil-set model).
 pub fn default_pairs_per_step(model: StepModel) -> PairsPerStep {
     match model {
         StepModel::Pivot => PairsPerStep::exactly(2),
-        StepModel::Dynamic => PairsPerStep::up_to(4),
+        StepModel::Dynamic | StepModel::Coils => PairsPerStep::up_to(4),
     }
 }
 
@@ -637,7 +646,9 @@ impl Checker<'_> {
         Ok(Body { inertia, damping })
     }
 
-    fn plan(&self, raw: RawPlan) -> Result<PlanSettings> {
+    /// The `[plan]` section; without `model`, the motor's physics chooses
+    /// ([`default_step_model`]).
+    fn plan(&self, raw: RawPlan, torques: &MagnetTorques) -> Result<PlanSettings> {
         let d = StepLimits::default();
         let axis = self.unit("plan.axis", raw.axis.unwrap_or([0.0, 0.0, 1.0]))?;
         let angle = raw.angle_deg.unwrap_or(90.0);
@@ -656,7 +667,7 @@ impl Checker<'_> {
                 )
             })?,
         };
-        let model = raw.model.unwrap_or(StepModel::Dynamic);
+        let model = raw.model.unwrap_or_else(|| default_step_model(torques));
         let (pairs, field) =
             match (raw.pairs_per_step, raw.max_pairs_per_step) {
                 (Some(_), Some(_)) => return Err(self.err(
@@ -836,15 +847,20 @@ impl Checker<'_> {
                             &field,
                             format!(
                                 "\"pivot\", \"dynamic\", \"dynamic:K\" (exactly K pairs per \
-                                 step) or \"dynamic:2-K\" (2 to K), got \"{n}\""
+                                 step), \"dynamic:2-K\" (2 to K), \"coils\" or \"coils:2-K\" (2 to K \
+                                 coils on), got \"{n}\""
                             ),
                         )
                     };
                     let m = match n.split_once(':') {
                         None if n == "pivot" => (StepModel::Pivot, PairsPerStep::exactly(2)),
                         None if n == "dynamic" => (StepModel::Dynamic, PairsPerStep::exactly(2)),
+                        None if n == "coils" => (StepModel::Coils, PairsPerStep::up_to(4)),
                         Some(("dynamic", k)) => {
                             (StepModel::Dynamic, parse_pairs_per_step(k).ok_or_else(bad)?)
+                        }
+                        Some(("coils", k)) => {
+                            (StepModel::Coils, parse_pairs_per_step(k).ok_or_else(bad)?)
                         }
                         _ => return Err(bad()),
                     };

@@ -22,6 +22,72 @@ pub enum StepModel {
     Pivot,
     /// Paper 3.4: the pivot and the new pairs settled by the dynamics engine.
     Dynamic,
+    /// The hardware's view (docs/model.md, item 5): a step switches a set of 2..=K coils;
+    /// every energised coil pulls what the interaction says it pulls, and where the ball
+    /// settles is the step's result (`planning::coilsets`).
+    Coils,
+}
+
+impl StepModel {
+    /// The model's name in files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            StepModel::Pivot => "pivot",
+            StepModel::Dynamic => "dynamic",
+            StepModel::Coils => "coils",
+        }
+    }
+
+    /// What a step of the model switches: "pairs" or "coils" (for messages).
+    pub fn unit(self) -> &'static str {
+        match self {
+            StepModel::Coils => "coils",
+            _ => "pairs",
+        }
+    }
+}
+
+/// The pull, relative to the well's peak pull, above which a coil holding one magnet aligned
+/// also pulls its nearest neighbour as a second magnet (see [`pair_model_describes`]).
+pub const SECOND_MAGNET_PULL: f64 = 0.5;
+
+/// Whether the pair model describes a motor's physics: not when every energised coil pulls
+/// every magnet in reach (`interaction = "coils"`), nor when the wells are broad enough that
+/// one coil reaches two magnets, i.e. a coil holding a magnet aligned pulls the magnet's
+/// nearest neighbour (at the rotor's smallest separation) with at least [`SECOND_MAGNET_PULL`]
+/// of the well's peak pull. The prototype's gaussian wells (sigma 10 degrees, magnets 23.1
+/// degrees apart) pull the neighbour with 0.26 of the peak: pairs; sigma 14 gives 0.70 and a
+/// cosine well reaching 40 degrees 0.61: coil sets.
+pub fn pair_model_describes(torques: &MagnetTorques) -> bool {
+    if torques.interaction == crate::physics::torque::Interaction::Coils {
+        return false;
+    }
+    let well = &torques.well;
+    let peak = well.g(peak_pull_distance(well).0);
+    let separation = rotor_separation(&torques.rotor);
+    !(peak > 0.0 && well.g(separation.0) >= SECOND_MAGNET_PULL * peak)
+}
+
+/// The step model a scenario plans with when none is asked for: the dynamic pair model where
+/// the pair model describes the physics ([`pair_model_describes`]), coil sets elsewhere.
+pub fn default_step_model(torques: &MagnetTorques) -> StepModel {
+    if pair_model_describes(torques) {
+        StepModel::Dynamic
+    } else {
+        StepModel::Coils
+    }
+}
+
+/// The smallest angular distance between two magnets of a rotor (pi for fewer than two).
+fn rotor_separation(rotor: &[Vector3<f64>]) -> Radians {
+    let mut best = std::f64::consts::PI;
+    for (k, a) in rotor.iter().enumerate() {
+        for b in &rotor[..k] {
+            let d = angular_distance(&UnitVec::new_normalize(*a), &UnitVec::new_normalize(*b));
+            best = best.min(d.0);
+        }
+    }
+    Radians(best)
 }
 
 /// How many pairs are on after a step: the pivot kept from the held set plus `min - 1` to
@@ -106,10 +172,11 @@ pub struct Candidate {
     pub deviation: Radians,
 }
 
-/// A step: from a state, keep `pivot`, switch `new` on, and end at `to`.
+/// A step: from a state, keep `pivot` (a pair step; a coil-set step keeps no pair in
+/// particular), switch `new` on, and end at `to`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
-    pub pivot: Pair,
+    pub pivot: Option<Pair>,
     pub new: Vec<Pair>,
     pub to: CommutationState,
     /// Rotation of the step about the desired axis (signed), rad.
@@ -281,7 +348,7 @@ impl StepLimits {
         match (self.capture, model) {
             (Some(c), _) => c,
             (None, StepModel::Pivot) => PIVOT_CAPTURE,
-            (None, StepModel::Dynamic) => peak_pull_distance(well),
+            (None, StepModel::Dynamic | StepModel::Coils) => peak_pull_distance(well),
         }
     }
 }
@@ -484,7 +551,7 @@ pub fn evaluate_proposals(
             .iter()
             .map(|(pivot, new)| Some(pivot_step(motor.torques, &state.q, *pivot, new[0])))
             .collect(),
-        StepModel::Dynamic => {
+        StepModel::Dynamic | StepModel::Coils => {
             let sets: Vec<Vec<Pair>> = proposals
                 .iter()
                 .map(|(p, new)| {
@@ -493,17 +560,7 @@ pub fn evaluate_proposals(
                     s
                 })
                 .collect();
-            settle_many(motor.torques, &sets, &state.q, motor.body, motor.weighing())
-                .into_iter()
-                .zip(sets)
-                .map(|(r, active)| {
-                    r.settled.then_some(CommutationState {
-                        q: r.q,
-                        active,
-                        settle_time_s: r.settle_time_s,
-                    })
-                })
-                .collect()
+            settled_states(motor, sets, &state.q)
         }
     };
     let capture = limits.capture_for(model, &motor.torques.well);
@@ -511,17 +568,53 @@ pub fn evaluate_proposals(
         .into_iter()
         .zip(outcomes)
         .filter_map(|((pivot, new), to)| {
-            let to = to?;
-            if !holds(motor.torques, &to, capture) {
-                return None;
-            }
-            let (angle, err) = step_measure(&state.q, &to.q, n);
-            (angle.0 >= limits.min_angle.0 && err.0 <= limits.max_axis_error.0).then_some(Step {
-                pivot,
-                new,
-                to,
-                angle,
-                axis_error: err,
+            admissible(motor.torques, &state.q, to?, n, limits, capture).map(|(to, angle, err)| {
+                Step {
+                    pivot: Some(pivot),
+                    new,
+                    to,
+                    angle,
+                    axis_error: err,
+                }
+            })
+        })
+        .collect()
+}
+
+/// Whether the state a step from `from` settles to is admissible: every active pair holding
+/// (within `capture`), the step advancing about `n` by at least the limits' minimum angle and
+/// its axis within their largest error. Gives the state back with the step's angle and axis
+/// error.
+pub fn admissible(
+    torques: &MagnetTorques,
+    from: &Orientation,
+    to: CommutationState,
+    n: &UnitVec,
+    limits: &StepLimits,
+    capture: Radians,
+) -> Option<(CommutationState, Radians, Radians)> {
+    if !holds(torques, &to, capture) {
+        return None;
+    }
+    let (angle, err) = step_measure(from, &to.q, n);
+    (angle.0 >= limits.min_angle.0 && err.0 <= limits.max_axis_error.0).then_some((to, angle, err))
+}
+
+/// Settles every set from rest at `q`, in parallel, with the weighing settle
+/// ([`Motor::weighing`]): the state each holds the ball in, `None` where it does not settle.
+pub fn settled_states(
+    motor: &Motor,
+    sets: Vec<Vec<Pair>>,
+    q: &Orientation,
+) -> Vec<Option<CommutationState>> {
+    settle_many(motor.torques, &sets, q, motor.body, motor.weighing())
+        .into_iter()
+        .zip(sets)
+        .map(|(r, active)| {
+            r.settled.then_some(CommutationState {
+                q: r.q,
+                active,
+                settle_time_s: r.settle_time_s,
             })
         })
         .collect()
@@ -556,7 +649,7 @@ pub fn pivot_step(
 }
 
 /// All k-subsets of 0..n in lexicographic order.
-fn combinations(n: usize, k: usize) -> Vec<Vec<usize>> {
+pub(crate) fn combinations(n: usize, k: usize) -> Vec<Vec<usize>> {
     let mut out = Vec::new();
     if k == 0 || k > n {
         return out;
@@ -669,19 +762,9 @@ pub fn initial_states(
             .iter()
             .map(|(_, _, second)| Some(pivot_step(motor.torques, &q1, first, *second)))
             .collect(),
-        StepModel::Dynamic => {
+        StepModel::Dynamic | StepModel::Coils => {
             let sets: Vec<Vec<Pair>> = seconds.iter().map(|(_, _, p)| vec![first, *p]).collect();
-            settle_many(motor.torques, &sets, start, motor.body, motor.weighing())
-                .into_iter()
-                .zip(sets)
-                .map(|(r, active)| {
-                    r.settled.then_some(CommutationState {
-                        q: r.q,
-                        active,
-                        settle_time_s: r.settle_time_s,
-                    })
-                })
-                .collect()
+            settled_states(motor, sets, start)
         }
     };
     states
