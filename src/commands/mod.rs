@@ -352,6 +352,18 @@ pub fn plan_command(
 /// Reads the plan at `plan_path`, checks its pairs against the scenario and replays it in the
 /// scenario's physics (`spherestep simulate`).
 pub fn simulate_plan(sc: &Scenario, plan_path: &Path) -> Result<Vec<SimRow>> {
+    simulate_plan_in(sc, None, plan_path)
+}
+
+/// Reads the plan at `plan_path` made for `sc`, checks its pairs against it and replays it in
+/// the physics of `plant` (`spherestep simulate --plant`: the model error of a plan made for
+/// one physics and run on another), or of `sc` itself. A plant with other packings than the
+/// plan's is refused.
+pub fn simulate_plan_in(
+    sc: &Scenario,
+    plant: Option<&Scenario>,
+    plan_path: &Path,
+) -> Result<Vec<SimRow>> {
     let rows = read_plan(plan_path)?;
     for (k, r) in rows.iter().enumerate() {
         sc.check_active(&r.active, "active")
@@ -361,5 +373,12 @@ pub fn simulate_plan(sc: &Scenario, plan_path: &Path) -> Result<Vec<SimRow>> {
                 message: format!("{e} (in scenario {})", sc.path.display()),
             })?;
     }
-    Ok(simulate(&sc.motor(), &rows))
+    let physics = match plant {
+        Some(p) => {
+            sc.check_same_packings(p, "--plant")?;
+            p
+        }
+        None => sc,
+    };
+    Ok(simulate(&physics.motor(), &rows))
 }

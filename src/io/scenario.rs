@@ -337,6 +337,53 @@ impl Scenario {
     }
 }
 
+impl Scenario {
+    /// Checks that `plant` has this scenario's packings, so that a plan made here can be
+    /// replayed in the plant's physics: as many magnets and coils, each at the same place
+    /// (within [`COINCIDENT_TOL`]). The error names both scenarios, the counts and the first
+    /// magnet or coil that differs.
+    pub fn check_same_packings(&self, plant: &Scenario, arg: &str) -> Result<()> {
+        let counts = |sc: &Scenario| {
+            format!(
+                "{} ({}): {} magnets, {} coils",
+                sc.name,
+                sc.path.display(),
+                sc.rotor.len(),
+                sc.stator.len()
+            )
+        };
+        let moved = |what: &str, a: &Packing, b: &Packing| {
+            a.points
+                .iter()
+                .zip(&b.points)
+                .position(|(p, q)| (p.into_inner() - q.into_inner()).norm() > COINCIDENT_TOL)
+                .map(|k| {
+                    let d = crate::model::geometry::angular_distance(&a.points[k], &b.points[k]);
+                    format!("{what} {k} {:.4} deg from the plan's", d.0.to_degrees())
+                })
+        };
+        let differs = if self.rotor.len() != plant.rotor.len() {
+            Some("other magnet count".to_string())
+        } else if self.stator.len() != plant.stator.len() {
+            Some("other coil count".to_string())
+        } else {
+            moved("magnet", &self.rotor, &plant.rotor)
+                .or_else(|| moved("coil", &self.stator, &plant.stator))
+        };
+        match differs {
+            None => Ok(()),
+            Some(d) => Err(Error::Arg {
+                arg: arg.into(),
+                expected: format!(
+                    "a plant with the plan's packings ({}), got {}: {d}",
+                    counts(self),
+                    counts(plant)
+                ),
+            }),
+        }
+    }
+}
+
 /// Checks a step model's pairs per step: the pivot model takes exactly 2, the dynamic 2 to 8;
 /// the coil-set model 2 to 8 coils on after each step.
 pub fn check_pairs_per_step(
