@@ -29,6 +29,27 @@ pub enum Error {
     /// Drawing a figure failed (the backend's error, or data the figure cannot show).
     #[error("{path}: plotting failed: {message}")]
     Plot { path: PathBuf, message: String },
+    /// Writing CSV failed (`what` names the file or stream).
+    #[error("{what}: writing CSV failed")]
+    Csv {
+        what: String,
+        #[source]
+        source: csv::Error,
+    },
+    /// Writing JSON failed (`what` names what was written).
+    #[error("{what}: writing JSON failed")]
+    Json {
+        what: String,
+        #[source]
+        source: serde_json::Error,
+    },
+    /// The worker threads could not be started.
+    #[error("starting {threads} worker threads failed")]
+    Threads {
+        threads: usize,
+        #[source]
+        source: rayon::ThreadPoolBuildError,
+    },
     /// Reading or writing a file failed.
     /// (The cause is part of the message and not a `source`, so that printing the error chain
     /// does not say it twice.)
@@ -55,6 +76,20 @@ impl Error {
         Error::Io {
             path: path.into(),
             cause,
+        }
+    }
+
+    pub fn csv(what: impl std::fmt::Display, source: csv::Error) -> Self {
+        Error::Csv {
+            what: what.to_string(),
+            source,
+        }
+    }
+
+    pub fn json(what: impl std::fmt::Display, source: serde_json::Error) -> Self {
+        Error::Json {
+            what: what.to_string(),
+            source,
         }
     }
 }

@@ -5,7 +5,8 @@
 mod relay_support;
 
 use relay_support::*;
-use spherestep::relay::replay::{self, Mode};
+use spherestep::commands::replay;
+use spherestep::relay::replay::{execute, Mode};
 use spherestep::relay::RelayError;
 
 #[test]
@@ -209,7 +210,7 @@ fn step_mode_waits_for_enter_and_quits_on_q() {
     let prep = replay::prepare(&opts).unwrap();
     let mut out = Vec::new();
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let summary = replay::execute(&opts, &prep, link(&computer), stop, Some(rx), &mut out).unwrap();
+    let summary = execute(&prep, link(&computer), stop, Some(rx), &mut out).unwrap();
     let (got, mut board) = listener.join().unwrap();
     assert_eq!(got, expected);
     assert!(leftover(&mut board).is_empty());

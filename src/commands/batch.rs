@@ -9,11 +9,12 @@
 use crate::error::{Error, Result};
 use crate::figures::report;
 use crate::io::output::write_atomic;
-use crate::io::planfile::{parse_plan, write_plan, PlanRow};
+use crate::io::planfile::{parse_plan, write_plan};
 use crate::io::scenario::Scenario;
 use crate::model::geometry::UnitVec;
 use crate::physics::torque::MagnetTorques;
 use crate::planning::commutation::{pivot_floor, StepModel};
+use crate::planning::plan::PlanRow;
 use crate::planning::planner::{max_axis_error_deg, plan, total_settle_time, PlanSettings};
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};

@@ -2,6 +2,7 @@
 //! write to a given output, so that they are testable without spawning the binary.
 
 pub mod batch;
+pub mod replay;
 
 use crate::error::{Error, Result};
 use crate::io::output::write_atomic;

@@ -18,8 +18,10 @@
 //! sweep), for `spherestep plot`. Indices are 0-based, angles in degrees.
 
 use crate::error::{Error, Result};
-use crate::io::planfile::{self, PlanRow};
+use crate::io::planfile;
+use crate::io::table::Table;
 use crate::model::geometry::Pair;
+use crate::planning::plan::PlanRow;
 use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -1361,84 +1363,58 @@ pub const FLOOR_COLUMN: &str = "pivot_floor_deg";
 /// Reads a sweep CSV like [`parse_sweep`], with the values of column `value` in place of
 /// `max_axis_error_deg`.
 pub fn parse_sweep_column(text: &str, path: &Path, value: &str) -> Result<Vec<SweepPoints>> {
-    let row_err =
-        |line: usize, message: String| crate::io::planfile::row_error(path, line, message);
-    let (mut rdr, headers) = crate::io::planfile::csv_reader(text, path)?;
-    let col = |name: &str| headers.iter().position(|h| h == name);
+    let t = Table::parse(text, path)?;
     let columns = [SWEEP_COLUMNS[0], SWEEP_COLUMNS[1], SWEEP_COLUMNS[2], value];
     let idx = columns
         .iter()
-        .map(|c| col(c).ok_or_else(|| row_err(1, format!("expected a column `{c}`"))))
+        .map(|c| t.require(c, ""))
         .collect::<Result<Vec<_>>>()?;
-    let scheme_col = col("scheme");
+    let scheme_col = t.column("scheme");
     let mut out: Vec<SweepPoints> = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| {
-            let line = e.position().map(|p| p.line() as usize).unwrap_or(0);
-            row_err(line, format!("malformed CSV row: {e}"))
-        })?;
-        let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
-        let num = |k: usize| -> Result<f64> {
-            let s = rec.get(idx[k]).unwrap_or("");
-            s.parse::<f64>().map_err(|_| {
-                row_err(
-                    line,
-                    format!("column `{}`: expected a number, got '{s}'", columns[k]),
-                )
-            })
-        };
+    for r in t.rows() {
+        let num = |k: usize| r.number(idx[k], columns[k]);
         let axis = [num(0)?, num(1)?, num(2)?];
         if normalise(&axis).is_none() {
-            return Err(row_err(
-                line,
-                format!("columns `axis_x..axis_z`: expected a finite, non-zero axis, got {axis:?}"),
-            ));
+            return Err(r.error(format!(
+                "columns `axis_x..axis_z`: expected a finite, non-zero axis, got {axis:?}"
+            )));
         }
         let value = num(3)?;
         // An axis error is an angle: anything else (1e308, inf) would also give the colour
         // scale an infinite span, which the tick search never finishes.
         if !(value.is_nan() || (0.0..=180.0 + 1e-9).contains(&value)) {
-            return Err(row_err(
-                line,
-                format!(
-                    "column `max_axis_error_deg`: expected an angle from 0 to 180 degrees (or NaN: no result), got {value}"
-                ),
-            ));
+            return Err(r.error(format!(
+                "column `max_axis_error_deg`: expected an angle from 0 to 180 degrees (or NaN: no result), got {value}"
+            )));
         }
-        let scheme = scheme_col.map(|k| rec.get(k).unwrap_or("").to_string());
+        let scheme = scheme_col.map(|k| r.get(k).to_string());
         match out.iter_mut().find(|(s, _)| *s == scheme) {
             Some((_, pts)) => pts.push((axis, value)),
             None => out.push((scheme, vec![(axis, value)])),
         }
     }
-    if out.is_empty() {
-        return Err(row_err(2, "expected at least one sweep row".into()));
-    }
+    t.require_rows("sweep")?;
     Ok(out)
 }
 
 /// The axes of a sweep CSV's cases that did not reach their target (column `reached` is
 /// `false`), with their scheme (or None without a `scheme` column); none without `reached`.
 pub fn parse_unreached(text: &str, path: &Path) -> Result<Vec<(Option<String>, [f64; 3])>> {
-    let (mut rdr, headers) = crate::io::planfile::csv_reader(text, path)?;
-    let col = |name: &str| headers.iter().position(|h| h == name);
-    let (Some(reached), Some(x), Some(y), Some(z)) =
-        (col("reached"), col("axis_x"), col("axis_y"), col("axis_z"))
-    else {
+    let t = Table::parse(text, path)?;
+    let (Some(reached), Some(x), Some(y), Some(z)) = (
+        t.column("reached"),
+        t.column("axis_x"),
+        t.column("axis_y"),
+        t.column("axis_z"),
+    ) else {
         return Ok(Vec::new());
     };
-    let scheme = col("scheme");
+    let scheme = t.column("scheme");
     let mut out = Vec::new();
-    for rec in rdr.records().flatten() {
-        if rec.get(reached) != Some("false") {
-            continue;
-        }
-        let num = |k: usize| rec.get(k).and_then(|v| v.parse::<f64>().ok());
+    for r in t.rows().filter(|r| r.get(reached) == "false") {
+        let num = |k: usize| r.get(k).parse::<f64>().ok();
         if let (Some(a), Some(b), Some(c)) = (num(x), num(y), num(z)) {
-            out.push((
-                scheme.and_then(|k| rec.get(k)).map(str::to_string),
-                [a, b, c],
-            ));
+            out.push((scheme.map(|k| r.get(k).to_string()), [a, b, c]));
         }
     }
     Ok(out)

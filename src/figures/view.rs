@@ -12,9 +12,11 @@
 //! a rename), so an error never leaves a half-written page behind.
 
 use crate::error::{Error, Result};
-use crate::io::planfile::{read_plan, PlanRow};
+use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
-use crate::model::geometry::{rotation_angle, rotation_axis, xyzw, Orientation, Pair, UnitVec};
+use crate::io::simfile::{read_sim, SimRecord};
+use crate::model::geometry::{rotation_angle, rotation_axis, xyzw, Pair, UnitVec};
+use crate::planning::plan::PlanRow;
 use serde::Serialize;
 use std::path::Path;
 
@@ -24,18 +26,6 @@ pub const TEMPLATE: &str = include_str!("../../assets/view/view.html");
 pub const STYLE: &str = include_str!("../../assets/view/view.css");
 /// The page's script: the renderer, the controls and the `#selftest` hook.
 pub const SCRIPT: &str = include_str!("../../assets/view/view.js");
-
-/// Columns a simulate results file must have.
-pub const SIM_COLUMNS: [&str; 5] = ["step", "qx", "qy", "qz", "qw"];
-
-/// One row of `simulate` results: the simulated orientation after a plan step.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SimRow {
-    pub step: usize,
-    pub q: Orientation,
-    /// The file's `deviation_deg` column, if it has one.
-    pub deviation_deg: Option<f64>,
-}
 
 /// Where the desired axis shown on the page comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -53,7 +43,7 @@ pub struct ViewOptions {
     /// The desired rotation axis (world frame), when known.
     pub axis: Option<UnitVec>,
     /// Simulate results, one row per simulated step.
-    pub sim: Option<Vec<SimRow>>,
+    pub sim: Option<Vec<SimRecord>>,
     /// A title for the page (default: "spherestep plan").
     pub title: Option<String>,
 }
@@ -122,91 +112,6 @@ fn v3(u: &UnitVec) -> [f64; 3] {
 
 fn pair(p: &Pair) -> [usize; 2] {
     [p.coil.0, p.magnet.0]
-}
-
-/// Reads `simulate` results: a CSV whose header includes `step,qx,qy,qz,qw` (other columns are
-/// ignored; an optional `deviation_deg` is shown). Errors name the file, line and column.
-pub fn read_sim(path: &Path) -> Result<Vec<SimRow>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    parse_sim(&text, path)
-}
-
-/// Parses simulate results text (`path` names it in errors).
-pub fn parse_sim(text: &str, path: &Path) -> Result<Vec<SimRow>> {
-    let row_err =
-        |line: usize, message: String| crate::io::planfile::row_error(path, line, message);
-    let (mut rdr, headers) = crate::io::planfile::csv_reader(text, path)?;
-    let mut idx = [0usize; 5];
-    for (k, name) in SIM_COLUMNS.iter().enumerate() {
-        idx[k] = headers.iter().position(|h| h == *name).ok_or_else(|| {
-            row_err(
-                1,
-                format!("expected a column `{name}` in the header (step,qx,qy,qz,qw)"),
-            )
-        })?;
-    }
-    let dev_col = headers.iter().position(|h| h == "deviation_deg");
-    let mut rows: Vec<SimRow> = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| {
-            let line = e.position().map(|p| p.line() as usize).unwrap_or(0);
-            row_err(line, format!("malformed CSV row: {e}"))
-        })?;
-        let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
-        let num = |col: usize, name: &str| -> Result<f64> {
-            let s = rec.get(col).unwrap_or("");
-            s.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    row_err(
-                        line,
-                        format!("column `{name}`: expected a finite number, got '{s}'"),
-                    )
-                })
-        };
-        let s = rec.get(idx[0]).unwrap_or("");
-        let step = s.parse::<usize>().map_err(|_| {
-            row_err(
-                line,
-                format!("column `step`: expected a step number (0, 1, ...), got '{s}'"),
-            )
-        })?;
-        if rows.iter().any(|r| r.step == step) {
-            return Err(row_err(
-                line,
-                format!("column `step`: expected each step once, got step {step} again"),
-            ));
-        }
-        let q = crate::model::geometry::orientation_from_xyzw(
-            num(idx[1], "qx")?,
-            num(idx[2], "qy")?,
-            num(idx[3], "qz")?,
-            num(idx[4], "qw")?,
-        )
-        .ok_or_else(|| {
-            row_err(
-                line,
-                "columns `qx..qw`: expected a non-zero quaternion".into(),
-            )
-        })?;
-        let deviation_deg = match dev_col {
-            Some(c) if !rec.get(c).unwrap_or("").is_empty() => Some(num(c, "deviation_deg")?),
-            _ => None,
-        };
-        rows.push(SimRow {
-            step,
-            q,
-            deviation_deg,
-        });
-    }
-    if rows.is_empty() {
-        return Err(row_err(
-            2,
-            "expected at least one simulated step row".into(),
-        ));
-    }
-    Ok(rows)
 }
 
 /// Builds the page's data from a plan (`plan_path` names it in errors), the scenario and the
@@ -414,6 +319,7 @@ pub fn extract_data_json(html: &str) -> Option<&str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::simfile::parse_sim;
     use crate::model::geometry::rot_q;
     use crate::model::geometry::{unit, Radians};
     use nalgebra::Vector3;

@@ -7,8 +7,9 @@
 //! `new_coil`/`new_magnet` list the newly energised pairs, joined by `;` when there are several.
 
 use crate::error::{Error, Result};
+use crate::io::table::{write_csv, Row, Table};
 use crate::model::geometry::{orientation_from_xyzw, parse_pairs, xyzw, Pair};
-pub use crate::planning::plan::PlanRow;
+use crate::planning::plan::PlanRow;
 use std::io::Write;
 use std::path::Path;
 
@@ -38,32 +39,29 @@ fn join(v: impl Iterator<Item = String>) -> String {
 /// Writes a plan as CSV (header, then one row per step). Numbers use Rust's shortest
 /// round-trip formatting, so the same plan gives the same bytes.
 pub fn write_plan(rows: &[PlanRow], out: &mut dyn Write) -> Result<()> {
-    let e = |e: csv::Error| Error::io("<plan output>", std::io::Error::other(e.to_string()));
-    let mut w = csv::Writer::from_writer(out);
-    w.write_record(HEADER).map_err(e)?;
-    for r in rows {
-        let q = xyzw(&r.q);
-        w.write_record([
-            r.step.to_string(),
-            r.pivot.map(|p| p.coil.to_string()).unwrap_or_default(),
-            r.pivot.map(|p| p.magnet.to_string()).unwrap_or_default(),
-            join(r.new.iter().map(|p| p.coil.to_string())),
-            join(r.new.iter().map(|p| p.magnet.to_string())),
-            join(r.active.iter().map(|p| p.to_string())),
-            q[0].to_string(),
-            q[1].to_string(),
-            q[2].to_string(),
-            q[3].to_string(),
-            r.step_angle_deg.to_string(),
-            r.step_axis_error_deg.to_string(),
-            r.cum_angle_deg.to_string(),
-            r.cum_axis_error_deg.to_string(),
-            r.settle_time_s.to_string(),
-        ])
-        .map_err(e)?;
-    }
-    w.flush().map_err(|er| Error::io("<plan output>", er))?;
-    Ok(())
+    write_csv(out, "<plan output>", &HEADER, rows.iter().map(plan_record))
+}
+
+/// The fields of one plan row, in [`HEADER`]'s order.
+fn plan_record(r: &PlanRow) -> Vec<String> {
+    let q = xyzw(&r.q);
+    vec![
+        r.step.to_string(),
+        r.pivot.map(|p| p.coil.to_string()).unwrap_or_default(),
+        r.pivot.map(|p| p.magnet.to_string()).unwrap_or_default(),
+        join(r.new.iter().map(|p| p.coil.to_string())),
+        join(r.new.iter().map(|p| p.magnet.to_string())),
+        join(r.active.iter().map(|p| p.to_string())),
+        q[0].to_string(),
+        q[1].to_string(),
+        q[2].to_string(),
+        q[3].to_string(),
+        r.step_angle_deg.to_string(),
+        r.step_axis_error_deg.to_string(),
+        r.cum_angle_deg.to_string(),
+        r.cum_axis_error_deg.to_string(),
+        r.settle_time_s.to_string(),
+    ]
 }
 
 /// Reads a plan CSV; any malformed row gives an error naming the file, line and column.
@@ -72,188 +70,118 @@ pub fn read_plan(path: &Path) -> Result<Vec<PlanRow>> {
     parse_plan(&text, path)
 }
 
-/// An error in line `line` of the CSV file `path`.
-pub fn row_error(path: &Path, line: usize, message: String) -> Error {
-    Error::Row {
-        file: path.to_path_buf(),
-        line,
-        message,
-    }
-}
-
-/// Opens CSV text with a header row (fields trimmed) for one of our readers (plans, sweeps,
-/// simulate results): the reader and the header, or an error naming the file.
-pub fn csv_reader<'t>(
-    text: &'t str,
-    path: &Path,
-) -> Result<(csv::Reader<&'t [u8]>, csv::StringRecord)> {
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .trim(csv::Trim::All)
-        .from_reader(text.as_bytes());
-    let headers = rdr
-        .headers()
-        .map_err(|e| row_error(path, 1, format!("unreadable header: {e}")))?
-        .clone();
-    Ok((rdr, headers))
-}
-
-/// Parses plan CSV text (`path` names it in errors).
+/// Parses plan CSV text (`path` names it in errors): steps 0, 1, 2, ... in order.
 pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
-    let row_err = |line: usize, message: String| row_error(path, line, message);
-    let (mut rdr, headers) = csv_reader(text, path)?;
-    let col = |name: &str| -> Result<usize> {
-        headers
-            .iter()
-            .position(|h| h == name)
-            .ok_or_else(|| row_err(1, format!("expected a column `{name}` in the header")))
-    };
-    let idx: Vec<usize> = HEADER.iter().map(|h| col(h)).collect::<Result<_>>()?;
-    let mut rows = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| {
-            let line = e.position().map(|p| p.line() as usize).unwrap_or(0);
-            row_err(line, format!("malformed CSV row: {e}"))
-        })?;
-        let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
-        let get = |k: usize| rec.get(idx[k]).unwrap_or("");
-        let num = |k: usize| -> Result<f64> {
-            let s = get(k);
-            s.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    row_err(
-                        line,
-                        format!(
-                            "column `{}`: expected a finite number, got '{s}'",
-                            HEADER[k]
-                        ),
-                    )
-                })
-        };
-        let step = get(0).parse::<usize>().map_err(|_| {
-            row_err(
-                line,
-                format!(
-                    "column `step`: expected a step number (0, 1, ...), got '{}'",
-                    get(0)
+    let t = Table::parse(text, path)?;
+    let idx: Vec<usize> = HEADER
+        .iter()
+        .map(|h| t.require(h, ""))
+        .collect::<Result<_>>()?;
+    let mut rows: Vec<PlanRow> = Vec::new();
+    for r in t.rows() {
+        let row = plan_row(&r, &idx)?;
+        let expected = rows.last().map_or(0, |p| p.step + 1);
+        if row.step != expected {
+            return Err(r.error(match rows.last() {
+                None => format!(
+                    "column `step`: expected the first row to be step 0 (the initial commutation state), got {}",
+                    row.step
                 ),
-            )
-        })?;
-        let pivot = match (get(1), get(2)) {
-            ("", "") => None,
-            (c, m) => Some(
-                parse_pairs(&format!("{c}:{m}"), "pivot")
-                    .map_err(|_| {
-                        row_err(
-                            line,
-                            format!(
-                                "columns `pivot_coil`, `pivot_magnet`: expected two indices or both empty, got '{c}', '{m}'"
-                            ),
-                        )
-                    })?[0],
-            ),
-        };
-        let list = |k: usize| -> Result<Vec<usize>> {
-            let s = get(k);
-            if s.is_empty() {
-                return Ok(Vec::new());
-            }
-            s.split(';')
-                .map(|x| x.trim().parse::<usize>())
-                .collect::<std::result::Result<_, _>>()
-                .map_err(|_| {
-                    row_err(
-                        line,
-                        format!(
-                            "column `{}`: expected indices joined by ';', got '{s}'",
-                            HEADER[k]
-                        ),
-                    )
-                })
-        };
-        let (nc, nm) = (list(3)?, list(4)?);
-        if nc.len() != nm.len() {
-            return Err(row_err(
-                line,
-                "columns `new_coil`, `new_magnet`: expected as many coils as magnets".into(),
-            ));
-        }
-        let new = nc
-            .into_iter()
-            .zip(nm)
-            .map(|(c, m)| Pair::new(c, m))
-            .collect();
-        let active = parse_pairs(get(5), "active").map_err(|_| {
-            row_err(
-                line,
-                format!(
-                    "column `active`: expected pairs coil:magnet joined by ';', got '{}'",
-                    get(5)
+                Some(p) => format!(
+                    "column `step`: expected {expected} after step {}, got {}",
+                    p.step, row.step
                 ),
-            )
-        })?;
-        for (k, p) in active.iter().enumerate() {
-            if active[..k].iter().any(|o| o.coil == p.coil) {
-                return Err(row_err(
-                    line,
-                    format!(
-                        "column `active`: expected each coil once, got coil {} twice",
-                        p.coil
-                    ),
-                ));
-            }
+            }));
         }
-        let q = orientation_from_xyzw(num(6)?, num(7)?, num(8)?, num(9)?).ok_or_else(|| {
-            row_err(
-                line,
-                "columns `qx..qw`: expected a non-zero quaternion".into(),
-            )
-        })?;
-        if rows.is_empty() && step != 0 {
-            return Err(row_err(
-                line,
-                format!(
-                    "column `step`: expected the first row to be step 0 (the initial commutation state), got {step}"
-                ),
-            ));
-        }
-        let settle_time_s = num(14)?;
-        if settle_time_s < 0.0 {
-            return Err(row_err(
-                line,
-                format!("column `settle_time_s`: expected a time >= 0 s, got {settle_time_s}"),
-            ));
-        }
-        rows.push(PlanRow {
-            step,
-            pivot,
-            new,
-            active,
-            q,
-            step_angle_deg: num(10)?,
-            step_axis_error_deg: num(11)?,
-            cum_angle_deg: num(12)?,
-            cum_axis_error_deg: num(13)?,
-            settle_time_s,
-        });
-        if let Some(prev) = rows.len().checked_sub(2).map(|i| rows[i].step) {
-            if step != prev + 1 {
-                return Err(row_err(
-                    line,
-                    format!(
-                        "column `step`: expected {} after step {prev}, got {step}",
-                        prev + 1
-                    ),
-                ));
-            }
-        }
+        rows.push(row);
     }
-    if rows.is_empty() {
-        return Err(row_err(2, "expected at least one step row".into()));
-    }
+    t.require_rows("step")?;
     Ok(rows)
+}
+
+/// One row of a plan file; `idx` holds the columns of [`HEADER`].
+fn plan_row(r: &Row, idx: &[usize]) -> Result<PlanRow> {
+    let num = |k: usize| r.finite(idx[k], HEADER[k]);
+    let q = orientation_from_xyzw(num(6)?, num(7)?, num(8)?, num(9)?)
+        .ok_or_else(|| r.error("columns `qx..qw`: expected a non-zero quaternion".into()))?;
+    let settle_time_s = num(14)?;
+    if settle_time_s < 0.0 {
+        return Err(r.error(format!(
+            "column `settle_time_s`: expected a time >= 0 s, got {settle_time_s}"
+        )));
+    }
+    Ok(PlanRow {
+        step: r.step(idx[0])?,
+        pivot: pivot(r, idx[1], idx[2])?,
+        new: new_pairs(r, idx[3], idx[4])?,
+        active: active(r, idx[5])?,
+        q,
+        step_angle_deg: num(10)?,
+        step_axis_error_deg: num(11)?,
+        cum_angle_deg: num(12)?,
+        cum_axis_error_deg: num(13)?,
+        settle_time_s,
+    })
+}
+
+/// The pivot pair: columns `pivot_coil` and `pivot_magnet`, both given or both empty.
+fn pivot(r: &Row, coil: usize, magnet: usize) -> Result<Option<Pair>> {
+    match (r.get(coil), r.get(magnet)) {
+        ("", "") => Ok(None),
+        (c, m) => format!("{c}:{m}").parse().map(Some).map_err(|()| {
+            r.error(format!(
+                "columns `pivot_coil`, `pivot_magnet`: expected two indices or both empty, got '{c}', '{m}'"
+            ))
+        }),
+    }
+}
+
+/// The newly switched pairs: columns `new_coil` and `new_magnet`, indices joined by `;`.
+fn new_pairs(r: &Row, coils: usize, magnets: usize) -> Result<Vec<Pair>> {
+    let list = |col: usize, name: &str| -> Result<Vec<usize>> {
+        let s = r.get(col);
+        if s.is_empty() {
+            return Ok(Vec::new());
+        }
+        s.split(';')
+            .map(|x| x.trim().parse::<usize>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| {
+                r.error(format!(
+                    "column `{name}`: expected indices joined by ';', got '{s}'"
+                ))
+            })
+    };
+    let (nc, nm) = (list(coils, HEADER[3])?, list(magnets, HEADER[4])?);
+    if nc.len() != nm.len() {
+        return Err(
+            r.error("columns `new_coil`, `new_magnet`: expected as many coils as magnets".into())
+        );
+    }
+    Ok(nc
+        .into_iter()
+        .zip(nm)
+        .map(|(c, m)| Pair::new(c, m))
+        .collect())
+}
+
+/// The active set: column `active`, pairs joined by `;`, each coil once.
+fn active(r: &Row, col: usize) -> Result<Vec<Pair>> {
+    let active = parse_pairs(r.get(col), "active").map_err(|_| {
+        r.error(format!(
+            "column `active`: expected pairs coil:magnet joined by ';', got '{}'",
+            r.get(col)
+        ))
+    })?;
+    for (k, p) in active.iter().enumerate() {
+        if active[..k].iter().any(|o| o.coil == p.coil) {
+            return Err(r.error(format!(
+                "column `active`: expected each coil once, got coil {} twice",
+                p.coil
+            )));
+        }
+    }
+    Ok(active)
 }
 
 #[cfg(test)]

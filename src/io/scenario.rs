@@ -964,3 +964,19 @@ fn read_table(path: &Path) -> std::result::Result<TorqueTable, String> {
     }
     TorqueTable::from_rows(&rows)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relay_section_is_checked() {
+        let e = Scenario::from_toml("[relay]\nmax_coils_on = 0\n", Path::new("s.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("s.toml") && e.contains("`relay.max_coils_on`"),
+            "{e}"
+        );
+    }
+}

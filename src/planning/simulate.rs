@@ -2,13 +2,11 @@
 //! coil sequence through the dynamic model of a scenario (any well shape, "coils" interaction
 //! allowed) and reports, per step, how far the simulated ball is from the plan's prediction.
 
-use crate::error::{Error, Result};
-use crate::model::geometry::{xyzw, Orientation};
+use crate::model::geometry::Orientation;
 use crate::physics::dynamics::settle;
 use crate::planning::commutation::Motor;
 use crate::planning::plan::PlanRow;
 use serde::Serialize;
-use std::io::Write;
 
 /// One replayed step.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -62,37 +60,4 @@ pub fn summary(rows: &[SimRow]) -> SimSummary {
         final_deviation_deg: rows.last().map(|r| r.deviation_deg).unwrap_or(0.0),
         unsettled_steps: rows.iter().filter(|r| !r.settled).count(),
     }
-}
-
-/// Writes the replay CSV: `step, qx, qy, qz, qw, deviation_deg, settled, settle_time_s`.
-pub fn write_sim(rows: &[SimRow], out: &mut dyn Write) -> Result<()> {
-    let e = |e: csv::Error| Error::io("<simulate output>", std::io::Error::other(e.to_string()));
-    let mut w = csv::Writer::from_writer(out);
-    w.write_record([
-        "step",
-        "qx",
-        "qy",
-        "qz",
-        "qw",
-        "deviation_deg",
-        "settled",
-        "settle_time_s",
-    ])
-    .map_err(e)?;
-    for r in rows {
-        let q = xyzw(&r.q);
-        w.write_record([
-            r.step.to_string(),
-            q[0].to_string(),
-            q[1].to_string(),
-            q[2].to_string(),
-            q[3].to_string(),
-            r.deviation_deg.to_string(),
-            r.settled.to_string(),
-            r.settle_time_s.to_string(),
-        ])
-        .map_err(e)?;
-    }
-    w.flush().map_err(|er| Error::io("<simulate output>", er))?;
-    Ok(())
 }

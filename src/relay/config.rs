@@ -274,15 +274,5 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("slave_address") && e.contains("1..=247"), "{e}");
-        let e = crate::io::scenario::Scenario::from_toml(
-            "[relay]\nmax_coils_on = 0\n",
-            Path::new("s.toml"),
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(
-            e.contains("s.toml") && e.contains("`relay.max_coils_on`"),
-            "{e}"
-        );
     }
 }

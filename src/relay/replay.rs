@@ -9,9 +9,8 @@
 use super::{
     connect, hex, BoardKind, Channel, Link, RelayBoard, RelayError, RelaySettings, SwitchOrder,
 };
-use crate::io::planfile::{read_plan, PlanRow};
-use crate::io::scenario::Scenario;
 use crate::model::geometry::CoilId;
+use crate::planning::plan::PlanRow;
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -37,53 +36,6 @@ impl FromStr for Mode {
             "realtime" => Ok(Mode::Realtime),
             "step" => Ok(Mode::Step),
             _ => Err(format!("expected realtime or step, got '{s}'")),
-        }
-    }
-}
-
-/// The replay's inputs, as the command line gives them.
-#[derive(Debug, Clone)]
-pub struct ReplayOptions {
-    /// The plan CSV.
-    pub plan: PathBuf,
-    /// The scenario (coil count, `[relay]` section); the built-in prototype when `None`.
-    pub scenario: Option<PathBuf>,
-    /// A TOML map file with the `[relay]` keys at the top; replaces the scenario's section.
-    pub map: Option<PathBuf>,
-    /// Serial device (not needed with `dry_run`).
-    pub port: Option<String>,
-    /// Overrides `relay.board`.
-    pub board: Option<BoardKind>,
-    /// Overrides `relay.baud`.
-    pub baud: Option<u32>,
-    pub mode: Mode,
-    /// A fixed dwell for every step instead of settle time x factor (at least the floor).
-    pub dwell_ms: Option<u64>,
-    /// First step to replay; the step before is re-energised first to hold the ball.
-    pub from_step: usize,
-    pub dry_run: bool,
-    /// CSV log of what was sent when (appended to when it exists).
-    pub log: Option<PathBuf>,
-    /// Read the relays back after each step and stop on a mismatch.
-    pub verify: bool,
-}
-
-impl ReplayOptions {
-    /// Options for `plan` with everything else at its default (realtime, no port).
-    pub fn new(plan: impl Into<PathBuf>) -> ReplayOptions {
-        ReplayOptions {
-            plan: plan.into(),
-            scenario: None,
-            map: None,
-            port: None,
-            board: None,
-            baud: None,
-            mode: Mode::Realtime,
-            dwell_ms: None,
-            from_step: 0,
-            dry_run: false,
-            log: None,
-            verify: false,
         }
     }
 }
@@ -304,20 +256,36 @@ pub struct Prepared {
     pub channels: u16,
     pub baud: u32,
     pub schedule: Schedule,
+    pub drive: Drive,
 }
 
-/// Reads the plan, scenario and map, resolves the settings and checks the schedule.
-pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
-    let rows = read_plan(&opts.plan)?;
-    let scenario = match &opts.scenario {
-        Some(p) => Scenario::load(p)?,
-        None => Scenario::prototype(),
-    };
-    let settings = match &opts.map {
-        Some(p) => RelaySettings::load_map(p)?,
-        None => scenario.relay.clone(),
-    };
-    let board = opts
+/// How to replay: the choices of the command line that the relay layer needs.
+#[derive(Debug, Clone)]
+pub struct Drive {
+    /// Overrides `relay.board`.
+    pub board: Option<BoardKind>,
+    /// Overrides `relay.baud`.
+    pub baud: Option<u32>,
+    pub mode: Mode,
+    /// A fixed dwell for every step instead of settle time x factor (at least the floor).
+    pub dwell_ms: Option<u64>,
+    /// First step to replay; the step before is re-energised first to hold the ball.
+    pub from_step: usize,
+    /// CSV log of what was sent when (appended to when it exists).
+    pub log: Option<PathBuf>,
+    /// Read the relays back after each step and stop on a mismatch.
+    pub verify: bool,
+}
+
+/// Resolves the board, channels and baud rate of `settings` under the overrides of `drive`
+/// and works out the checked schedule of `rows` on a stator of `stator_coils` coils.
+pub fn prepare(
+    rows: &[PlanRow],
+    settings: RelaySettings,
+    stator_coils: usize,
+    drive: Drive,
+) -> Result<Prepared, RelayError> {
+    let board = drive
         .board
         .or(settings.board)
         .ok_or_else(|| RelayError::Arg {
@@ -327,22 +295,22 @@ pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
     let channels = settings.channels.unwrap_or(board.default_channels());
     // The same check `connect` makes, before anything else.
     connect(board, channels, settings.slave_address, Link::dry_run())?;
-    if let Some(b) = opts.baud.filter(|b| !(1..=4_000_000).contains(b)) {
+    if let Some(b) = drive.baud.filter(|b| !(1..=4_000_000).contains(b)) {
         return Err(RelayError::Arg {
             arg: "--baud".into(),
             expected: format!("a baud rate from 1 to 4000000, got {b}"),
         });
     }
-    let baud = opts.baud.or(settings.baud).unwrap_or(board.default_baud());
+    let baud = drive.baud.or(settings.baud).unwrap_or(board.default_baud());
     let schedule = schedule(
-        &rows,
+        rows,
         &settings,
         board,
         channels,
-        scenario.stator.len(),
-        opts.dwell_ms.map(Duration::from_millis),
-        opts.from_step,
-        opts.mode,
+        stator_coils,
+        drive.dwell_ms.map(Duration::from_millis),
+        drive.from_step,
+        drive.mode,
     )?;
     Ok(Prepared {
         settings,
@@ -350,6 +318,7 @@ pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
         channels,
         baud,
         schedule,
+        drive,
     })
 }
 
@@ -364,29 +333,8 @@ pub struct Summary {
     pub quit: bool,
 }
 
-/// `spherestep replay`: prepares, opens the port (unless dry run) and replays.
-pub fn run(
-    opts: &ReplayOptions,
-    stop: Arc<AtomicBool>,
-    input: Option<Receiver<String>>,
-    out: &mut dyn Write,
-) -> Result<Summary, RelayError> {
-    let prep = prepare(opts)?;
-    let link = if opts.dry_run {
-        Link::dry_run()
-    } else {
-        let port = opts.port.as_deref().ok_or_else(|| RelayError::Arg {
-            arg: "--port".into(),
-            expected: "a serial device such as /dev/ttyUSB0 (or --dry-run)".into(),
-        })?;
-        Link::open_serial(port, prep.baud, prep.settings.timeout)?
-    };
-    execute(opts, &prep, link, stop, input, out)
-}
-
 /// Replays a prepared schedule over `link` (a port opened by the caller, or a dry run).
 pub fn execute(
-    opts: &ReplayOptions,
     prep: &Prepared,
     link: Link,
     stop: Arc<AtomicBool>,
@@ -396,10 +344,10 @@ pub fn execute(
     let dry_run = link.is_dry_run();
     let port = link.name().to_string();
     let mut board = connect(prep.board, prep.channels, prep.settings.slave_address, link)?;
-    if opts.verify {
+    if prep.drive.verify {
         board.read_back()?;
     }
-    let log = match &opts.log {
+    let log = match &prep.drive.log {
         Some(p) => Some(Log::open(p)?),
         None => None,
     };
@@ -428,11 +376,11 @@ pub fn execute(
             SwitchOrder::MakeBeforeBreak => "make-before-break",
             SwitchOrder::BreakBeforeMake => "break-before-make",
         },
-        match opts.mode {
+        match prep.drive.mode {
             Mode::Realtime => "realtime",
             Mode::Step => "step mode",
         },
-        opts.from_step,
+        prep.drive.from_step,
         s.entries.last().map_or(0, |e| e.step),
     )
     .map_err(o)?;
@@ -451,14 +399,14 @@ pub fn execute(
         dry_run,
         stop,
         input,
-        mode: opts.mode,
-        verify: opts.verify,
+        mode: prep.drive.mode,
+        verify: prep.drive.verify,
         max_on_time: prep.settings.max_on_time,
         on_since: BTreeMap::new(),
-        next_step: opts.from_step,
+        next_step: prep.drive.from_step,
         steps_done: 0,
     };
-    r.log_start(opts.from_step)?;
+    r.log_start(prep.drive.from_step)?;
     let result = r.drive(s);
     let off = r.board.all_off();
     r.on_since.clear();
@@ -492,25 +440,6 @@ pub fn execute(
             off: Box::new(off),
         }),
     }
-}
-
-/// Reads a replay log and returns the step to resume from: the one after the last step whose
-/// dwell completed (0 when none did).
-pub fn resume_step(log: &Path) -> Result<usize, RelayError> {
-    let text = std::fs::read_to_string(log).map_err(|e| RelayError::Log {
-        path: log.to_path_buf(),
-        source: e,
-    })?;
-    let mut next = 0;
-    for line in text.lines().skip(1) {
-        let cols: Vec<&str> = line.split(',').collect();
-        if cols.get(2) == Some(&"done") {
-            if let Some(Ok(step)) = cols.get(1).map(|s| s.parse::<usize>()) {
-                next = step + 1;
-            }
-        }
-    }
-    Ok(next)
 }
 
 /// Spawns a thread that forwards standard input line by line (for step mode).
@@ -905,17 +834,5 @@ mod tests {
         assert_eq!(step.peak, 3);
         let e = schedule(&rows, &s, BoardKind::Lcus, 8, 16, None, 3, Mode::Realtime).unwrap_err();
         assert!(e.to_string().contains("--from-step"), "{e}");
-    }
-
-    #[test]
-    fn resume_step_reads_the_last_done_row() {
-        let dir = std::env::temp_dir().join(format!("spherestep-log-{}", std::process::id()));
-        std::fs::write(
-            &dir,
-            "t_s,step,action,coil,channel,bytes\n0.000,0,start,,,\n0.2,0,done,,,\n0.2,1,on,2,3,A0 03 01 A4\n",
-        )
-        .unwrap();
-        assert_eq!(resume_step(&dir).unwrap(), 1);
-        let _ = std::fs::remove_file(&dir);
     }
 }

@@ -3,8 +3,9 @@
 #![allow(dead_code)]
 
 use serialport::{SerialPort, TTYPort};
+use spherestep::commands::replay::{self, ReplayOptions};
 use spherestep::relay::modbus::crc16;
-use spherestep::relay::replay::{self, ReplayOptions, Summary};
+use spherestep::relay::replay::{execute, Summary};
 use spherestep::relay::{Link, RelayError};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -75,8 +76,7 @@ pub fn options(plan: &Path, scenario: &Path) -> ReplayOptions {
 pub fn run(opts: &ReplayOptions, link: Link) -> (Result<Summary, RelayError>, String) {
     let mut out = Vec::new();
     let r = replay::prepare(opts).and_then(|prep| {
-        replay::execute(
-            opts,
+        execute(
             &prep,
             link,
             Arc::new(AtomicBool::new(false)),

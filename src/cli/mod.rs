@@ -1,0 +1,67 @@
+//! The command line: one file per command, each holding its clap arguments and turning them
+//! into calls of the library (`spherestep::commands` and the layers below). Errors are carried
+//! as values to `main`, the one place that prints them.
+
+mod batch;
+mod packing;
+mod plan;
+mod plot;
+mod prototype;
+mod replay;
+mod settle;
+mod simulate;
+mod view;
+
+use clap::{Parser, Subcommand};
+use std::io::Write;
+
+#[derive(Parser)]
+#[command(
+    name = "spherestep",
+    version,
+    about = "Commutation, planning, settling and relay replay for spherical stepper motors"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Report a scenario's packings: counts, separations, center lengths and their match.
+    Packing(packing::Args),
+    /// Settle the ball under one active set (--pairs) or many (--sets FILE, in parallel).
+    Settle(settle::Args),
+    /// Plan a motion: which coils to switch, in which order, to turn the ball about an axis.
+    Plan(plan::Args),
+    /// Replay a plan's coil sequence through the dynamic model and measure the "slop".
+    Simulate(simulate::Args),
+    /// Run many scenarios (plans and sweeps) in parallel: one CSV each, plus summary.csv.
+    Batch(batch::Args),
+    /// Replay a plan on a relay board: switch each step's coils, wait, all off at the end
+    /// (and on error or Ctrl-C). Settings come from the scenario's [relay] section or --map.
+    Replay(replay::Args),
+    /// Write one self-contained HTML page showing a plan in 3-D (opens from disk, no network).
+    View(view::Args),
+    /// Draw an existing result CSV (plan or sweep, told by its header) as SVG and PNG.
+    Plot(plot::Args),
+    /// Regenerate the built-in prototype's coordinate files from their generators.
+    Prototype(prototype::Args),
+}
+
+impl Cli {
+    /// Runs the command, writing its report to `out`.
+    pub fn run(self, out: &mut dyn Write) -> anyhow::Result<()> {
+        match self.command {
+            Command::Packing(a) => a.run(out),
+            Command::Settle(a) => a.run(out),
+            Command::Plan(a) => a.run(out),
+            Command::Simulate(a) => a.run(out),
+            Command::Batch(a) => a.run(out),
+            Command::Replay(a) => a.run(out),
+            Command::View(a) => a.run(out),
+            Command::Plot(a) => a.run(out),
+            Command::Prototype(a) => a.run(out),
+        }
+    }
+}

@@ -1,0 +1,82 @@
+//! `spherestep plan`: plans which coils to switch, in which order, to turn the ball about an
+//! axis; the plan CSV and a summary.
+
+use anyhow::Result;
+use spherestep::commands::{self as app};
+use spherestep::io::scenario::Scenario;
+use std::io::Write;
+use std::path::PathBuf;
+
+/// The arguments of `spherestep plan`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scenario file (TOML); its [plan] section gives defaults for the options below.
+    pub scenario: PathBuf,
+    /// Desired rotation axis x,y,z (world frame).
+    #[arg(long, allow_hyphen_values = true)]
+    pub axis: Option<String>,
+    /// Target rotation angle, degrees.
+    #[arg(long)]
+    pub angle: Option<f64>,
+    /// min-axis-error, max-angle, weighted (the paper's) or search.
+    #[arg(long)]
+    pub scheme: Option<String>,
+    /// Step model: pivot (paper 3.2) or dynamic (paper 3.4).
+    #[arg(long)]
+    pub model: Option<String>,
+    /// Pairs on after each step: K, or 2-K to choose per step (dynamic model: up to 8;
+    /// default 2-4 for the dynamic model, 2 for the pivot model).
+    #[arg(long)]
+    pub pairs: Option<String>,
+    /// Start orientation qx,qy,qz,qw (default: the scenario's, else identity).
+    #[arg(long, allow_hyphen_values = true)]
+    pub from: Option<String>,
+    /// Write the plan CSV here (else it goes alone to standard output, the summary to
+    /// standard error).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print a JSON summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl Args {
+    pub fn run(self, out: &mut dyn Write) -> Result<()> {
+        let Args {
+            scenario,
+            axis,
+            angle,
+            scheme,
+            model,
+            pairs,
+            from,
+            out: out_file,
+            json,
+        } = self;
+        let sc = Scenario::load(&scenario)?;
+        let o = app::PlanOverrides {
+            axis,
+            angle_deg: angle,
+            scheme,
+            model,
+            pairs,
+            from,
+        };
+        let settings = app::plan_settings(&sc, &o)?;
+        let p = app::plan_command(
+            &sc,
+            &settings,
+            out_file.as_deref(),
+            json,
+            out,
+            &mut std::io::stderr(),
+        )?;
+        if !p.reached {
+            anyhow::bail!(
+                "{}",
+                p.message.unwrap_or_else(|| "target not reached".into())
+            );
+        }
+        Ok(())
+    }
+}

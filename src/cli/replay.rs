@@ -1,0 +1,78 @@
+//! `spherestep replay`: replays a plan on a relay board, every coil off at the end, on an
+//! error and on Ctrl-C.
+
+use anyhow::{Context, Result};
+use spherestep::commands::replay::{self, ReplayOptions};
+use spherestep::relay::replay::{stdin_lines, Mode};
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// The arguments of `spherestep replay`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Plan CSV (as written by `plan`).
+    pub plan: PathBuf,
+    /// Scenario file (TOML) with the coil count and [relay] settings (default: prototype).
+    pub scenario: Option<PathBuf>,
+    /// Serial device, e.g. /dev/ttyUSB0 (not needed with --dry-run).
+    #[arg(long, required_unless_present = "dry_run")]
+    pub port: Option<String>,
+    /// Board protocol: lcus, kmtronic, numato or modbus (default: relay.board).
+    #[arg(long)]
+    pub board: Option<spherestep::relay::BoardKind>,
+    /// Baud rate (default: relay.baud, else the vendor's).
+    #[arg(long)]
+    pub baud: Option<u32>,
+    /// realtime (switch, wait the dwell) or step (wait for Enter; q quits).
+    #[arg(long, default_value = "realtime")]
+    pub mode: Mode,
+    /// Fixed dwell per step, ms (default: settle time x relay.dwell_factor, at least the floor).
+    #[arg(long)]
+    pub dwell_ms: Option<u64>,
+    /// First step to replay (the step before is re-energised first to hold the ball).
+    #[arg(long, default_value_t = 0)]
+    pub from_step: usize,
+    /// Print the frames and timing; open no port.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Append a CSV of what was sent when (flushed per step).
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Read the relays back after each step; stop (all off) on a mismatch.
+    #[arg(long)]
+    pub verify: bool,
+    /// TOML map file with the [relay] keys at the top (replaces the scenario's section).
+    #[arg(long)]
+    pub map: Option<PathBuf>,
+}
+
+impl Args {
+    fn options(self) -> ReplayOptions {
+        ReplayOptions {
+            plan: self.plan,
+            scenario: self.scenario,
+            map: self.map,
+            port: self.port,
+            board: self.board,
+            baud: self.baud,
+            mode: self.mode,
+            dwell_ms: self.dwell_ms,
+            from_step: self.from_step,
+            dry_run: self.dry_run,
+            log: self.log,
+            verify: self.verify,
+        }
+    }
+
+    pub fn run(self, out: &mut dyn Write) -> Result<()> {
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
+            .context("installing the Ctrl-C/SIGTERM handler")?;
+        let input = (self.mode == Mode::Step && !self.dry_run).then(stdin_lines);
+        replay::run(&self.options(), stop, input, out)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,62 @@
+//! `spherestep simulate`: replays a plan's coil sequence through the dynamic model and
+//! measures the "slop".
+
+use anyhow::Result;
+use spherestep::commands::{self as app};
+use spherestep::io::scenario::Scenario;
+use std::io::Write;
+use std::path::PathBuf;
+
+/// The arguments of `spherestep simulate`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Plan CSV (from `plan --out`).
+    pub plan: PathBuf,
+    /// Scenario to simulate in (default: the built-in prototype).
+    pub scenario: Option<PathBuf>,
+    /// Write the per-step CSV here (else it goes alone to standard output, the summary to
+    /// standard error).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print a JSON summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl Args {
+    pub fn run(self, out: &mut dyn Write) -> Result<()> {
+        let Args {
+            plan,
+            scenario,
+            out: out_file,
+            json,
+        } = self;
+        let sc = match scenario {
+            Some(p) => Scenario::load(&p)?,
+            None => Scenario::prototype(),
+        };
+        let sim = app::simulate_plan(&sc, &plan)?;
+        let mut buf = Vec::new();
+        spherestep::io::simfile::write_sim(&sim, &mut buf)?;
+        // Without --out the CSV alone goes to standard output, the summary to standard error.
+        let csv_on_stdout = out_file.is_none() && !json;
+        match &out_file {
+            Some(p) => spherestep::io::output::write_atomic(p, &buf)?,
+            None if csv_on_stdout => out.write_all(&buf)?,
+            None => {}
+        }
+        let s = spherestep::planning::simulate::summary(&sim);
+        if json {
+            writeln!(out, "{}", serde_json::to_string(&s)?)?;
+        } else {
+            let mut stderr = std::io::stderr();
+            let note: &mut dyn Write = if csv_on_stdout { &mut stderr } else { out };
+            writeln!(
+                note,
+                "{} steps: max deviation {:.3} deg, final deviation {:.3} deg, {} unsettled",
+                s.steps, s.max_deviation_deg, s.final_deviation_deg, s.unsettled_steps
+            )?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,143 @@
+//! `spherestep replay`: reads the plan, the scenario and the relay map, and hands the relay layer
+//! what it needs to drive the board (`crate::relay::replay`); also reads a replay log to say
+//! where to resume.
+
+use crate::io::planfile::read_plan;
+use crate::io::scenario::Scenario;
+use crate::relay::replay::{execute, Drive, Mode, Prepared, Summary};
+use crate::relay::{BoardKind, Link, RelayError, RelaySettings};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::mpsc::Receiver;
+use std::sync::Arc;
+
+/// The replay's inputs, as the command line gives them.
+#[derive(Debug, Clone)]
+pub struct ReplayOptions {
+    /// The plan CSV.
+    pub plan: PathBuf,
+    /// The scenario (coil count, `[relay]` section); the built-in prototype when `None`.
+    pub scenario: Option<PathBuf>,
+    /// A TOML map file with the `[relay]` keys at the top; replaces the scenario's section.
+    pub map: Option<PathBuf>,
+    /// Serial device (not needed with `dry_run`).
+    pub port: Option<String>,
+    /// Overrides `relay.board`.
+    pub board: Option<BoardKind>,
+    /// Overrides `relay.baud`.
+    pub baud: Option<u32>,
+    pub mode: Mode,
+    /// A fixed dwell for every step instead of settle time x factor (at least the floor).
+    pub dwell_ms: Option<u64>,
+    /// First step to replay; the step before is re-energised first to hold the ball.
+    pub from_step: usize,
+    pub dry_run: bool,
+    /// CSV log of what was sent when (appended to when it exists).
+    pub log: Option<PathBuf>,
+    /// Read the relays back after each step and stop on a mismatch.
+    pub verify: bool,
+}
+
+impl ReplayOptions {
+    /// Options for `plan` with everything else at its default (realtime, no port).
+    pub fn new(plan: impl Into<PathBuf>) -> ReplayOptions {
+        ReplayOptions {
+            plan: plan.into(),
+            scenario: None,
+            map: None,
+            port: None,
+            board: None,
+            baud: None,
+            mode: Mode::Realtime,
+            dwell_ms: None,
+            from_step: 0,
+            dry_run: false,
+            log: None,
+            verify: false,
+        }
+    }
+
+    /// The choices the relay layer needs.
+    pub fn drive(&self) -> Drive {
+        Drive {
+            board: self.board,
+            baud: self.baud,
+            mode: self.mode,
+            dwell_ms: self.dwell_ms,
+            from_step: self.from_step,
+            log: self.log.clone(),
+            verify: self.verify,
+        }
+    }
+}
+
+/// Reads the plan, scenario and map, resolves the settings and checks the schedule.
+pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
+    let rows = read_plan(&opts.plan)?;
+    let scenario = match &opts.scenario {
+        Some(p) => Scenario::load(p)?,
+        None => Scenario::prototype(),
+    };
+    let settings = match &opts.map {
+        Some(p) => RelaySettings::load_map(p)?,
+        None => scenario.relay.clone(),
+    };
+    crate::relay::replay::prepare(&rows, settings, scenario.stator.len(), opts.drive())
+}
+
+/// `spherestep replay`: prepares, opens the port (unless dry run) and replays.
+pub fn run(
+    opts: &ReplayOptions,
+    stop: Arc<AtomicBool>,
+    input: Option<Receiver<String>>,
+    out: &mut dyn Write,
+) -> Result<Summary, RelayError> {
+    let prep = prepare(opts)?;
+    let link = if opts.dry_run {
+        Link::dry_run()
+    } else {
+        let port = opts.port.as_deref().ok_or_else(|| RelayError::Arg {
+            arg: "--port".into(),
+            expected: "a serial device such as /dev/ttyUSB0 (or --dry-run)".into(),
+        })?;
+        Link::open_serial(port, prep.baud, prep.settings.timeout)?
+    };
+    execute(&prep, link, stop, input, out)
+}
+
+/// Reads a replay log and returns the step to resume from: the one after the last step whose
+/// dwell completed (0 when none did).
+pub fn resume_step(log: &Path) -> Result<usize, RelayError> {
+    let text = std::fs::read_to_string(log).map_err(|e| RelayError::Log {
+        path: log.to_path_buf(),
+        source: e,
+    })?;
+    let mut next = 0;
+    for line in text.lines().skip(1) {
+        let cols: Vec<&str> = line.split(',').collect();
+        if cols.get(2) == Some(&"done") {
+            if let Some(Ok(step)) = cols.get(1).map(|s| s.parse::<usize>()) {
+                next = step + 1;
+            }
+        }
+    }
+    Ok(next)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resume_step_reads_the_last_done_row() {
+        let dir = std::env::temp_dir().join(format!("spherestep-log-{}", std::process::id()));
+        std::fs::write(
+            &dir,
+            "t_s,step,action,coil,channel,bytes\n0.000,0,start,,,\n0.2,0,done,,,\n0.2,1,on,2,3,A0 03 01 A4\n",
+        )
+        .unwrap();
+        assert_eq!(resume_step(&dir).unwrap(), 1);
+        let _ = std::fs::remove_file(&dir);
+    }
+}
