@@ -20,21 +20,23 @@ pub struct CoilSets<'a> {
     motor: &'a Motor<'a>,
     /// The settings, with the capture resolved.
     s: &'a PlanSettings,
-    /// A coil holds when the magnet nearest it is within this.
+    /// A coil counts only when the magnet nearest it is within this (by default the maximum
+    /// attraction distance: it pulls).
     capture: Radians,
 }
 
 impl<'a> CoilSets<'a> {
-    /// The coil-set model of `motor` with the settings `s` (their capture resolved, else the
-    /// distance at which the well's pull peaks).
+    /// The coil-set model of `motor` with the settings `s` (their capture, else the maximum
+    /// attraction distance).
     pub fn new(motor: &'a Motor<'a>, s: &'a PlanSettings) -> Self {
         let capture = s.limits.capture_for(s.model, &motor.torques.well);
         CoilSets { motor, s, capture }
     }
 
     /// Settles each coil set from `q`: the state it holds the ball in, each coil written with
-    /// its nearest magnet there, or `None` where the set does not settle, where a coil's
-    /// nearest magnet is beyond the capture distance, or (with the "pairs" interaction, where
+    /// its nearest magnet there, or `None` where the set does not settle (no strict minimum
+    /// holds the ball, or not within `t_max`), where a coil's nearest magnet is beyond the
+    /// capture distance (the coil pulls nothing), or (with the "pairs" interaction, where
     /// a coil pulls only its pair's magnet: the one nearest it at `q`) where a coil's nearest
     /// magnet has changed, so that the plan's pairs are exactly what was settled.
     fn settle_sets(&self, q: &Orientation, sets: &[Vec<CoilId>]) -> Vec<Option<CommutationState>> {
@@ -146,7 +148,7 @@ impl StepSource for CoilSets<'_> {
     fn no_initial_state(&self) -> String {
         format!(
             "no initial commutation state: no set of the coil nearest -Z and another coil in \
-             reach settles from the start orientation with every coil holding (its nearest \
+             reach settles from the start orientation with every coil pulling (its nearest \
              magnet within {:.2} degrees)",
             self.capture.0.to_degrees()
         )

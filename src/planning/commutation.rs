@@ -343,12 +343,16 @@ impl StepLimits {
     /// The capture distance in force: the one given; else [`PIVOT_CAPTURE`] for the pivot
     /// model, and for the dynamic model the distance at which the well's pull peaks
     /// ([`peak_pull_distance`]): nearer in, the pull grows as the magnet is pushed out, so the
-    /// pair holds; further out it weakens, and a push takes the magnet away.
+    /// pair holds; further out it weakens, and a push takes the magnet away. For the coil-set
+    /// model, the maximum attraction distance: every coil on pulls the magnet nearest it (what
+    /// holds the ball is the settle's own finding, a strict minimum of every coil's pull
+    /// together, not one magnet near one coil).
     pub fn capture_for(&self, model: StepModel, well: &Well) -> Radians {
         match (self.capture, model) {
             (Some(c), _) => c,
             (None, StepModel::Pivot) => PIVOT_CAPTURE,
-            (None, StepModel::Dynamic | StepModel::Coils) => peak_pull_distance(well),
+            (None, StepModel::Dynamic) => peak_pull_distance(well),
+            (None, StepModel::Coils) => well.max_attraction,
         }
     }
 }

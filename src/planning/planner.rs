@@ -88,6 +88,9 @@ pub struct Plan {
     pub reached: bool,
     /// Why the plan stopped short, when it did.
     pub message: Option<String>,
+    /// The settles the best-first search spent on its expansions (what its budget counts;
+    /// the greedy seeds and the initial states are not counted); 0 for the other searches.
+    pub settles: usize,
 }
 
 /// The summary printed by `plan --json`.
@@ -102,6 +105,8 @@ pub struct PlanSummary {
     pub model: String,
     pub pairs_per_step: usize,
     pub message: Option<String>,
+    /// See [`Plan::settles`].
+    pub settles: usize,
 }
 
 impl Plan {
@@ -116,6 +121,7 @@ impl Plan {
             model: s.model.name().into(),
             pairs_per_step: s.pairs.max,
             message: self.message.clone(),
+            settles: self.settles,
         }
     }
 }

@@ -96,6 +96,7 @@ pub fn run(src: &dyn StepSource, s: &PlanSettings) -> Plan {
             rows: Vec::new(),
             reached: false,
             message: Some(src.no_initial_state()),
+            settles: 0,
         };
     };
     match s.scheme {
@@ -156,6 +157,7 @@ fn greedy(src: &dyn StepSource, s: &PlanSettings, mut path: Path, scheme: Scheme
                 rows: path.rows,
                 reached: true,
                 message: None,
+                settles: 0,
             };
         }
         if path.rows.len() > s.max_steps {
@@ -191,6 +193,7 @@ fn stopped(path: Path, why: String) -> Plan {
         message: Some(format!(
             "target not reached: {why} (reached {got:.2} degrees)"
         )),
+        settles: 0,
     }
 }
 
@@ -201,6 +204,7 @@ fn outcome(best: Option<Path>, deepest: Path, why: String) -> Plan {
             rows: b.rows,
             reached: true,
             message: None,
+            settles: 0,
         },
         None => stopped(deepest, why),
     }
@@ -212,6 +216,7 @@ fn no_initial_state() -> Plan {
         rows: Vec::new(),
         reached: false,
         message: Some("no initial commutation state".into()),
+        settles: 0,
     }
 }
 
@@ -495,14 +500,16 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Path>) -> Plan 
             f.admit(src, root_id, c, s.angle.0);
         }
     }
-    outcome(
+    let mut plan = outcome(
         best,
         f.deepest,
         format!(
             "the search found no sequence that reaches the target within its budget of {} settles",
             s.settle_budget
         ),
-    )
+    );
+    plan.settles = spent;
+    plan
 }
 
 /// A list of pairs, sorted.
