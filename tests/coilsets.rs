@@ -5,11 +5,12 @@
 
 mod common;
 
+use common::csv_bytes;
 use spherestep::commands::{plan_settings, simulate_plan_in, PlanOverrides};
 use spherestep::io::planfile::{parse_plan, write_plan};
 use spherestep::io::scenario::Scenario;
 use spherestep::planning::commutation::{nearest_magnet, StepModel};
-use spherestep::planning::planner::{max_axis_error_deg, plan, Plan, PlanSettings};
+use spherestep::planning::planner::{max_axis_error_deg, plan, PlanSettings};
 use spherestep::planning::simulate::simulate;
 use std::path::Path;
 
@@ -34,18 +35,18 @@ fn about(sc: &Scenario, axis: &str, model: Option<&str>) -> PlanSettings {
     .unwrap()
 }
 
-fn csv_bytes(p: &Plan) -> Vec<u8> {
-    let mut b = Vec::new();
-    write_plan(&p.rows, &mut b).unwrap();
-    b
-}
-
 #[test]
 fn the_physics_chooses_the_default_model() {
     // the prototype's sharp wells: pairs; the broad-well scenario ("coils" interaction): coil
     // sets; gaussian wells of 14 degrees with the pair interaction reach a second magnet
-    assert_eq!(load("scenarios/prototype.toml").plan.model, StepModel::Dynamic);
-    assert_eq!(load("scenarios/broad-wells.toml").plan.model, StepModel::Coils);
+    assert_eq!(
+        load("scenarios/prototype.toml").plan.model,
+        StepModel::Dynamic
+    );
+    assert_eq!(
+        load("scenarios/broad-wells.toml").plan.model,
+        StepModel::Coils
+    );
     let wide = scenario("[magnets]\nwidth_deg = 14.0\n");
     assert_eq!(wide.plan.model, StepModel::Coils);
     let sharp_coils = scenario("[magnets]\ninteraction = \"coils\"\n");
@@ -56,7 +57,10 @@ fn the_physics_chooses_the_default_model() {
     let asked = scenario("[magnets]\nwidth_deg = 14.0\n[plan]\nmodel = \"dynamic\"\n");
     assert_eq!(asked.plan.model, StepModel::Dynamic);
     let proto = load("scenarios/prototype.toml");
-    assert_eq!(about(&proto, "0,0,1", Some("coils")).model, StepModel::Coils);
+    assert_eq!(
+        about(&proto, "0,0,1", Some("coils")).model,
+        StepModel::Coils
+    );
     // a bad --model names the option and the choices
     let e = plan_settings(
         &proto,
@@ -86,7 +90,12 @@ fn a_coil_set_plan_is_what_the_broad_wells_do_and_a_pair_plan_is_not() {
     let worst = max_axis_error_deg(&p.rows);
     assert!(worst < 15.0, "worst cumulative axis error {worst}");
     for r in simulate(&broad.motor(), &p.rows) {
-        assert!(r.deviation_deg < 1e-6, "step {}: {}", r.step, r.deviation_deg);
+        assert!(
+            r.deviation_deg < 1e-6,
+            "step {}: {}",
+            r.step,
+            r.deviation_deg
+        );
         assert!(r.settled);
     }
     // every step's pairs: the coils on, each with the magnet nearest it where the ball settled
@@ -192,5 +201,8 @@ fn a_plant_with_other_packings_and_a_physics_that_holds_nothing_are_refused() {
     let p = plan(&stiff.motor(), &stiff.plan);
     assert!(!p.reached && p.rows.is_empty());
     let m = p.message.unwrap();
-    assert!(m.contains("no initial commutation state") && m.contains("coil"), "{m}");
+    assert!(
+        m.contains("no initial commutation state") && m.contains("coil"),
+        "{m}"
+    );
 }

@@ -696,7 +696,6 @@ impl Checker<'_> {
     /// The `[plan]` section; without `model`, the motor's physics chooses
     /// ([`default_step_model`]).
     fn plan(&self, raw: RawPlan, torques: &MagnetTorques) -> Result<PlanSettings> {
-        let d = StepLimits::default();
         let axis = self.unit("plan.axis", raw.axis.unwrap_or([0.0, 0.0, 1.0]))?;
         let angle = raw.angle_deg.unwrap_or(90.0);
         if !(angle.is_finite() && angle > 0.0 && angle <= 3600.0) {
@@ -735,20 +734,8 @@ impl Checker<'_> {
                 )
             })?,
         };
-        let count = |field: &str, v: Option<usize>, default: usize| -> Result<usize> {
-            match v {
-                None => Ok(default),
-                Some(0) => Err(self.err(field, "a whole number >= 1, got 0")),
-                Some(x) => Ok(x),
-            }
-        };
-        let angle_field = |field: &str, v: Option<f64>, default: Radians| -> Result<Radians> {
-            match v {
-                None => Ok(default),
-                Some(x) if x.is_finite() && x > 0.0 && x <= 180.0 => Ok(Degrees(x).to_radians()),
-                Some(x) => Err(self.err(field, format!("an angle in (0, 180] degrees, got {x}"))),
-            }
-        };
+        let count = |f: &str, v: Option<usize>, default: usize| self.count(f, v, default);
+        let angle_field = |f: &str, v: Option<f64>, default: Radians| self.angle(f, v, default);
         Ok(PlanSettings {
             axis,
             angle: Degrees(angle).to_radians(),
@@ -756,38 +743,7 @@ impl Checker<'_> {
             model,
             pairs,
             start,
-            limits: StepLimits {
-                min_angle: angle_field(
-                    "plan.min_step_angle_deg",
-                    raw.min_step_angle_deg,
-                    d.min_angle,
-                )?,
-                max_axis_error: angle_field(
-                    "plan.max_step_axis_error_deg",
-                    raw.max_step_axis_error_deg,
-                    d.max_axis_error,
-                )?,
-                bound_start: angle_field(
-                    "plan.error_bound_start_deg",
-                    raw.error_bound_start_deg,
-                    d.bound_start,
-                )?,
-                max_candidates: count("plan.max_candidates", raw.max_candidates, d.max_candidates)?,
-                max_coils_on: count("plan.max_coils_on", raw.max_coils_on, d.max_coils_on)?,
-                capture: match raw.capture_deg {
-                    None => None,
-                    Some(_) => Some(angle_field(
-                        "plan.capture_deg",
-                        raw.capture_deg,
-                        Radians(0.0),
-                    )?),
-                },
-                search_bound: angle_field(
-                    "plan.search_bound_deg",
-                    raw.search_bound_deg,
-                    d.search_bound,
-                )?,
-            },
+            limits: self.plan_limits(&raw)?,
             max_steps: count("plan.max_steps", raw.max_steps, 200)?,
             beam_width: count("plan.beam_width", raw.beam_width, 24)?,
             settle_budget: count(
@@ -806,6 +762,59 @@ impl Checker<'_> {
                 Degrees(0.5).to_radians(),
             )?,
         })
+    }
+
+    /// The `[plan]` section's limits on steps.
+    fn plan_limits(&self, raw: &RawPlan) -> Result<StepLimits> {
+        let d = StepLimits::default();
+        Ok(StepLimits {
+            min_angle: self.angle(
+                "plan.min_step_angle_deg",
+                raw.min_step_angle_deg,
+                d.min_angle,
+            )?,
+            max_axis_error: self.angle(
+                "plan.max_step_axis_error_deg",
+                raw.max_step_axis_error_deg,
+                d.max_axis_error,
+            )?,
+            bound_start: self.angle(
+                "plan.error_bound_start_deg",
+                raw.error_bound_start_deg,
+                d.bound_start,
+            )?,
+            max_candidates: self.count(
+                "plan.max_candidates",
+                raw.max_candidates,
+                d.max_candidates,
+            )?,
+            max_coils_on: self.count("plan.max_coils_on", raw.max_coils_on, d.max_coils_on)?,
+            capture: match raw.capture_deg {
+                None => None,
+                Some(_) => Some(self.angle("plan.capture_deg", raw.capture_deg, Radians(0.0))?),
+            },
+            search_bound: self.angle(
+                "plan.search_bound_deg",
+                raw.search_bound_deg,
+                d.search_bound,
+            )?,
+        })
+    }
+
+    fn count(&self, field: &str, v: Option<usize>, default: usize) -> Result<usize> {
+        match v {
+            None => Ok(default),
+            Some(0) => Err(self.err(field, "a whole number >= 1, got 0")),
+            Some(x) => Ok(x),
+        }
+    }
+
+    fn angle(&self, field: &str, v: Option<f64>, default: Radians) -> Result<Radians> {
+        match v {
+            None => Ok(default),
+            Some(x) if x.is_finite() && x > 0.0 && x <= 180.0 => Ok(Degrees(x).to_radians()),
+            Some(x) => Err(self.err(field, format!("an angle in (0, 180] degrees, got {x}"))),
+        }
     }
 
     fn sweep(&self, raw: RawSweep, plan: &PlanSettings) -> Result<Sweep> {
@@ -880,43 +889,7 @@ impl Checker<'_> {
                 v
             }
         };
-        let models = match raw.models {
-            None => vec![(plan.model, plan.pairs)],
-            Some(list) if list.is_empty() => {
-                return Err(self.err("sweep.models", "at least one model"))
-            }
-            Some(list) => {
-                let mut v = Vec::new();
-                for (i, n) in list.iter().enumerate() {
-                    let field = format!("sweep.models[{i}]");
-                    let bad = || {
-                        self.err(
-                            &field,
-                            format!(
-                                "\"pivot\", \"dynamic\", \"dynamic:K\" (exactly K pairs per \
-                                 step), \"dynamic:2-K\" (2 to K), \"coils\" or \"coils:2-K\" (2 to K \
-                                 coils on), got \"{n}\""
-                            ),
-                        )
-                    };
-                    let m = match n.split_once(':') {
-                        None if n == "pivot" => (StepModel::Pivot, PairsPerStep::exactly(2)),
-                        None if n == "dynamic" => (StepModel::Dynamic, PairsPerStep::exactly(2)),
-                        None if n == "coils" => (StepModel::Coils, PairsPerStep::up_to(4)),
-                        Some(("dynamic", k)) => {
-                            (StepModel::Dynamic, parse_pairs_per_step(k).ok_or_else(bad)?)
-                        }
-                        Some(("coils", k)) => {
-                            (StepModel::Coils, parse_pairs_per_step(k).ok_or_else(bad)?)
-                        }
-                        _ => return Err(bad()),
-                    };
-                    check_pairs_per_step(m.0, m.1).map_err(|e| self.err(&field, e))?;
-                    v.push(m);
-                }
-                v
-            }
-        };
+        let models = self.sweep_models(raw.models, plan)?;
         Ok(Sweep {
             axes,
             angles,
@@ -924,6 +897,49 @@ impl Checker<'_> {
             models,
             keep_plans: raw.keep_plans.unwrap_or(false),
         })
+    }
+
+    /// The `[sweep] models` list: each "pivot", "dynamic", "dynamic:K", "dynamic:2-K",
+    /// "coils" or "coils:2-K", checked; without it the plan's model.
+    fn sweep_models(
+        &self,
+        raw: Option<Vec<String>>,
+        plan: &PlanSettings,
+    ) -> Result<Vec<(StepModel, PairsPerStep)>> {
+        let list = match raw {
+            None => return Ok(vec![(plan.model, plan.pairs)]),
+            Some(list) if list.is_empty() => {
+                return Err(self.err("sweep.models", "at least one model"))
+            }
+            Some(list) => list,
+        };
+        let mut v = Vec::new();
+        for (i, n) in list.iter().enumerate() {
+            let field = format!("sweep.models[{i}]");
+            let bad = || {
+                self.err(
+                    &field,
+                    format!(
+                        "\"pivot\", \"dynamic\", \"dynamic:K\" (exactly K pairs per step), \
+                         \"dynamic:2-K\" (2 to K), \"coils\" or \"coils:2-K\" (2 to K coils on), \
+                         got \"{n}\""
+                    ),
+                )
+            };
+            let m = match n.split_once(':') {
+                None if n == "pivot" => (StepModel::Pivot, PairsPerStep::exactly(2)),
+                None if n == "dynamic" => (StepModel::Dynamic, PairsPerStep::exactly(2)),
+                None if n == "coils" => (StepModel::Coils, PairsPerStep::up_to(4)),
+                Some(("dynamic", k)) => {
+                    (StepModel::Dynamic, parse_pairs_per_step(k).ok_or_else(bad)?)
+                }
+                Some(("coils", k)) => (StepModel::Coils, parse_pairs_per_step(k).ok_or_else(bad)?),
+                _ => return Err(bad()),
+            };
+            check_pairs_per_step(m.0, m.1).map_err(|e| self.err(&field, e))?;
+            v.push(m);
+        }
+        Ok(v)
     }
 
     fn settle(&self, raw: RawSettle) -> Result<SettleParams> {

@@ -12,7 +12,7 @@ use crate::planning::commutation::{
     admissible, bottom_coil, combinations, holds, nearest_magnet, pivot_error,
     predicted_orientation, settled_states, CommutationState, Motor, PairsPerStep, Step,
 };
-use crate::planning::planner::{best_per_size, PlanSettings};
+use crate::planning::planner::{weighed, PlanSettings};
 use crate::planning::search::{predicted_rank, Frontier, StepSource};
 
 /// The coil-set model as a step source.
@@ -93,23 +93,19 @@ impl<'a> CoilSets<'a> {
         let (torques, s) = (self.motor.torques, self.s);
         let reach = coils_in_reach(torques, &at.state.q);
         let held = coils_of(&at.state.active);
-        let mut ranked: Vec<(f64, Vec<CoilId>)> =
+        let ranked: Vec<(f64, Vec<CoilId>)> =
             coil_sets(&held, &reach, s.pairs, s.limits.max_coils_on)
                 .into_iter()
                 .map(|set| {
-                    let qp = predicted_orientation(torques, &at.state.q, &label(torques, &set, &at.state.q));
+                    let qp = predicted_orientation(
+                        torques,
+                        &at.state.q,
+                        &label(torques, &set, &at.state.q),
+                    );
                     (predicted_rank(at, &qp, s).unwrap_or(f64::INFINITY), set)
                 })
                 .collect();
-        ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
-        let sizes: Vec<usize> = ranked.iter().map(|(_, set)| set.len()).collect();
-                let keep = best_per_size(&sizes, s.pairs.min, s.settles_per_state);
-        ranked
-            .into_iter()
-            .zip(keep)
-            .filter(|(_, k)| *k)
-            .map(|((_, set), _)| set)
-            .collect()
+        weighed(ranked, Vec::len, s.pairs.min, s.settles_per_state)
     }
 
     /// The initial sets: the coil nearest -Z with each other coil in reach at the start, the
@@ -133,7 +129,10 @@ impl<'a> CoilSets<'a> {
                 .then(a.1.total_cmp(&b.1))
                 .then(a.2.cmp(&b.2))
         });
-        seconds.into_iter().map(|(_, _, c)| vec![first, c]).collect()
+        seconds
+            .into_iter()
+            .map(|(_, _, c)| vec![first, c])
+            .collect()
     }
 }
 
@@ -215,7 +214,11 @@ pub fn coil_sets(
     per_step: PairsPerStep,
     max_coils_on: usize,
 ) -> Vec<Vec<CoilId>> {
-    let fresh: Vec<CoilId> = reach.iter().filter(|c| !held.contains(c)).copied().collect();
+    let fresh: Vec<CoilId> = reach
+        .iter()
+        .filter(|c| !held.contains(c))
+        .copied()
+        .collect();
     let room = max_coils_on.saturating_sub(held.len()).min(per_step.max);
     let mut out = Vec::new();
     for b in 0..=room {

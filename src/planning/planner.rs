@@ -210,7 +210,7 @@ impl StepSource for PairSteps<'_> {
 /// ([`predicted_orientation`]) would give the plan, the `settles_per_state` best.
 fn ranked_proposals(motor: &Motor, s: &PlanSettings, at: &Frontier) -> Vec<Proposal> {
     let bound = wide_limits(&s.limits).bound_start;
-    let mut ranked: Vec<(f64, Proposal)> =
+    let ranked: Vec<(f64, Proposal)> =
         proposals_within(motor, at.state, &s.axis, s.pairs, bound, &s.limits)
             .into_iter()
             .filter_map(|(pivot, new)| {
@@ -220,27 +220,31 @@ fn ranked_proposals(motor: &Motor, s: &PlanSettings, at: &Frontier) -> Vec<Propo
                 predicted_rank(at, &qp, s).map(|r| (r, (pivot, new)))
             })
             .collect();
-    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
     // The smallest sets are all weighed (few, and the physics least like the springs of the
     // prediction); the larger ones only where the prediction ranks them among the best.
-    let smallest = s.pairs.min - 1;
-    let sizes: Vec<usize> = ranked.iter().map(|(_, (_, new))| new.len()).collect();
-    let keep = best_per_size(&sizes, smallest, s.settles_per_state);
-    ranked
-        .into_iter()
-        .zip(keep)
-        .filter(|(_, k)| *k)
-        .map(|((_, p), _)| p)
-        .collect()
+    weighed(
+        ranked,
+        |(_, new)| new.len(),
+        s.pairs.min - 1,
+        s.settles_per_state,
+    )
 }
 
-/// Which of a ranked list of proposals (given by their sizes, best first) are weighed: every
-/// one of size `all_up_to` or less, and of each larger size the `per_size` best.
-pub fn best_per_size(sizes: &[usize], all_up_to: usize, per_size: usize) -> Vec<bool> {
+/// Which of the ranked proposals (rank, proposal; smaller ranks first, ties by proposal) are
+/// weighed, best first: every one of size `all_up_to` or less, and of each larger size the
+/// `per_size` best.
+pub fn weighed<T: Ord>(
+    mut ranked: Vec<(f64, T)>,
+    size: impl Fn(&T) -> usize,
+    all_up_to: usize,
+    per_size: usize,
+) -> Vec<T> {
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
     let mut taken = std::collections::BTreeMap::new();
-    sizes
-        .iter()
-        .map(|&k| {
+    ranked
+        .into_iter()
+        .filter(|(_, p)| {
+            let k = size(p);
             if k <= all_up_to {
                 return true;
             }
@@ -248,5 +252,6 @@ pub fn best_per_size(sizes: &[usize], all_up_to: usize, per_size: usize) -> Vec<
             *t += 1;
             *t <= per_size
         })
+        .map(|(_, p)| p)
         .collect()
 }

@@ -420,7 +420,7 @@ impl Frontiers {
             v.iter()
                 .find(|(q, _)| q.angle_to(&path.state.q) < SAME_STATE_RAD)
         });
-        !found.is_some_and(|&(_, k)| k != node)
+        found.is_none_or(|&(_, k)| k == node)
     }
 
     /// Files a new partial plan under its state, unless a plan at least as good ends there.
