@@ -869,7 +869,20 @@ impl Checker<'_> {
                 v
             }
         };
-        let schemes = match raw.schemes {
+        let schemes = self.sweep_schemes(raw.schemes, plan)?;
+        let models = self.sweep_models(raw.models, plan)?;
+        Ok(Sweep {
+            axes,
+            angles,
+            schemes,
+            models,
+            keep_plans: raw.keep_plans.unwrap_or(false),
+        })
+    }
+
+    /// The `[sweep] schemes` list, checked; without it the plan's scheme.
+    fn sweep_schemes(&self, raw: Option<Vec<String>>, plan: &PlanSettings) -> Result<Vec<Scheme>> {
+        Ok(match raw {
             None => vec![plan.scheme],
             Some(list) if list.is_empty() => {
                 return Err(self.err("sweep.schemes", "at least one scheme"))
@@ -888,14 +901,6 @@ impl Checker<'_> {
                 }
                 v
             }
-        };
-        let models = self.sweep_models(raw.models, plan)?;
-        Ok(Sweep {
-            axes,
-            angles,
-            schemes,
-            models,
-            keep_plans: raw.keep_plans.unwrap_or(false),
         })
     }
 
