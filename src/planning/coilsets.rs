@@ -7,13 +7,20 @@
 //! the searches of `search`, which it shares with the pair models.
 
 use crate::model::geometry::{angular_distance, CoilId, Orientation, Pair, Radians, UnitVec};
+use crate::physics::dynamics::{settle_many, Stop};
 use crate::physics::torque::{Interaction, MagnetTorques};
 use crate::planning::commutation::{
     admissible, bottom_coil, combinations, holds, nearest_magnet, pivot_error,
-    predicted_orientation, settled_states, CommutationState, Motor, PairsPerStep, Step,
+    predicted_orientation, CommutationState, Motor, PairsPerStep, Step,
 };
 use crate::planning::planner::{weighed, PlanSettings};
 use crate::planning::search::{predicted_rank, Frontier, StepSource};
+
+/// How many of a state's candidate sets that the weighing left unheld are followed again (as
+/// `simulate` settles them: at tight tolerances, ten times the cost of a settle). In broad
+/// wells the best steps are often among them: on `scenarios/broad-wells.toml` following 4 takes
+/// the worst axis error about Y from 20 to 6 degrees; 8 or 16 find no better plans.
+pub const FOLLOWED_PER_STATE: usize = 4;
 
 /// The coil-set model as a step source.
 pub struct CoilSets<'a> {
@@ -33,35 +40,76 @@ impl<'a> CoilSets<'a> {
         CoilSets { motor, s, capture }
     }
 
-    /// Settles each coil set from `q`: the state it holds the ball in, each coil written with
-    /// its nearest magnet there, or `None` where the set does not settle (no strict minimum
-    /// holds the ball, or not within `t_max`), where a coil's nearest magnet is beyond the
-    /// capture distance (the coil pulls nothing), or (with the "pairs" interaction, where
-    /// a coil pulls only its pair's magnet: the one nearest it at `q`) where a coil's nearest
-    /// magnet has changed, so that the plan's pairs are exactly what was settled.
-    fn settle_sets(&self, q: &Orientation, sets: &[Vec<CoilId>]) -> Vec<Option<CommutationState>> {
-        let torques = self.motor.torques;
+    /// Settles each coil set from `q`, with the weighing settle, then follows again (as
+    /// `simulate` settles them) the sets it left unheld (the ball came to rest, but not near a
+    /// strict minimum it could be sure of: with broad wells, often a magnet at its well's
+    /// cut-off), the [`FOLLOWED_PER_STATE`] best of them by the rank where the weighing left
+    /// the ball would give the plan at `at` (all of them without `at`). Returns the settles
+    /// spent and, per set, the state it holds the ball in, each coil written with its nearest
+    /// magnet there; `None` where the set does not settle (within `t_max`, or unheld and not
+    /// followed), where a coil's nearest magnet is beyond the capture distance (the coil pulls
+    /// nothing), or (with the "pairs" interaction, where a coil pulls only its pair's magnet:
+    /// the one nearest it at `q`) where a coil's nearest magnet has changed, so that the plan's
+    /// pairs are exactly what was settled.
+    fn settle_sets(
+        &self,
+        q: &Orientation,
+        sets: &[Vec<CoilId>],
+        at: Option<&Frontier>,
+    ) -> (usize, Vec<Option<CommutationState>>) {
+        let (torques, motor) = (self.motor.torques, self.motor);
         let pairs: Vec<Vec<Pair>> = sets.iter().map(|c| label(torques, c, q)).collect();
-        settled_states(self.motor, pairs, q)
+        let mut results = settle_many(torques, &pairs, q, motor.body, motor.weighing());
+        let mut unheld: Vec<(f64, usize)> = results
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.stop == Stop::Unheld)
+            .map(|(k, r)| (at.map_or(0.0, |at| self.rank_at(at, &r.q)), k))
+            .collect();
+        unheld.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        if at.is_some() {
+            unheld.truncate(FOLLOWED_PER_STATE);
+        }
+        let again: Vec<Vec<Pair>> = unheld.iter().map(|&(_, k)| pairs[k].clone()).collect();
+        let followed = settle_many(torques, &again, q, motor.body, motor.settle);
+        for ((_, k), r) in unheld.iter().zip(followed) {
+            results[*k] = r;
+        }
+        let states = results
             .into_iter()
             .zip(sets)
-            .map(|(to, coils)| {
-                let mut to = to?;
-                let active = label(torques, coils, &to.q);
-                if torques.interaction == Interaction::Pairs && active != to.active {
+            .map(|(r, coils)| {
+                if !r.settled {
                     return None;
                 }
-                to.active = active;
+                let active = label(torques, coils, &r.q);
+                let expected = label(torques, coils, q);
+                if torques.interaction == Interaction::Pairs && active != expected {
+                    return None;
+                }
+                let to = CommutationState {
+                    q: r.q,
+                    active,
+                    settle_time_s: r.settle_time_s,
+                };
                 holds(torques, &to, self.capture).then_some(to)
             })
-            .collect()
+            .collect();
+        (sets.len() + again.len(), states)
     }
 
-    /// Settles candidate sets from `from` and keeps the admissible steps.
-    fn weigh(&self, from: &CommutationState, sets: &[Vec<CoilId>]) -> Vec<Step> {
+    /// The rank a partial plan at `at` would have after a step to `q` (unranked last).
+    fn rank_at(&self, at: &Frontier, q: &Orientation) -> f64 {
+        predicted_rank(at, q, self.s).unwrap_or(f64::INFINITY)
+    }
+
+    /// Settles candidate sets from `at` and keeps the admissible steps; with the settles spent.
+    fn weigh(&self, at: &Frontier, sets: &[Vec<CoilId>]) -> (usize, Vec<Step>) {
+        let from = at.state;
         let on = coils_of(&from.active);
         let (torques, limits) = (self.motor.torques, &self.s.limits);
-        self.settle_sets(&from.q, sets)
+        let (spent, states) = self.settle_sets(&from.q, sets, Some(at));
+        let steps = states
             .into_iter()
             .flatten()
             .filter_map(|to| {
@@ -81,7 +129,8 @@ impl<'a> CoilSets<'a> {
                     axis_error: err,
                 })
             })
-            .collect()
+            .collect();
+        (spent, steps)
     }
 
     /// The candidate sets from a partial plan's state that are settled: every set of the
@@ -138,7 +187,8 @@ impl<'a> CoilSets<'a> {
 
 impl StepSource for CoilSets<'_> {
     fn initial_states(&self) -> Vec<CommutationState> {
-        self.settle_sets(&self.s.start, &self.initial_sets())
+        self.settle_sets(&self.s.start, &self.initial_sets(), None)
+            .1
             .into_iter()
             .flatten()
             .collect()
@@ -159,12 +209,11 @@ impl StepSource for CoilSets<'_> {
             q0: state.q,
             worst: 0.0,
         };
-        self.weigh(state, &self.ranked_sets(&at))
+        self.weigh(&at, &self.ranked_sets(&at)).1
     }
 
     fn expand(&self, at: &Frontier) -> (usize, Vec<Step>) {
-        let sets = self.ranked_sets(at);
-        (sets.len(), self.weigh(at.state, &sets))
+        self.weigh(at, &self.ranked_sets(at))
     }
 }
 
