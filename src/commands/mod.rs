@@ -11,11 +11,11 @@ use crate::io::scenario::{
     check_pairs_per_step, default_pairs_per_step, parse_axis, parse_orientation,
     parse_pairs_per_step, Scenario,
 };
-use crate::model::geometry::{parse_pairs, xyzw, Degrees, Orientation, Pair};
+use crate::model::geometry::{parse_pairs, xyzw, Orientation, Pair};
 use crate::model::packing::{self, points_csv};
 use crate::physics::dynamics::{settle, settle_many, SettleResult};
 use crate::planning::commutation::StepModel;
-use crate::planning::planner::{plan, Plan, PlanSettings, Scheme};
+use crate::planning::planner::{plan, target_angle, Plan, PlanSettings, Scheme};
 use crate::planning::simulate::{simulate, SimRow};
 use std::io::Write;
 use std::path::Path;
@@ -241,33 +241,21 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
     if let Some(a) = &o.axis {
         s.axis = parse_axis(a, "--axis")?;
     }
+    let arg = |arg: &str| {
+        let arg = arg.to_string();
+        move |expected| Error::Arg { arg, expected }
+    };
     if let Some(a) = o.angle_deg {
-        if !(a.is_finite() && a > 0.0 && a <= 3600.0) {
-            return Err(Error::Arg {
-                arg: "--angle".into(),
-                expected: format!("a target angle in (0, 3600] degrees, got {a}"),
-            });
-        }
-        s.angle = Degrees(a).to_radians();
+        s.angle = target_angle(a).map_err(arg("--angle"))?;
     }
     if let Some(n) = &o.scheme {
-        s.scheme = Scheme::from_name(n).ok_or_else(|| Error::Arg {
-            arg: "--scheme".into(),
-            expected: format!("one of min-axis-error, max-angle, weighted, search, got '{n}'"),
-        })?;
+        s.scheme = Scheme::parse(n).map_err(arg("--scheme"))?;
     }
     if let Some(m) = &o.model {
-        s.model = match m.as_str() {
-            "pivot" => StepModel::Pivot,
-            "dynamic" => StepModel::Dynamic,
-            "coils" => StepModel::Coils,
-            _ => {
-                return Err(Error::Arg {
-                    arg: "--model".into(),
-                    expected: format!("pivot, dynamic or coils, got '{m}'"),
-                })
-            }
-        };
+        s.model = StepModel::from_name(m).ok_or_else(|| Error::Arg {
+            arg: "--model".into(),
+            expected: format!("pivot, dynamic or coils, got '{m}'"),
+        })?;
         if o.pairs.is_none() {
             s.pairs = default_pairs_per_step(s.model);
         }

@@ -2,6 +2,7 @@
 //! what it needs to drive the board (`crate::relay::replay`); also reads a replay log to say
 //! where to resume.
 
+use crate::error::Error;
 use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
 use crate::relay::replay::{execute, Drive, Mode, Prepared, Summary};
@@ -80,7 +81,10 @@ pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
         None => Scenario::prototype(),
     };
     let settings = match &opts.map {
-        Some(p) => RelaySettings::load_map(p)?,
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| Error::io(p, e))?;
+            RelaySettings::from_map_toml(&text, p)?
+        }
         None => scenario.relay.clone(),
     };
     crate::relay::replay::prepare(&rows, settings, scenario.stator.len(), opts.drive())

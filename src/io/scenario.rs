@@ -12,7 +12,7 @@ use crate::planning::commutation::{
     default_step_model, Motor, PairsPerStep, StepLimits, StepModel,
 };
 use crate::planning::planner::{
-    PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET,
+    target_angle, PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET,
 };
 use nalgebra::UnitQuaternion;
 use nalgebra::Vector3;
@@ -515,6 +515,79 @@ impl Checker<'_> {
         }
     }
 
+    /// A packing given as the orbit of generator points under a symmetry group, optionally
+    /// cut to a spherical cap.
+    fn group_packing(
+        &self,
+        group: Group,
+        generators: Option<Vec<[f64; 3]>>,
+        cap_axis: Option<[f64; 3]>,
+        cap_deg: Option<f64>,
+        section: &str,
+    ) -> Result<Packing> {
+        let gens = generators.ok_or_else(|| {
+            self.err(
+                &format!("{section}.generators"),
+                "a list of generator points [[x, y, z], ...] for the group",
+            )
+        })?;
+        let mut generator_points = Vec::new();
+        for (i, g) in gens.iter().enumerate() {
+            generator_points.push(self.unit(&format!("{section}.generators[{i}]"), *g)?);
+        }
+        let cap = match cap_deg {
+            None => None,
+            Some(deg) => {
+                if !(deg.is_finite() && deg > 0.0 && deg <= 180.0) {
+                    return Err(self.err(
+                        &format!("{section}.cap_deg"),
+                        format!("an angle in (0, 180] degrees, got {deg}"),
+                    ));
+                }
+                let axis = self.unit(
+                    &format!("{section}.cap_axis"),
+                    cap_axis.unwrap_or([0.0, 0.0, -1.0]),
+                )?;
+                Some(Cap {
+                    center: axis,
+                    radius: Degrees(deg).to_radians(),
+                })
+            }
+        };
+        Ok(SemiRegular {
+            group,
+            generators: generator_points,
+            cap,
+        }
+        .points())
+    }
+
+    /// An error unless the packing's points are distinct (named by where they came from).
+    fn check_distinct(&self, pk: &Packing, section: &str, given_flags: &[bool; 4]) -> Result<()> {
+        if let Some((a, b)) = pk.coincident(COINCIDENT_TOL) {
+            let what = if section == "rotor" {
+                "magnets"
+            } else {
+                "coils"
+            };
+            let source = ["preset", "points", "file", "group"]
+                .iter()
+                .zip(given_flags)
+                .find(|(_, g)| **g)
+                .map_or("preset", |(n, _)| n);
+            return Err(self.err(
+                &format!("{section}.{source}"),
+                format!(
+                    "distinct {what}, got {what} {a} and {b} at the same place ({:.2e} deg apart)",
+                    crate::model::geometry::angular_distance(&pk.points[a], &pk.points[b])
+                        .0
+                        .to_degrees()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     fn packing(&self, raw: RawPacking, section: &str) -> Result<Packing> {
         let given_flags = [
             raw.preset.is_some(),
@@ -551,41 +624,7 @@ impl Checker<'_> {
                 )
             })?
         } else if let Some(group) = raw.group {
-            let gens = raw.generators.ok_or_else(|| {
-                self.err(
-                    &format!("{section}.generators"),
-                    "a list of generator points [[x, y, z], ...] for the group",
-                )
-            })?;
-            let mut generators = Vec::new();
-            for (i, g) in gens.iter().enumerate() {
-                generators.push(self.unit(&format!("{section}.generators[{i}]"), *g)?);
-            }
-            let cap = match raw.cap_deg {
-                None => None,
-                Some(deg) => {
-                    if !(deg.is_finite() && deg > 0.0 && deg <= 180.0) {
-                        return Err(self.err(
-                            &format!("{section}.cap_deg"),
-                            format!("an angle in (0, 180] degrees, got {deg}"),
-                        ));
-                    }
-                    let axis = self.unit(
-                        &format!("{section}.cap_axis"),
-                        raw.cap_axis.unwrap_or([0.0, 0.0, -1.0]),
-                    )?;
-                    Some(Cap {
-                        center: axis,
-                        radius: Degrees(deg).to_radians(),
-                    })
-                }
-            };
-            SemiRegular {
-                group,
-                generators,
-                cap,
-            }
-            .points()
+            self.group_packing(group, raw.generators, raw.cap_axis, raw.cap_deg, section)?
         } else {
             match raw.preset.as_deref().unwrap_or("prototype") {
                 "prototype" if section == "rotor" => packing::prototype_rotor(),
@@ -601,27 +640,7 @@ impl Checker<'_> {
         if pk.is_empty() {
             return Err(self.err(section, "at least one point"));
         }
-        if let Some((a, b)) = pk.coincident(COINCIDENT_TOL) {
-            let what = if section == "rotor" {
-                "magnets"
-            } else {
-                "coils"
-            };
-            let source = ["preset", "points", "file", "group"]
-                .iter()
-                .zip(given_flags)
-                .find(|(_, g)| *g)
-                .map_or("preset", |(n, _)| n);
-            return Err(self.err(
-                &format!("{section}.{source}"),
-                format!(
-                    "distinct {what}, got {what} {a} and {b} at the same place ({:.2e} deg apart)",
-                    crate::model::geometry::angular_distance(&pk.points[a], &pk.points[b])
-                        .0
-                        .to_degrees()
-                ),
-            ));
-        }
+        self.check_distinct(&pk, section, &given_flags)?;
         Ok(pk)
     }
 
@@ -693,25 +712,73 @@ impl Checker<'_> {
         Ok(Body { inertia, damping })
     }
 
+    /// An optional whole number >= 1 (`default` when absent).
+    fn count(&self, field: &str, v: Option<usize>, default: usize) -> Result<usize> {
+        match v {
+            None => Ok(default),
+            Some(0) => Err(self.err(field, "a whole number >= 1, got 0")),
+            Some(x) => Ok(x),
+        }
+    }
+
+    /// An optional angle in (0, 180] degrees (`default` when absent).
+    fn small_angle(&self, field: &str, v: Option<f64>, default: Radians) -> Result<Radians> {
+        match v {
+            None => Ok(default),
+            Some(x) if x.is_finite() && x > 0.0 && x <= 180.0 => Ok(Degrees(x).to_radians()),
+            Some(x) => Err(self.err(field, format!("an angle in (0, 180] degrees, got {x}"))),
+        }
+    }
+
+    /// The step limits of the `[plan]` section.
+    fn step_limits(&self, raw: &RawPlan) -> Result<StepLimits> {
+        let d = StepLimits::default();
+        let count = |field: &str, v: Option<usize>, default: usize| self.count(field, v, default);
+        let angle_field =
+            |field: &str, v: Option<f64>, default: Radians| self.small_angle(field, v, default);
+        Ok(StepLimits {
+            min_angle: angle_field(
+                "plan.min_step_angle_deg",
+                raw.min_step_angle_deg,
+                d.min_angle,
+            )?,
+            max_axis_error: angle_field(
+                "plan.max_step_axis_error_deg",
+                raw.max_step_axis_error_deg,
+                d.max_axis_error,
+            )?,
+            bound_start: angle_field(
+                "plan.error_bound_start_deg",
+                raw.error_bound_start_deg,
+                d.bound_start,
+            )?,
+            max_candidates: count("plan.max_candidates", raw.max_candidates, d.max_candidates)?,
+            max_coils_on: count("plan.max_coils_on", raw.max_coils_on, d.max_coils_on)?,
+            capture: match raw.capture_deg {
+                None => None,
+                Some(_) => Some(angle_field(
+                    "plan.capture_deg",
+                    raw.capture_deg,
+                    Radians(0.0),
+                )?),
+            },
+            search_bound: angle_field(
+                "plan.search_bound_deg",
+                raw.search_bound_deg,
+                d.search_bound,
+            )?,
+        })
+    }
+
     /// The `[plan]` section; without `model`, the motor's physics chooses
     /// ([`default_step_model`]).
     fn plan(&self, raw: RawPlan, torques: &MagnetTorques) -> Result<PlanSettings> {
         let axis = self.unit("plan.axis", raw.axis.unwrap_or([0.0, 0.0, 1.0]))?;
-        let angle = raw.angle_deg.unwrap_or(90.0);
-        if !(angle.is_finite() && angle > 0.0 && angle <= 3600.0) {
-            return Err(self.err(
-                "plan.angle_deg",
-                format!("a target angle in (0, 3600] degrees, got {angle}"),
-            ));
-        }
+        let angle = target_angle(raw.angle_deg.unwrap_or(90.0))
+            .map_err(|m| self.err("plan.angle_deg", m))?;
         let scheme = match raw.scheme.as_deref() {
             None => Scheme::Search,
-            Some(n) => Scheme::from_name(n).ok_or_else(|| {
-                self.err(
-                    "plan.scheme",
-                    format!("one of min-axis-error, max-angle, weighted, search, got \"{n}\""),
-                )
-            })?,
+            Some(n) => Scheme::parse(n).map_err(|m| self.err("plan.scheme", m))?,
         };
         let model = raw.model.unwrap_or_else(|| default_step_model(torques));
         let (pairs, field) =
@@ -734,16 +801,17 @@ impl Checker<'_> {
                 )
             })?,
         };
-        let count = |f: &str, v: Option<usize>, default: usize| self.count(f, v, default);
-        let angle_field = |f: &str, v: Option<f64>, default: Radians| self.angle(f, v, default);
+        let count = |field: &str, v: Option<usize>, default: usize| self.count(field, v, default);
+        let angle_field =
+            |field: &str, v: Option<f64>, default: Radians| self.small_angle(field, v, default);
         Ok(PlanSettings {
             axis,
-            angle: Degrees(angle).to_radians(),
+            angle,
             scheme,
             model,
             pairs,
             start,
-            limits: self.plan_limits(&raw)?,
+            limits: self.step_limits(&raw)?,
             max_steps: count("plan.max_steps", raw.max_steps, 200)?,
             beam_width: count("plan.beam_width", raw.beam_width, 24)?,
             settle_budget: count(
@@ -762,59 +830,6 @@ impl Checker<'_> {
                 Degrees(0.5).to_radians(),
             )?,
         })
-    }
-
-    /// The `[plan]` section's limits on steps.
-    fn plan_limits(&self, raw: &RawPlan) -> Result<StepLimits> {
-        let d = StepLimits::default();
-        Ok(StepLimits {
-            min_angle: self.angle(
-                "plan.min_step_angle_deg",
-                raw.min_step_angle_deg,
-                d.min_angle,
-            )?,
-            max_axis_error: self.angle(
-                "plan.max_step_axis_error_deg",
-                raw.max_step_axis_error_deg,
-                d.max_axis_error,
-            )?,
-            bound_start: self.angle(
-                "plan.error_bound_start_deg",
-                raw.error_bound_start_deg,
-                d.bound_start,
-            )?,
-            max_candidates: self.count(
-                "plan.max_candidates",
-                raw.max_candidates,
-                d.max_candidates,
-            )?,
-            max_coils_on: self.count("plan.max_coils_on", raw.max_coils_on, d.max_coils_on)?,
-            capture: match raw.capture_deg {
-                None => None,
-                Some(_) => Some(self.angle("plan.capture_deg", raw.capture_deg, Radians(0.0))?),
-            },
-            search_bound: self.angle(
-                "plan.search_bound_deg",
-                raw.search_bound_deg,
-                d.search_bound,
-            )?,
-        })
-    }
-
-    fn count(&self, field: &str, v: Option<usize>, default: usize) -> Result<usize> {
-        match v {
-            None => Ok(default),
-            Some(0) => Err(self.err(field, "a whole number >= 1, got 0")),
-            Some(x) => Ok(x),
-        }
-    }
-
-    fn angle(&self, field: &str, v: Option<f64>, default: Radians) -> Result<Radians> {
-        match v {
-            None => Ok(default),
-            Some(x) if x.is_finite() && x > 0.0 && x <= 180.0 => Ok(Degrees(x).to_radians()),
-            Some(x) => Err(self.err(field, format!("an angle in (0, 180] degrees, got {x}"))),
-        }
     }
 
     fn sweep(&self, raw: RawSweep, plan: &PlanSettings) -> Result<Sweep> {
@@ -837,40 +852,33 @@ impl Checker<'_> {
                 ))
             }
             (Some(AxesSpec::List(list)), None) => {
-                let mut v = Vec::new();
-                for (i, a) in list.iter().enumerate() {
-                    v.push(self.unit(&format!("sweep.axes[{i}]"), *a)?);
-                }
-                if v.is_empty() {
-                    return Err(self.err("sweep.axes", "at least one axis"));
-                }
-                v
+                self.sweep_list("axes", "axis", Some(list), vec![], |f, a| self.unit(f, *a))?
             }
             (None, Some(_)) | (Some(AxesSpec::List(_)), Some(_)) => {
                 return Err(self.err("sweep.axis_count", "axes = \"sphere\" beside it"))
             }
         };
-        let angles = match raw.angles_deg {
-            None => vec![plan.angle],
-            Some(list) if list.is_empty() => {
-                return Err(self.err("sweep.angles_deg", "at least one angle"))
-            }
-            Some(list) => {
-                let mut v = Vec::new();
-                for (i, a) in list.iter().enumerate() {
-                    if !(a.is_finite() && *a > 0.0 && *a <= 3600.0) {
-                        return Err(self.err(
-                            &format!("sweep.angles_deg[{i}]"),
-                            format!("a target angle in (0, 3600] degrees, got {a}"),
-                        ));
-                    }
-                    v.push(Degrees(*a).to_radians());
-                }
-                v
-            }
-        };
-        let schemes = self.sweep_schemes(raw.schemes, plan)?;
-        let models = self.sweep_models(raw.models, plan)?;
+        let angles = self.sweep_list(
+            "angles_deg",
+            "angle",
+            raw.angles_deg,
+            vec![plan.angle],
+            |f, a| target_angle(*a).map_err(|m| self.err(f, m)),
+        )?;
+        let schemes = self.sweep_list(
+            "schemes",
+            "scheme",
+            raw.schemes,
+            vec![plan.scheme],
+            |f, n| Scheme::parse(n).map_err(|m| self.err(f, m)),
+        )?;
+        let models = self.sweep_list(
+            "models",
+            "model",
+            raw.models,
+            vec![(plan.model, plan.pairs)],
+            |f, n| self.sweep_model(f, n),
+        )?;
         Ok(Sweep {
             axes,
             angles,
@@ -880,71 +888,55 @@ impl Checker<'_> {
         })
     }
 
-    /// The `[sweep] schemes` list, checked; without it the plan's scheme.
-    fn sweep_schemes(&self, raw: Option<Vec<String>>, plan: &PlanSettings) -> Result<Vec<Scheme>> {
-        Ok(match raw {
-            None => vec![plan.scheme],
+    /// A list of `[sweep]`: `default` when absent, an error when empty (`what` names an entry),
+    /// else each entry checked by `each`, which is given the entry's field name.
+    fn sweep_list<R, T>(
+        &self,
+        name: &str,
+        what: &str,
+        raw: Option<Vec<R>>,
+        default: Vec<T>,
+        each: impl Fn(&str, &R) -> Result<T>,
+    ) -> Result<Vec<T>> {
+        match raw {
+            None => Ok(default),
             Some(list) if list.is_empty() => {
-                return Err(self.err("sweep.schemes", "at least one scheme"))
+                Err(self.err(&format!("sweep.{name}"), format!("at least one {what}")))
             }
-            Some(list) => {
-                let mut v = Vec::new();
-                for (i, n) in list.iter().enumerate() {
-                    v.push(Scheme::from_name(n).ok_or_else(|| {
-                        self.err(
-                            &format!("sweep.schemes[{i}]"),
-                            format!(
-                                "one of min-axis-error, max-angle, weighted, search, got \"{n}\""
-                            ),
-                        )
-                    })?);
-                }
-                v
-            }
-        })
+            Some(list) => list
+                .iter()
+                .enumerate()
+                .map(|(i, r)| each(&format!("sweep.{name}[{i}]"), r))
+                .collect(),
+        }
     }
 
-    /// The `[sweep] models` list: each "pivot", "dynamic", "dynamic:K", "dynamic:2-K",
-    /// "coils" or "coils:2-K", checked; without it the plan's model.
-    fn sweep_models(
-        &self,
-        raw: Option<Vec<String>>,
-        plan: &PlanSettings,
-    ) -> Result<Vec<(StepModel, PairsPerStep)>> {
-        let list = match raw {
-            None => return Ok(vec![(plan.model, plan.pairs)]),
-            Some(list) if list.is_empty() => {
-                return Err(self.err("sweep.models", "at least one model"))
-            }
-            Some(list) => list,
+    /// One entry of `sweep.models`: a model name, or `dynamic:K` / `dynamic:2-K`.
+    fn sweep_model(&self, field: &str, n: &str) -> Result<(StepModel, PairsPerStep)> {
+        let bad = || {
+            self.err(
+                field,
+                format!(
+                    "\"pivot\", \"dynamic\", \"dynamic:K\" (exactly K pairs per \
+                     step), \"dynamic:2-K\" (2 to K), \"coils\" or \"coils:2-K\" (2 to K \
+                     coils on), got \"{n}\""
+                ),
+            )
         };
-        let mut v = Vec::new();
-        for (i, n) in list.iter().enumerate() {
-            let field = format!("sweep.models[{i}]");
-            let bad = || {
-                self.err(
-                    &field,
-                    format!(
-                        "\"pivot\", \"dynamic\", \"dynamic:K\" (exactly K pairs per step), \
-                         \"dynamic:2-K\" (2 to K), \"coils\" or \"coils:2-K\" (2 to K coils on), \
-                         got \"{n}\""
-                    ),
-                )
-            };
-            let m = match n.split_once(':') {
-                None if n == "pivot" => (StepModel::Pivot, PairsPerStep::exactly(2)),
-                None if n == "dynamic" => (StepModel::Dynamic, PairsPerStep::exactly(2)),
-                None if n == "coils" => (StepModel::Coils, PairsPerStep::up_to(4)),
-                Some(("dynamic", k)) => {
-                    (StepModel::Dynamic, parse_pairs_per_step(k).ok_or_else(bad)?)
-                }
-                Some(("coils", k)) => (StepModel::Coils, parse_pairs_per_step(k).ok_or_else(bad)?),
-                _ => return Err(bad()),
-            };
-            check_pairs_per_step(m.0, m.1).map_err(|e| self.err(&field, e))?;
-            v.push(m);
-        }
-        Ok(v)
+        let m = match n.split_once(':') {
+            // a pair model alone: 2 pairs per step; coil sets alone: their default, 2 to 4 coils
+            None => StepModel::from_name(n)
+                .map(|m| match m {
+                    StepModel::Coils => (m, default_pairs_per_step(m)),
+                    _ => (m, PairsPerStep::exactly(2)),
+                })
+                .ok_or_else(bad)?,
+            Some(("dynamic", k)) => (StepModel::Dynamic, parse_pairs_per_step(k).ok_or_else(bad)?),
+            Some(("coils", k)) => (StepModel::Coils, parse_pairs_per_step(k).ok_or_else(bad)?),
+            _ => return Err(bad()),
+        };
+        check_pairs_per_step(m.0, m.1).map_err(|e| self.err(field, e))?;
+        Ok(m)
     }
 
     fn settle(&self, raw: RawSettle) -> Result<SettleParams> {

@@ -106,6 +106,11 @@ impl Row<'_> {
         self.rec.get(col).unwrap_or("")
     }
 
+    /// The record's fields.
+    pub fn fields(&self) -> Vec<String> {
+        self.rec.iter().map(str::to_string).collect()
+    }
+
     /// An error in this record's line.
     pub fn error(&self, message: String) -> Error {
         self.table.error(self.line, message)

@@ -10,7 +10,7 @@
 //! examples/basins.rs check the one against the other on random sets; tests/settle.rs pins 54.
 
 use crate::model::geometry::{Orientation, Pair};
-use crate::physics::integrator::{integrate_until, End, OdeSystem, Tolerances};
+use crate::physics::integrator::{integrate_until, End, OdeSystem, Outcome, Tolerances};
 use crate::physics::torque::{rotation_matrix, TorqueModel};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use ode_solvers::dop_shared::IntegrationError;
@@ -310,6 +310,88 @@ const SAMPLE_STEP: f64 = 0.1;
 /// The most samples the end phase takes (a bounded cost whatever t_max and the damping are).
 const MAX_SAMPLES: u64 = 1_000_000;
 
+/// The fast path's stiffness scale (isotropic bodies of models that have one: the linear
+/// regime and its Newton finish are then available) and its relative tolerance, tighter for
+/// light damping.
+fn fast_tolerance<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    params: &SettleParams,
+) -> (Option<f64>, f64) {
+    let i = sys.body.inertia;
+    let isotropic = (i.x - i.y).abs() <= 1e-12 * i.x && (i.x - i.z).abs() <= 1e-12 * i.x;
+    let scale = sys.model.stiffness_scale().filter(|_| isotropic);
+    let rtol = match scale {
+        Some(k1) => {
+            let zeta = sys.body.damping / (2.0 * (k1 * i.x).sqrt());
+            params
+                .rtol
+                .min(NONLINEAR_RTOL)
+                .min((NONLINEAR_RTOL_PER_ZETA2 * zeta * zeta).max(NONLINEAR_RTOL_FLOOR))
+        }
+        None => params.rtol,
+    };
+    (scale, rtol)
+}
+
+/// What the fast path's integration `out` (ended without the Newton finish) says: the ball
+/// where the stepper left it and why it stopped; never settled without damping; a stop near
+/// rest but never near a strict minimum (`linear`: the model has a linear regime) is
+/// re-integrated tightly, or reported unheld when the set need not be followed.
+fn conclude<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    y0: [f64; 7],
+    params: SettleParams,
+    out: &Outcome<7>,
+    evaluations: u32,
+    linear: bool,
+) -> SettleResult {
+    // where the stepper left the ball, and why it says it stopped
+    let stopped_here = |stop: Stop| {
+        finish(
+            sys.model,
+            sys.active,
+            &out.y,
+            out.t,
+            evaluations,
+            out.steps,
+            stop,
+        )
+    };
+    if sys.body.damping <= 0.0 {
+        // Undamped, the ball never settles (it was not at rest in equilibrium at the start):
+        // whatever the stepper's own dissipation did, the physics says no.
+        return stopped_here(match out.end {
+            End::Stopped => Stop::TimeLimit,
+            e => e.into(),
+        });
+    }
+    let near_rest = |y: &[f64; 7]| {
+        Vector3::new(y[4], y[5], y[6]).norm() < NEAR_REST * params.omega_tol
+            && sys.body_torque(y).norm() < NEAR_REST * params.torque_tol
+    };
+    let unsure = match out.end {
+        End::Stopped => true,
+        End::TimeLimit => near_rest(&out.y),
+        _ => false,
+    };
+    if linear && unsure {
+        // settled (or nearly at rest at t_max), but never near a strict minimum: not sure where
+        // along the free direction the ball stops, nor when
+        if !params.follow_unheld {
+            return stopped_here(Stop::Unheld);
+        }
+        let tight = SettleParams {
+            rtol: FALLBACK_RTOL,
+            atol: FALLBACK_ATOL,
+            ..params
+        };
+        let mut r = settle_dopri5(sys, y0, tight, None);
+        r.evaluations = r.evaluations.saturating_add(evaluations);
+        return r;
+    }
+    stopped_here(out.end.into())
+}
+
 /// The fast path: Bogacki-Shampine 3(2) at the scenario's (loose) tolerances while the motion
 /// is nonlinear, then, once the ball moves within [`LINEAR_RADIUS`] of a strict minimum (found
 /// by Newton on the torque, positive-definite stiffness, no magnet near its well's cut-off), the
@@ -330,18 +412,7 @@ fn settle_fast<M: TorqueModel>(
     mut trace: Option<&mut Vec<(f64, State)>>,
 ) -> SettleResult {
     let i = sys.body.inertia;
-    let isotropic = (i.x - i.y).abs() <= 1e-12 * i.x && (i.x - i.z).abs() <= 1e-12 * i.x;
-    let scale = sys.model.stiffness_scale().filter(|_| isotropic);
-    let rtol = match scale {
-        Some(k1) => {
-            let zeta = sys.body.damping / (2.0 * (k1 * i.x).sqrt());
-            params
-                .rtol
-                .min(NONLINEAR_RTOL)
-                .min((NONLINEAR_RTOL_PER_ZETA2 * zeta * zeta).max(NONLINEAR_RTOL_FLOOR))
-        }
-        None => params.rtol,
-    };
+    let (scale, rtol) = fast_tolerance(sys, &params);
     let tol = Tolerances {
         rtol,
         atol: params.atol,
@@ -402,51 +473,7 @@ fn settle_fast<M: TorqueModel>(
             },
         );
     }
-    // where the stepper left the ball, and why it says it stopped
-    let stopped_here = |stop: Stop| {
-        finish(
-            sys.model,
-            sys.active,
-            &out.y,
-            out.t,
-            evaluations,
-            out.steps,
-            stop,
-        )
-    };
-    if sys.body.damping <= 0.0 {
-        // Undamped, the ball never settles (it was not at rest in equilibrium at the start):
-        // whatever the stepper's own dissipation did, the physics says no.
-        return stopped_here(match out.end {
-            End::Stopped => Stop::TimeLimit,
-            e => e.into(),
-        });
-    }
-    let near_rest = |y: &[f64; 7]| {
-        Vector3::new(y[4], y[5], y[6]).norm() < NEAR_REST * params.omega_tol
-            && sys.body_torque(y).norm() < NEAR_REST * params.torque_tol
-    };
-    let unsure = match out.end {
-        End::Stopped => true,
-        End::TimeLimit => near_rest(&out.y),
-        _ => false,
-    };
-    if scale.is_some() && unsure {
-        // settled (or nearly at rest at t_max), but never near a strict minimum: not sure where
-        // along the free direction the ball stops, nor when
-        if !params.follow_unheld {
-            return stopped_here(Stop::Unheld);
-        }
-        let tight = SettleParams {
-            rtol: FALLBACK_RTOL,
-            atol: FALLBACK_ATOL,
-            ..params
-        };
-        let mut r = settle_dopri5(sys, y0, tight, None);
-        r.evaluations = r.evaluations.saturating_add(evaluations);
-        return r;
-    }
-    stopped_here(out.end.into())
+    conclude(sys, y0, params, &out, evaluations, scale.is_some())
 }
 
 /// The loosest relative tolerance of the fast path's nonlinear phase (a looser scenario rtol is

@@ -29,13 +29,21 @@ pub enum StepModel {
 }
 
 impl StepModel {
-    /// The model's name in files and on the command line.
+    /// Every step model, in the order their names are listed to users.
+    pub const ALL: [StepModel; 3] = [StepModel::Pivot, StepModel::Dynamic, StepModel::Coils];
+
+    /// The model's name in scenarios, on the command line and in result files.
     pub fn name(self) -> &'static str {
         match self {
             StepModel::Pivot => "pivot",
             StepModel::Dynamic => "dynamic",
             StepModel::Coils => "coils",
         }
+    }
+
+    /// The model of a name written by [`StepModel::name`].
+    pub fn from_name(name: &str) -> Option<StepModel> {
+        StepModel::ALL.into_iter().find(|m| m.name() == name)
     }
 
     /// What a step of the model switches: "pairs" or "coils" (for messages).

@@ -5,7 +5,7 @@
 //! step source for the searches of `search` (the paper's three greedy schemes, a beam search
 //! and a best-first branch and bound).
 
-use crate::model::geometry::{Orientation, Radians, UnitVec};
+use crate::model::geometry::{Degrees, Orientation, Radians, UnitVec};
 use crate::planning::coilsets::CoilSets;
 use crate::planning::commutation::{
     candidate_steps, evaluate_proposals, initial_states, predicted_orientation, proposals_within,
@@ -54,6 +54,29 @@ impl Scheme {
 
     pub fn from_name(s: &str) -> Option<Scheme> {
         Scheme::ALL.into_iter().find(|x| x.name() == s)
+    }
+
+    /// The scheme named `s`, or what was expected instead.
+    pub fn parse(s: &str) -> std::result::Result<Scheme, String> {
+        Scheme::from_name(s).ok_or_else(|| {
+            let names: Vec<&str> = Scheme::ALL.iter().map(|x| x.name()).collect();
+            format!("one of {}, got \"{s}\"", names.join(", "))
+        })
+    }
+}
+
+/// The largest target angle a plan may ask for, degrees.
+pub const MAX_TARGET_DEG: f64 = 3600.0;
+
+/// A target angle given in degrees, checked to lie in (0, [`MAX_TARGET_DEG`]], or what was
+/// expected instead.
+pub fn target_angle(deg: f64) -> std::result::Result<Radians, String> {
+    if deg.is_finite() && deg > 0.0 && deg <= MAX_TARGET_DEG {
+        Ok(Degrees(deg).to_radians())
+    } else {
+        Err(format!(
+            "a target angle in (0, {MAX_TARGET_DEG}] degrees, got {deg}"
+        ))
     }
 }
 

@@ -111,110 +111,60 @@ impl RelaySettings {
     /// Checks a `[relay]` section; `prefix` is how fields are named in errors (`relay.` in a
     /// scenario, empty in a map file).
     pub fn from_config(raw: RelayConfig, file: &Path, prefix: &str) -> Result<RelaySettings> {
-        let err = |field: &str, expected: String| {
-            Error::field(file, &format!("{prefix}{field}"), expected)
-        };
-        let int = |field: &str, v: Option<i64>, lo: i64, hi: i64| -> Result<Option<i64>> {
-            match v {
-                Some(x) if x < lo || x > hi => {
-                    Err(err(field, format!("an integer in {lo}..={hi}, got {x}")))
-                }
-                v => Ok(v),
-            }
-        };
-        let positive = |field: &str, v: Option<f64>, default: f64| -> Result<f64> {
-            match v {
-                None => Ok(default),
-                Some(x) if x.is_finite() && x > 0.0 => Ok(x),
-                Some(x) => Err(err(field, format!("a finite number > 0, got {x}"))),
-            }
-        };
+        let f = Fields { file, prefix };
         let board = match raw.board.as_deref() {
             None => None,
-            Some(s) => Some(s.parse::<BoardKind>().map_err(|m| err("board", m))?),
+            Some(s) => Some(s.parse::<BoardKind>().map_err(|m| f.err("board", m))?),
         };
-        let baud = int("baud", raw.baud, 1, 4_000_000)?.map(|b| b as u32);
-        let slave_address = int("slave_address", raw.slave_address, 1, 247)?
-            .map_or(DEFAULT_SLAVE_ADDRESS, |a| a as u8);
-        let channels = int(
-            "channels",
-            raw.channels,
-            1,
-            i64::from(super::modbus::MAX_CHANNELS),
-        )?
-        .map(|c| c as u16);
+        let max_channels = i64::from(super::modbus::MAX_CHANNELS);
+        let channels = f
+            .int("channels", raw.channels, 1, max_channels)?
+            .map(|c| c as u16);
         if let (Some(b), Some(c)) = (board, channels) {
             if c > b.max_channels() {
-                return Err(err(
-                    "channels",
-                    format!(
-                        "at most {} for a {b} board, got {c}{}",
-                        b.max_channels(),
-                        if b == BoardKind::Lcus {
-                            " (16 coils need a bigger board, e.g. numato or modbus, or two boards)"
-                        } else {
-                            ""
-                        }
-                    ),
-                ));
+                let hint = match b {
+                    BoardKind::Lcus => {
+                        " (16 coils need a bigger board, e.g. numato or modbus, or two boards)"
+                    }
+                    _ => "",
+                };
+                let limit = b.max_channels();
+                let expected = format!("at most {limit} for a {b} board, got {c}{hint}");
+                return Err(f.err("channels", expected));
             }
         }
-        let timeout = positive("timeout_ms", raw.timeout_ms, DEFAULT_TIMEOUT_MS)?;
-        let max_coils_on = int("max_coils_on", raw.max_coils_on, 1, 1000)?
-            .map_or(DEFAULT_MAX_COILS_ON, |m| m as usize);
-        let max_on_time = positive("max_on_time_s", raw.max_on_time_s, DEFAULT_MAX_ON_TIME_S)?;
-        let dwell_factor = positive("dwell_factor", raw.dwell_factor, DEFAULT_DWELL_FACTOR)?;
+        let ms = |x: f64| Duration::from_secs_f64(x / 1000.0);
         let dwell_floor_ms = match raw.dwell_floor_ms {
             None => DEFAULT_DWELL_FLOOR_MS,
             Some(x) if x.is_finite() && x >= 0.0 => x,
             Some(x) => {
-                return Err(err(
-                    "dwell_floor_ms",
-                    format!("a finite number >= 0, got {x}"),
-                ))
-            }
-        };
-        let map = match raw.map {
-            None => CoilMap::Default,
-            Some(m) => {
-                let mut out = BTreeMap::new();
-                let mut used: BTreeMap<Channel, CoilId> = BTreeMap::new();
-                for (k, v) in m {
-                    let field = format!("map.{k}");
-                    let coil = k.trim().parse::<usize>().map(CoilId).map_err(|_| {
-                        err(
-                            &field,
-                            format!("a coil index (0, 1, ...) as the key, got '{k}'"),
-                        )
-                    })?;
-                    let ch = int(&field, Some(v), 1, i64::from(u16::MAX))?
-                        .map(|c| Channel(c as u16))
-                        .unwrap_or(Channel(1));
-                    if let Some(other) = used.insert(ch, coil) {
-                        return Err(err(
-                            &field,
-                            format!(
-                                "a channel no other coil uses, got {ch}, already coil {other}'s"
-                            ),
-                        ));
-                    }
-                    out.insert(coil, ch);
-                }
-                CoilMap::Explicit(out)
+                let expected = format!("a finite number >= 0, got {x}");
+                return Err(f.err("dwell_floor_ms", expected));
             }
         };
         Ok(RelaySettings {
             board,
-            baud,
-            slave_address,
+            baud: f.int("baud", raw.baud, 1, 4_000_000)?.map(|b| b as u32),
+            slave_address: f
+                .int("slave_address", raw.slave_address, 1, 247)?
+                .map_or(DEFAULT_SLAVE_ADDRESS, |a| a as u8),
             channels,
-            timeout: Duration::from_secs_f64(timeout / 1000.0),
-            max_coils_on,
-            max_on_time: Duration::from_secs_f64(max_on_time),
-            dwell_factor,
-            dwell_floor: Duration::from_secs_f64(dwell_floor_ms / 1000.0),
+            timeout: ms(f.positive("timeout_ms", raw.timeout_ms, DEFAULT_TIMEOUT_MS)?),
+            max_coils_on: f
+                .int("max_coils_on", raw.max_coils_on, 1, 1000)?
+                .map_or(DEFAULT_MAX_COILS_ON, |m| m as usize),
+            max_on_time: Duration::from_secs_f64(f.positive(
+                "max_on_time_s",
+                raw.max_on_time_s,
+                DEFAULT_MAX_ON_TIME_S,
+            )?),
+            dwell_factor: f.positive("dwell_factor", raw.dwell_factor, DEFAULT_DWELL_FACTOR)?,
+            dwell_floor: ms(dwell_floor_ms),
             order: raw.order.unwrap_or_default(),
-            map,
+            map: match raw.map {
+                None => CoilMap::Default,
+                Some(m) => coil_map(&f, m)?,
+            },
         })
     }
 
@@ -226,12 +176,64 @@ impl RelaySettings {
         })?;
         RelaySettings::from_config(raw, path, "")
     }
+}
 
-    /// Reads a TOML map file.
-    pub fn load_map(path: &Path) -> Result<RelaySettings> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        RelaySettings::from_map_toml(&text, path)
+/// How the fields of a `[relay]` section are named in errors: the file and the prefix.
+struct Fields<'a> {
+    file: &'a Path,
+    prefix: &'a str,
+}
+
+impl Fields<'_> {
+    fn err(&self, field: &str, expected: String) -> Error {
+        Error::field(self.file, &format!("{}{field}", self.prefix), expected)
     }
+
+    /// An optional integer in `lo..=hi`.
+    fn int(&self, field: &str, v: Option<i64>, lo: i64, hi: i64) -> Result<Option<i64>> {
+        match v {
+            Some(x) if x < lo || x > hi => {
+                Err(self.err(field, format!("an integer in {lo}..={hi}, got {x}")))
+            }
+            v => Ok(v),
+        }
+    }
+
+    /// An optional finite number > 0, `default` when absent.
+    fn positive(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
+        match v {
+            None => Ok(default),
+            Some(x) if x.is_finite() && x > 0.0 => Ok(x),
+            Some(x) => Err(self.err(field, format!("a finite number > 0, got {x}"))),
+        }
+    }
+}
+
+/// The `[relay.map]` table: coil index -> channel, each channel used once.
+fn coil_map(f: &Fields, m: BTreeMap<String, i64>) -> Result<CoilMap> {
+    let mut out = BTreeMap::new();
+    let mut used: BTreeMap<Channel, CoilId> = BTreeMap::new();
+    for (k, v) in m {
+        let field = format!("map.{k}");
+        let coil = k.trim().parse::<usize>().map(CoilId).map_err(|_| {
+            f.err(
+                &field,
+                format!("a coil index (0, 1, ...) as the key, got '{k}'"),
+            )
+        })?;
+        let ch = f
+            .int(&field, Some(v), 1, i64::from(u16::MAX))?
+            .map(|c| Channel(c as u16))
+            .unwrap_or(Channel(1));
+        if let Some(other) = used.insert(ch, coil) {
+            return Err(f.err(
+                &field,
+                format!("a channel no other coil uses, got {ch}, already coil {other}'s"),
+            ));
+        }
+        out.insert(coil, ch);
+    }
+    Ok(CoilMap::Explicit(out))
 }
 
 #[cfg(test)]

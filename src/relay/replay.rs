@@ -125,49 +125,9 @@ pub fn schedule(
             let ch = channel_of(p.coil, row.step, settings, board, channels, stator_coils)?;
             target.insert(ch, p.coil);
         }
-        let ons: Vec<Switch> = target
-            .iter()
-            .filter(|(ch, _)| !prev.contains_key(ch))
-            .map(|(&channel, &coil)| Switch {
-                coil,
-                channel,
-                on: true,
-            })
-            .collect();
-        let offs: Vec<Switch> = prev
-            .iter()
-            .filter(|(ch, _)| !target.contains_key(ch))
-            .map(|(&channel, &coil)| Switch {
-                coil,
-                channel,
-                on: false,
-            })
-            .collect();
-        let (switches, peak) = match settings.order {
-            SwitchOrder::MakeBeforeBreak => (
-                ons.iter().chain(&offs).copied().collect(),
-                prev.len() + ons.len(),
-            ),
-            SwitchOrder::BreakBeforeMake => (
-                offs.iter().chain(&ons).copied().collect(),
-                prev.len().max(target.len()),
-            ),
-        };
+        let (switches, peak) = transition(&prev, &target, settings.order);
         if peak > settings.max_coils_on {
-            let mut all: Vec<String> = prev
-                .values()
-                .chain(target.values())
-                .map(|c| c.to_string())
-                .collect::<BTreeSet<_>>()
-                .into_iter()
-                .collect();
-            all.sort_by_key(|s| s.parse::<usize>().unwrap_or(usize::MAX));
-            return Err(RelayError::TooManyOn {
-                step: row.step,
-                count: peak,
-                max: settings.max_coils_on,
-                coils: format!("coils {}", all.join(", ")),
-            });
+            return Err(too_many_on(row.step, peak, &prev, &target, settings));
         }
         entries.push(Entry {
             step: row.step,
@@ -187,6 +147,51 @@ pub fn schedule(
         channels,
         entries,
     })
+}
+
+/// The switching from what is on (`prev`, by channel) to `target`, in the order it is sent,
+/// and the most coils on at any moment of it.
+fn transition(
+    prev: &BTreeMap<Channel, CoilId>,
+    target: &BTreeMap<Channel, CoilId>,
+    order: SwitchOrder,
+) -> (Vec<Switch>, usize) {
+    let switches = |from: &BTreeMap<Channel, CoilId>, to: &BTreeMap<Channel, CoilId>, on| {
+        from.iter()
+            .filter(|(ch, _)| !to.contains_key(ch))
+            .map(|(&channel, &coil)| Switch { coil, channel, on })
+            .collect::<Vec<_>>()
+    };
+    let ons = switches(target, prev, true);
+    let offs = switches(prev, target, false);
+    match order {
+        SwitchOrder::MakeBeforeBreak => (
+            ons.iter().chain(&offs).copied().collect(),
+            prev.len() + ons.len(),
+        ),
+        SwitchOrder::BreakBeforeMake => (
+            offs.iter().chain(&ons).copied().collect(),
+            prev.len().max(target.len()),
+        ),
+    }
+}
+
+/// The error of a step that would have `peak` coils on at once, naming them.
+fn too_many_on(
+    step: usize,
+    peak: usize,
+    prev: &BTreeMap<Channel, CoilId>,
+    target: &BTreeMap<Channel, CoilId>,
+    settings: &RelaySettings,
+) -> RelayError {
+    let coils: BTreeSet<CoilId> = prev.values().chain(target.values()).copied().collect();
+    let names: Vec<String> = coils.iter().map(|c| c.to_string()).collect();
+    RelayError::TooManyOn {
+        step,
+        count: peak,
+        max: settings.max_coils_on,
+        coils: format!("coils {}", names.join(", ")),
+    }
 }
 
 fn channel_of(
@@ -351,10 +356,44 @@ pub fn execute(
         Some(p) => Some(Log::open(p)?),
         None => None,
     };
-    let o = |e: std::io::Error| RelayError::Log {
-        path: "<stdout>".into(),
-        source: e,
+    let s = &prep.schedule;
+    print_header(out, prep, &port, dry_run).map_err(stdout_error)?;
+    let mut r = Runner {
+        board: board.as_mut(),
+        out,
+        log,
+        start: Instant::now(),
+        virtual_t: Duration::ZERO,
+        dry_run,
+        stop,
+        input,
+        mode: prep.drive.mode,
+        verify: prep.drive.verify,
+        max_on_time: prep.settings.max_on_time,
+        on_since: BTreeMap::new(),
+        next_step: prep.drive.from_step,
+        steps_done: 0,
     };
+    r.log_start(prep.drive.from_step)?;
+    let result = r.drive(s);
+    r.finish(result)
+}
+
+/// A failed write of the replay's report.
+fn stdout_error(source: std::io::Error) -> RelayError {
+    RelayError::Log {
+        path: "<stdout>".into(),
+        source,
+    }
+}
+
+/// The replay's first lines: where it goes, the board and its settings, then the column heads.
+fn print_header(
+    out: &mut dyn Write,
+    prep: &Prepared,
+    port: &str,
+    dry_run: bool,
+) -> std::io::Result<()> {
     let s = &prep.schedule;
     writeln!(
         out,
@@ -382,64 +421,13 @@ pub fn execute(
         },
         prep.drive.from_step,
         s.entries.last().map_or(0, |e| e.step),
-    )
-    .map_err(o)?;
+    )?;
     writeln!(
         out,
         "{:>9} {:>5} {:<8} {:>5} {:>7}  bytes",
         "t_s", "step", "action", "coil", "channel"
-    )
-    .map_err(o)?;
-    let mut r = Runner {
-        board: board.as_mut(),
-        out,
-        log,
-        start: Instant::now(),
-        virtual_t: Duration::ZERO,
-        dry_run,
-        stop,
-        input,
-        mode: prep.drive.mode,
-        verify: prep.drive.verify,
-        max_on_time: prep.settings.max_on_time,
-        on_since: BTreeMap::new(),
-        next_step: prep.drive.from_step,
-        steps_done: 0,
-    };
-    r.log_start(prep.drive.from_step)?;
-    let result = r.drive(s);
-    let off = r.board.all_off();
-    r.on_since.clear();
-    // Record whatever went out of the all-off, even when it failed half way.
-    let shown = r.emit(None, "all-off", None, None);
-    let flushed = r.flush_log();
-    let next = r.next_step;
-    match (result, off) {
-        (Ok(quit), Ok(())) => {
-            shown?;
-            flushed?;
-            let msg = if quit {
-                format!("quit before step {next}; all coils off; resume with --from-step {next}")
-            } else {
-                format!("done: {} step(s) replayed; all coils off", r.steps_done)
-            };
-            writeln!(r.out, "{msg}").map_err(o)?;
-            Ok(Summary {
-                steps_done: r.steps_done,
-                next_step: next,
-                quit,
-            })
-        }
-        (Ok(_), Err(off)) => Err(RelayError::EndOffFailed(Box::new(off))),
-        (Err(e), Ok(())) => Err(RelayError::Stopped {
-            cause: Box::new(e),
-            resume: next,
-        }),
-        (Err(e), Err(off)) => Err(RelayError::OffFailed {
-            cause: Box::new(e),
-            off: Box::new(off),
-        }),
-    }
+    )?;
+    Ok(())
 }
 
 /// Spawns a thread that forwards standard input line by line (for step mode).
@@ -540,10 +528,7 @@ impl Runner<'_> {
     }
 
     fn say(&mut self, line: &str) -> Result<(), RelayError> {
-        writeln!(self.out, "{line}").map_err(|e| RelayError::Log {
-            path: "<stdout>".into(),
-            source: e,
-        })
+        writeln!(self.out, "{line}").map_err(stdout_error)
     }
 
     /// Prints and logs the frames the board sent since the last call.
@@ -655,10 +640,7 @@ impl Runner<'_> {
     /// on-time limit.
     fn wait_enter(&mut self, prompt: &str) -> Result<bool, RelayError> {
         self.say(prompt)?;
-        self.out.flush().map_err(|e| RelayError::Log {
-            path: "<stdout>".into(),
-            source: e,
-        })?;
+        self.out.flush().map_err(stdout_error)?;
         if self.dry_run {
             return Ok(true);
         }
@@ -677,6 +659,92 @@ impl Runner<'_> {
     }
 
     /// The replay proper; returns whether the user quit. The caller switches all off after.
+    /// Sends an entry's switching in order, recording what went out even when the board then
+    /// failed to answer.
+    fn switch(&mut self, e: &Entry) -> Result<(), RelayError> {
+        for sw in &e.switches {
+            self.check_stop()?;
+            let r = self.board.set(sw.channel, sw.on);
+            if sw.on {
+                let t = self.now();
+                self.on_since.insert(sw.channel, (sw.coil, t, e.step));
+            } else {
+                self.on_since.remove(&sw.channel);
+            }
+            let action = match (e.hold, sw.on) {
+                (true, _) => "hold",
+                (false, true) => "on",
+                (false, false) => "off",
+            };
+            self.emit(Some(e.step), action, Some(sw.coil), Some(sw.channel))?;
+            r?;
+        }
+        Ok(())
+    }
+
+    /// Reads the relays back (boards that can) and compares them with what the entry leaves on.
+    fn verify_entry(&mut self, e: &Entry) -> Result<(), RelayError> {
+        let states = self.board.read_states();
+        self.emit(Some(e.step), "read", None, None)?;
+        let Some(states) = states? else {
+            return Ok(());
+        };
+        let got: Vec<Channel> = states
+            .iter()
+            .enumerate()
+            .filter(|(_, on)| **on)
+            .map(|(i, _)| Channel(i as u16 + 1))
+            .collect();
+        let expected: Vec<Channel> = e.on_after.keys().copied().collect();
+        if got != expected {
+            return Err(RelayError::Mismatch {
+                step: e.step,
+                expected,
+                got,
+            });
+        }
+        Ok(())
+    }
+
+    /// Ends a replay whatever happened: every channel off (tried even after an error), the
+    /// all-off recorded, and the outcome of the replay and of the all-off reported together.
+    fn finish(&mut self, result: Result<bool, RelayError>) -> Result<Summary, RelayError> {
+        let off = self.board.all_off();
+        self.on_since.clear();
+        // Record whatever went out of the all-off, even when it failed half way.
+        let shown = self.emit(None, "all-off", None, None);
+        let flushed = self.flush_log();
+        let next = self.next_step;
+        match (result, off) {
+            (Ok(quit), Ok(())) => {
+                shown?;
+                flushed?;
+                let msg = if quit {
+                    format!(
+                        "quit before step {next}; all coils off; resume with --from-step {next}"
+                    )
+                } else {
+                    format!("done: {} step(s) replayed; all coils off", self.steps_done)
+                };
+                writeln!(self.out, "{msg}").map_err(stdout_error)?;
+                Ok(Summary {
+                    steps_done: self.steps_done,
+                    next_step: next,
+                    quit,
+                })
+            }
+            (Ok(_), Err(off)) => Err(RelayError::EndOffFailed(Box::new(off))),
+            (Err(e), Ok(())) => Err(RelayError::Stopped {
+                cause: Box::new(e),
+                resume: next,
+            }),
+            (Err(e), Err(off)) => Err(RelayError::OffFailed {
+                cause: Box::new(e),
+                off: Box::new(off),
+            }),
+        }
+    }
+
     fn drive(&mut self, s: &Schedule) -> Result<bool, RelayError> {
         self.check_stop()?;
         let r = self.board.all_off();
@@ -695,45 +763,9 @@ impl Runner<'_> {
                     return Ok(true);
                 }
             }
-            let action_step = Some(e.step);
-            for sw in &e.switches {
-                self.check_stop()?;
-                let r = self.board.set(sw.channel, sw.on);
-                if sw.on {
-                    let t = self.now();
-                    self.on_since.insert(sw.channel, (sw.coil, t, e.step));
-                } else {
-                    self.on_since.remove(&sw.channel);
-                }
-                let action = match (e.hold, sw.on) {
-                    (true, _) => "hold",
-                    (false, true) => "on",
-                    (false, false) => "off",
-                };
-                // Log what went out even when the board then failed to answer.
-                self.emit(action_step, action, Some(sw.coil), Some(sw.channel))?;
-                r?;
-            }
+            self.switch(e)?;
             if self.verify {
-                let states = self.board.read_states();
-                self.emit(action_step, "read", None, None)?;
-                let states = states?;
-                if let Some(states) = states {
-                    let got: Vec<Channel> = states
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, on)| **on)
-                        .map(|(i, _)| Channel(i as u16 + 1))
-                        .collect();
-                    let expected: Vec<Channel> = e.on_after.keys().copied().collect();
-                    if got != expected {
-                        return Err(RelayError::Mismatch {
-                            step: e.step,
-                            expected,
-                            got,
-                        });
-                    }
-                }
+                self.verify_entry(e)?;
             }
             if self.mode == Mode::Realtime {
                 let t = format!("{:.3}", self.now().as_secs_f64());
