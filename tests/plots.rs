@@ -2,7 +2,7 @@
 //! right size and are not blank, identical bytes for identical input, and `plot_csv` on plan,
 //! sweep and bad CSVs. Set SPHERESTEP_KEEP_PLOTS=DIR to keep the pictures for a look.
 
-use spherestep::figures::plots::{
+use spherestep::figures::{
     plot_csv, render_svg, write_figure, AxisErrorPlot, CommutationPlot, ErrorSeries, Figure,
     ReferenceLine, SweepMap, View3d,
 };
@@ -279,7 +279,7 @@ fn figure7_axis_error() {
     }
     // Each series' markers are drawn in its colour: one outline per point, plus its legend's.
     for (k, s) in fig.series.iter().enumerate() {
-        let c = spherestep::figures::plots::series_style(k).color;
+        let c = spherestep::figures::series_style(k).color;
         let hex = format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
         assert!(
             polylines_w(&svg, &hex, 2) > s.points.len(),
@@ -397,7 +397,7 @@ fn plot_csv_plan() {
     let svg = std::fs::read_to_string(&files[0]).unwrap();
     assert_well_formed(&svg);
     // A marker per step (4) and in the legend, in the first series' colour.
-    let c = spherestep::figures::plots::series_style(0).color;
+    let c = spherestep::figures::series_style(0).color;
     let hex = format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
     assert_eq!(polylines_w(&svg, &hex, 2), 4 + 1);
     assert!(has_text(&svg, "plan_z"));
@@ -545,7 +545,7 @@ fn huge_sweep_values_are_refused_not_drawn_for_ever() {
 /// frame; the labels say "cumulative"; the target is marked.
 #[test]
 fn scheme_figures_tell_their_series_apart() {
-    use spherestep::figures::plots::{series_style, SERIES_COLORS};
+    use spherestep::figures::{series_style, SERIES_COLORS};
     let styles: Vec<_> = (0..4).map(series_style).collect();
     for a in 0..styles.len() {
         for b in a + 1..styles.len() {
@@ -672,7 +672,7 @@ fn label_boxes(svg: &str, wanted: &[(String, u32)]) -> Vec<NamedBox> {
                 .unwrap_or_else(|| panic!("label {body} drawn from its top left"));
             let x = attr(a, "x").unwrap().parse::<f64>().unwrap() as i32;
             let y = attr(a, "y").unwrap().parse::<f64>().unwrap() as i32;
-            let (w, h) = spherestep::figures::plots::label_size(body, *px);
+            let (w, h) = spherestep::figures::label_size(body, *px);
             (body.clone(), (x, y, x + w, y + h))
         })
         .collect()
@@ -707,7 +707,7 @@ fn figure5_labels_do_not_overlap() {
             assert_eq!(attr(a, "text-anchor"), Some("start"));
             let x = attr(a, "x").unwrap().parse::<f64>().unwrap() as i32;
             let y = attr(a, "y").unwrap().parse::<f64>().unwrap() as i32;
-            let (w, h) = spherestep::figures::plots::label_size(&n.to_string(), 12);
+            let (w, h) = spherestep::figures::label_size(&n.to_string(), 12);
             boxes.push((format!("{color} {n}"), (x, y, x + w, y + h)));
         }
     }
@@ -744,7 +744,7 @@ fn figure6_labels_do_not_overlap() {
 
 #[test]
 fn place_labels_avoids_taken_places() {
-    use spherestep::figures::plots::place_labels;
+    use spherestep::figures::place_labels;
     // Three points in a row, 12 px apart: no two boxes meet, none covers a mark.
     let at = [(100, 100), (112, 100), (124, 100)];
     let sizes = [(16, 12); 3];
@@ -784,8 +784,7 @@ fn sweep_maps_mark_unreached_cases_and_coil_axes() {
     }
     let csv = write(dir.path(), "sw.csv", &text);
     let coils = [[0.0, 0.0, -1.0], [0.5, 0.0, -0.8]];
-    let files =
-        spherestep::figures::plots::plot_csv_with_coils(&csv, None, Some("t"), &coils).unwrap();
+    let files = spherestep::figures::plot_csv_with_coils(&csv, None, Some("t"), &coils).unwrap();
     let svg = std::fs::read_to_string(&files[0]).unwrap();
     assert!(has_text(&svg, "not reached") && has_text(&svg, "coil axis"));
     // A cross is two black strokes of width 2: three unreached cases and the key's.

@@ -24,7 +24,7 @@ impl Args {
             out: dir,
             title,
         } = self;
-        for f in spherestep::figures::plots::plot_csv(&csv, dir.as_deref(), title.as_deref())? {
+        for f in spherestep::figures::plot_csv(&csv, dir.as_deref(), title.as_deref())? {
             writeln!(out, "wrote {}", f.display())?;
         }
         Ok(())

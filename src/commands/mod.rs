@@ -29,10 +29,8 @@ pub fn packing_report(sc: &Scenario, json: bool, out: &mut dyn Write) -> Result<
     let r = packing::report(&sc.rotor, &sc.stator);
     let w = write_err("<stdout>");
     if json {
-        let s = serde_json::to_string_pretty(&r).map_err(|e| Error::Arg {
-            arg: "--json".into(),
-            expected: e.to_string(),
-        })?;
+        let s =
+            serde_json::to_string_pretty(&r).map_err(|e| Error::json("the packing report", e))?;
         writeln!(out, "{s}").map_err(&w)?;
         return Ok(());
     }
@@ -299,10 +297,7 @@ pub fn plan_command(
         writeln!(
             out,
             "{}",
-            serde_json::to_string(&s).map_err(|e| Error::Arg {
-                arg: "--json".into(),
-                expected: e.to_string()
-            })?
+            serde_json::to_string(&s).map_err(|e| Error::json("the plan summary", e))?
         )
         .map_err(&w)?;
     } else {

@@ -1,14 +1,16 @@
 //! The pictures of a result: for a plan, the paper's Figure 5 (its initial commutation state),
 //! Figure 6 (a 3-D view of its final state), its Figure 7/8 curve and its interactive page;
 //! for a set of plans of one motion, one Figure 7/8 with a line per scheme; for a sweep, the
-//! maps of the worst axis error. Built from scenarios and result files, drawn by `plots`.
+//! maps of the worst axis error. Built from scenarios and result files, drawn by the figures'
+//! own modules.
 
 use crate::error::Result;
-use crate::figures::plots::{
-    plan_series, plot_csv_with_coils, write_figure, AxisErrorPlot, CommutationPlot, ReferenceLine,
-    View3d,
-};
+use crate::figures::axis_error::{plan_series, AxisErrorPlot, ErrorSeries, ReferenceLine};
+use crate::figures::commutation_plot::CommutationPlot;
+use crate::figures::figure::write_figure;
+use crate::figures::plot_csv::plot_csv_with_coils;
 use crate::figures::view;
+use crate::figures::view_3d::View3d;
 use crate::io::scenario::Scenario;
 use crate::model::geometry::{rotation_axis, UnitVec};
 use crate::planning::commutation::{filter_candidates, ERROR_BOUND_START};
@@ -27,9 +29,15 @@ fn reference(sc: &Scenario) -> Option<ReferenceLine> {
     })
 }
 
-/// The target angle of a scenario's motion, degrees.
-fn target_deg(sc: &Scenario) -> f64 {
-    sc.plan.angle.0.to_degrees()
+/// Figure 7/8 of a scenario's motion: the given series against the paper's bound and the
+/// target angle.
+fn axis_error_plot(sc: &Scenario, series: Vec<ErrorSeries>) -> AxisErrorPlot {
+    AxisErrorPlot {
+        title: format!("{}: cumulative axis error vs rotation angle", sc.name),
+        series,
+        reference: reference(sc),
+        target_deg: Some(sc.plan.angle.0.to_degrees()),
+    }
 }
 
 fn arr(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
@@ -126,12 +134,7 @@ pub fn plan_pictures(
         &base("fig6"),
     )?);
     out.extend(write_figure(
-        &AxisErrorPlot {
-            title: format!("{}: cumulative axis error vs rotation angle", sc.name),
-            series: vec![plan_series(label, rows)],
-            reference: reference(sc),
-            target_deg: Some(target_deg(sc)),
-        },
+        &axis_error_plot(sc, vec![plan_series(label, rows)]),
         &base("error"),
     )?);
     let page = dir.join(format!("{stem}.html"));
@@ -158,12 +161,10 @@ pub fn schemes_picture(
     stem: &str,
 ) -> Result<Vec<PathBuf>> {
     write_figure(
-        &AxisErrorPlot {
-            title: format!("{}: cumulative axis error vs rotation angle", sc.name),
-            series: plans.iter().map(|(n, rows)| plan_series(n, rows)).collect(),
-            reference: reference(sc),
-            target_deg: Some(target_deg(sc)),
-        },
+        &axis_error_plot(
+            sc,
+            plans.iter().map(|(n, rows)| plan_series(n, rows)).collect(),
+        ),
         &dir.join(format!("{stem}-schemes")),
     )
 }

@@ -128,98 +128,16 @@ pub fn view_data(
         line: 2,
         message: "expected at least one step row".into(),
     })?;
-    let q0 = first.q;
     let mut steps = Vec::with_capacity(plan.len());
     for (i, r) in plan.iter().enumerate() {
         // Rows are one line each (no quoted newlines in a plan), so row i is on line i + 2.
-        let line = i + 2;
-        for p in r.active.iter().chain(&r.new).chain(r.pivot.iter()) {
-            let bad = if p.coil.0 >= sc.stator.len() {
-                Some(format!(
-                    "coil {} is beyond the scenario's {} coils (0-based)",
-                    p.coil,
-                    sc.stator.len()
-                ))
-            } else if p.magnet.0 >= sc.rotor.len() {
-                Some(format!(
-                    "magnet {} is beyond the scenario's {} magnets (0-based)",
-                    p.magnet,
-                    sc.rotor.len()
-                ))
-            } else {
-                None
-            };
-            if let Some(m) = bad {
-                return Err(Error::Row {
-                    file: plan_path.to_path_buf(),
-                    line,
-                    message: format!("pair {p}: {m} (scenario {})", sc.path.display()),
-                });
-            }
-        }
-        let step_axis = if i == 0 {
-            None
-        } else {
-            rotation_axis(&(r.q * plan[i - 1].q.inverse())).map(|a| v3(&a))
-        };
-        let cum = r.q * q0.inverse();
-        steps.push(ViewStep {
-            step: r.step,
-            q: xyzw(&r.q),
-            active: r.active.iter().map(pair).collect(),
-            pivot: r.pivot.as_ref().map(pair),
-            new: r.new.iter().map(pair).collect(),
-            step_angle_deg: r.step_angle_deg,
-            step_axis_error_deg: r.step_axis_error_deg,
-            cum_angle_deg: r.cum_angle_deg,
-            cum_axis_error_deg: r.cum_axis_error_deg,
-            settle_time_s: r.settle_time_s,
-            step_axis,
-            cum_axis: rotation_axis(&cum).map(|a| v3(&a)),
-            cum_angle_from_q_deg: rotation_angle(&cum).0.to_degrees(),
-        });
+        check_pairs(r, i + 2, plan_path, sc)?;
+        let previous = i.checked_sub(1).map(|k| &plan[k]);
+        steps.push(view_step(r, previous, first));
     }
-    let desired_axis = match &opts.axis {
-        Some(a) => Some(DesiredAxis {
-            axis: v3(a),
-            source: AxisSource::Given,
-        }),
-        None => plan
-            .last()
-            .and_then(|r| rotation_axis(&(r.q * q0.inverse())))
-            .map(|a| DesiredAxis {
-                axis: v3(&a),
-                source: AxisSource::Inferred,
-            }),
-    };
     let sim = match &opts.sim {
         None => None,
-        Some(rows) => {
-            let mut out = Vec::with_capacity(rows.len());
-            for s in rows {
-                // Sim rows are matched by step number to the plan's rows.
-                let planned = plan
-                    .iter()
-                    .find(|r| r.step == s.step)
-                    .ok_or_else(|| Error::Arg {
-                        arg: "--sim".into(),
-                        expected: format!(
-                            "steps of the plan ({}..={}), got step {}",
-                            first.step,
-                            plan.last().map(|r| r.step).unwrap_or(first.step),
-                            s.step
-                        ),
-                    })?;
-                let computed = s.q.angle_to(&planned.q).to_degrees();
-                out.push(ViewSim {
-                    step: s.step,
-                    q: xyzw(&s.q),
-                    deviation_deg: s.deviation_deg.unwrap_or(computed),
-                    computed_deviation_deg: computed,
-                });
-            }
-            Some(out)
-        }
+        Some(rows) => Some(view_sim(rows, plan, first)?),
     };
     Ok(ViewData {
         version: 1,
@@ -230,10 +148,110 @@ pub fn view_data(
         scenario: sc.name.clone(),
         rotor: sc.rotor.points.iter().map(v3).collect(),
         stator: sc.stator.points.iter().map(v3).collect(),
-        desired_axis,
+        desired_axis: desired_axis(opts.axis.as_ref(), plan, first),
         steps,
         sim,
     })
+}
+
+/// Checks that every pair of plan row `r` (on line `line` of the plan file) names a coil and a
+/// magnet of the scenario.
+fn check_pairs(r: &PlanRow, line: usize, plan_path: &Path, sc: &Scenario) -> Result<()> {
+    for p in r.active.iter().chain(&r.new).chain(r.pivot.iter()) {
+        let bad = if p.coil.0 >= sc.stator.len() {
+            Some(format!(
+                "coil {} is beyond the scenario's {} coils (0-based)",
+                p.coil,
+                sc.stator.len()
+            ))
+        } else if p.magnet.0 >= sc.rotor.len() {
+            Some(format!(
+                "magnet {} is beyond the scenario's {} magnets (0-based)",
+                p.magnet,
+                sc.rotor.len()
+            ))
+        } else {
+            None
+        };
+        if let Some(m) = bad {
+            return Err(Error::Row {
+                file: plan_path.to_path_buf(),
+                line,
+                message: format!("pair {p}: {m} (scenario {})", sc.path.display()),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Plan row `r` as the page shows it, with the axis of its step from the `previous` row (none
+/// for the first) and of its cumulative rotation from the `first`.
+fn view_step(r: &PlanRow, previous: Option<&PlanRow>, first: &PlanRow) -> ViewStep {
+    let step_axis = previous
+        .and_then(|p| rotation_axis(&(r.q * p.q.inverse())))
+        .map(|a| v3(&a));
+    let cum = r.q * first.q.inverse();
+    ViewStep {
+        step: r.step,
+        q: xyzw(&r.q),
+        active: r.active.iter().map(pair).collect(),
+        pivot: r.pivot.as_ref().map(pair),
+        new: r.new.iter().map(pair).collect(),
+        step_angle_deg: r.step_angle_deg,
+        step_axis_error_deg: r.step_axis_error_deg,
+        cum_angle_deg: r.cum_angle_deg,
+        cum_axis_error_deg: r.cum_axis_error_deg,
+        settle_time_s: r.settle_time_s,
+        step_axis,
+        cum_axis: rotation_axis(&cum).map(|a| v3(&a)),
+        cum_angle_from_q_deg: rotation_angle(&cum).0.to_degrees(),
+    }
+}
+
+/// The desired axis: the one `given`, else the axis of the plan's whole rotation from its
+/// `first` row to its last (none if that is the identity).
+fn desired_axis(given: Option<&UnitVec>, plan: &[PlanRow], first: &PlanRow) -> Option<DesiredAxis> {
+    match given {
+        Some(a) => Some(DesiredAxis {
+            axis: v3(a),
+            source: AxisSource::Given,
+        }),
+        None => plan
+            .last()
+            .and_then(|r| rotation_axis(&(r.q * first.q.inverse())))
+            .map(|a| DesiredAxis {
+                axis: v3(&a),
+                source: AxisSource::Inferred,
+            }),
+    }
+}
+
+/// The simulated orientations as the page shows them, each matched by step number to the
+/// plan's row (`first` its first) and their deviation from it (an error for a step the plan
+/// does not have).
+fn view_sim(rows: &[SimRecord], plan: &[PlanRow], first: &PlanRow) -> Result<Vec<ViewSim>> {
+    let last = plan.last().map(|r| r.step).unwrap_or(first.step);
+    let mut out = Vec::with_capacity(rows.len());
+    for s in rows {
+        let planned = plan
+            .iter()
+            .find(|r| r.step == s.step)
+            .ok_or_else(|| Error::Arg {
+                arg: "--sim".into(),
+                expected: format!(
+                    "steps of the plan ({}..={last}), got step {}",
+                    first.step, s.step
+                ),
+            })?;
+        let computed = s.q.angle_to(&planned.q).to_degrees();
+        out.push(ViewSim {
+            step: s.step,
+            q: xyzw(&s.q),
+            deviation_deg: s.deviation_deg.unwrap_or(computed),
+            computed_deviation_deg: computed,
+        });
+    }
+    Ok(out)
 }
 
 /// The data as JSON safe to embed in an HTML `<script>` element: `<`, `>` and `&` are written
@@ -372,6 +390,15 @@ mod tests {
         assert!(e.contains("p.csv: line 4") && e.contains("coil 99"), "{e}");
     }
 
+    /// The page's data for [`plan`] on the prototype, with simulate results `sim`.
+    fn view_data_with_sim(sim: Vec<SimRecord>) -> Result<ViewData> {
+        let opts = ViewOptions {
+            sim: Some(sim),
+            ..Default::default()
+        };
+        view_data(&plan(), Path::new("p.csv"), &Scenario::prototype(), &opts)
+    }
+
     #[test]
     fn sim_file_is_checked_and_matched() {
         let e = parse_sim("step,qx,qy,qz\n0,0,0,0\n", Path::new("s.csv"))
@@ -390,33 +417,13 @@ mod tests {
             Path::new("s.csv"),
         )
         .unwrap();
-        let sc = Scenario::prototype();
-        let d = view_data(
-            &plan(),
-            Path::new("p.csv"),
-            &sc,
-            &ViewOptions {
-                sim: Some(rows),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let d = view_data_with_sim(rows).unwrap();
         let sim = d.sim.unwrap();
         assert!(sim[0].deviation_deg < 1e-3, "{:?}", sim[0]);
         assert_eq!(sim[1].deviation_deg, 7.5);
         assert!((sim[1].computed_deviation_deg - 0.2f64.to_degrees()).abs() < 1e-9);
         let far = parse_sim("step,qx,qy,qz,qw\n9,0,0,0,1\n", Path::new("s.csv")).unwrap();
-        let e = view_data(
-            &plan(),
-            Path::new("p.csv"),
-            &sc,
-            &ViewOptions {
-                sim: Some(far),
-                ..Default::default()
-            },
-        )
-        .unwrap_err()
-        .to_string();
+        let e = view_data_with_sim(far).unwrap_err().to_string();
         assert!(e.contains("--sim") && e.contains("step 9"), "{e}");
     }
 

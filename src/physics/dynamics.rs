@@ -106,8 +106,6 @@ pub struct SettleResult {
     pub energy_j: f64,
     /// |N_B| at the end, N m.
     pub residual_torque_nm: f64,
-    /// |w| at the end, rad/s.
-    pub omega_rad_s: f64,
     /// Whether the settle test passed before `t_max`.
     pub settled: bool,
     /// Why the settle ended (`Settled` exactly when `settled`).
@@ -815,7 +813,6 @@ fn finish<M: TorqueModel>(
         steps,
         energy_j: energy,
         residual_torque_nm: tau.norm(),
-        omega_rad_s: Vector3::new(y[4], y[5], y[6]).norm(),
         settled: stop == Stop::Settled,
         stop,
     }

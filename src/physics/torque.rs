@@ -3,7 +3,7 @@
 //! [`TorqueModel`] trait through which the dynamics sees them (so that another physical model,
 //! e.g. dipoles, can be added without touching the integrator).
 
-use crate::model::geometry::{Orientation, Pair, Radians};
+use crate::model::geometry::{Pair, Radians};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -372,12 +372,6 @@ impl MagnetTorques {
         lin.jacobian +=
             (s * p.transpose() - Matrix3::identity() * c) * f - u * u.transpose() * slope;
         Some(())
-    }
-
-    /// World positions of all magnets at `r` (used by callers that need the whole picture).
-    pub fn magnet_positions(&self, q: &Orientation) -> Vec<Vector3<f64>> {
-        let r = q.to_rotation_matrix();
-        self.rotor.iter().map(|m| r * m).collect()
     }
 
     /// The distinct coils of an active set, in order of first appearance.

@@ -5,8 +5,8 @@
 //! candidate set settled by the engine). The planner chooses among the steps made here.
 
 use crate::model::geometry::{
-    angular_distance, axis_error, rot_q, rotation_angle, signed_angle_about, CoilId, MagnetId,
-    Orientation, Pair, Radians, UnitVec,
+    angular_distance, axis_error, rot_q, signed_angle_about, CoilId, MagnetId, Orientation, Pair,
+    Radians, UnitVec,
 };
 use crate::physics::dynamics::{settle_many, Body, SettleParams};
 use crate::physics::torque::{MagnetTorques, Well};
@@ -168,6 +168,26 @@ pub struct CommutationState {
     pub active: Vec<Pair>,
     /// Predicted settle time of the move into this state, s (0 for the geometric model).
     pub settle_time_s: f64,
+}
+
+/// Weighs candidate sets from `from` in parallel: the state each settles to, `None` for a set
+/// that does not hold the ball (see [`Motor::weighing`]).
+pub fn settled_states(
+    motor: &Motor,
+    sets: Vec<Vec<Pair>>,
+    from: &Orientation,
+) -> Vec<Option<CommutationState>> {
+    settle_many(motor.torques, &sets, from, motor.body, motor.weighing())
+        .into_iter()
+        .zip(sets)
+        .map(|(r, active)| {
+            r.settled.then_some(CommutationState {
+                q: r.q,
+                active,
+                settle_time_s: r.settle_time_s,
+            })
+        })
+        .collect()
 }
 
 /// A candidate pair from the distance array.
@@ -796,15 +816,10 @@ pub fn rotation_axis_of_step(d: &Orientation) -> Option<UnitVec> {
     crate::model::geometry::rotation_axis(d)
 }
 
-/// Unsigned angle of a rotation between two orientations.
-pub fn angle_between(a: &Orientation, b: &Orientation) -> Radians {
-    rotation_angle(&(b * a.inverse()))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::geometry::unit;
+    use crate::model::geometry::{rotation_angle, unit};
 
     fn well(shape: crate::physics::torque::WellShape, max_deg: f64) -> Well {
         Well {

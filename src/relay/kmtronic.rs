@@ -50,10 +50,6 @@ impl RelayBoard for Kmtronic {
         BoardKind::Kmtronic
     }
 
-    fn channel_count(&self) -> u16 {
-        self.channels
-    }
-
     fn set(&mut self, channel: Channel, on: bool) -> Result<(), RelayError> {
         check_channel(BoardKind::Kmtronic, channel, self.channels)?;
         self.link.send(&frame(channel, on))

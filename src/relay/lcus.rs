@@ -38,10 +38,6 @@ impl RelayBoard for Lcus {
         BoardKind::Lcus
     }
 
-    fn channel_count(&self) -> u16 {
-        self.channels
-    }
-
     fn set(&mut self, channel: Channel, on: bool) -> Result<(), RelayError> {
         check_channel(BoardKind::Lcus, channel, self.channels)?;
         self.link.send(&frame(channel, on))

@@ -260,8 +260,6 @@ fn list(chs: &[Channel]) -> String {
 pub trait RelayBoard: Send {
     /// Which protocol this is.
     fn kind(&self) -> BoardKind;
-    /// How many channels the board has (as configured).
-    fn channel_count(&self) -> u16;
     /// Switches one channel on or off.
     fn set(&mut self, channel: Channel, on: bool) -> Result<(), RelayError>;
     /// Switches every channel off.

@@ -161,10 +161,6 @@ impl RelayBoard for Modbus {
         BoardKind::Modbus
     }
 
-    fn channel_count(&self) -> u16 {
-        self.channels
-    }
-
     fn set(&mut self, channel: Channel, on: bool) -> Result<(), RelayError> {
         check_channel(BoardKind::Modbus, channel, self.channels)?;
         let req = write_single_coil(self.slave, channel, on);

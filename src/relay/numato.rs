@@ -92,10 +92,6 @@ impl RelayBoard for Numato {
         BoardKind::Numato
     }
 
-    fn channel_count(&self) -> u16 {
-        self.channels
-    }
-
     fn set(&mut self, channel: Channel, on: bool) -> Result<(), RelayError> {
         check_channel(BoardKind::Numato, channel, self.channels)?;
         self.command(&set_command(channel, on)).map(|_| ())
