@@ -632,26 +632,6 @@ pub fn admissible(
     (angle.0 >= limits.min_angle.0 && err.0 <= limits.max_axis_error.0).then_some((to, angle, err))
 }
 
-/// Settles every set from rest at `q`, in parallel, with the weighing settle
-/// ([`Motor::weighing`]): the state each holds the ball in, `None` where it does not settle.
-pub fn settled_states(
-    motor: &Motor,
-    sets: Vec<Vec<Pair>>,
-    q: &Orientation,
-) -> Vec<Option<CommutationState>> {
-    settle_many(motor.torques, &sets, q, motor.body, motor.weighing())
-        .into_iter()
-        .zip(sets)
-        .map(|(r, active)| {
-            r.settled.then_some(CommutationState {
-                q: r.q,
-                active,
-                settle_time_s: r.settle_time_s,
-            })
-        })
-        .collect()
-}
-
 /// Whether every active pair of a state has its magnet within `capture` of its coil.
 pub fn holds(torques: &MagnetTorques, state: &CommutationState, capture: Radians) -> bool {
     let r = state.q.to_rotation_matrix();
