@@ -88,7 +88,7 @@ fn a_coil_set_plan_is_what_the_broad_wells_do_and_a_pair_plan_is_not() {
     assert!(p.reached, "{:?}", p.message);
     assert_eq!(p.summary(&s).model, "coils");
     let worst = max_axis_error_deg(&p.rows);
-    assert!(worst < 15.0, "worst cumulative axis error {worst}");
+    assert!(worst < 5.0, "worst cumulative axis error {worst}");
     for r in simulate(&broad.motor(), &p.rows) {
         assert!(
             r.deviation_deg < 1e-6,
