@@ -3,16 +3,16 @@
 
 mod common;
 
+use common::csv_bytes;
 use nalgebra::Vector3;
 use spherestep::commands::{plan_settings, PlanOverrides};
-use spherestep::io::planfile::write_plan;
 use spherestep::io::scenario::Scenario;
 use spherestep::model::geometry::{angular_distance, unit, Pair, Radians, UnitVec};
 use spherestep::physics::torque::{Interaction, MagnetTorques};
 use spherestep::planning::commutation::{
     filter_candidates, filter_deviations, pivot_step, rotation_axis_of_step, ERROR_BOUND_START,
 };
-use spherestep::planning::planner::{max_axis_error_deg, plan, Plan, PlanSettings};
+use spherestep::planning::planner::{max_axis_error_deg, plan, PlanSettings};
 use std::path::Path;
 
 fn load(name: &str) -> Scenario {
@@ -31,12 +31,6 @@ fn settings(sc: &Scenario, axis: &str, scheme: &str, model: &str, pairs: &str) -
         },
     )
     .unwrap()
-}
-
-fn csv_bytes(p: &Plan) -> Vec<u8> {
-    let mut b = Vec::new();
-    write_plan(&p.rows, &mut b).unwrap();
-    b
 }
 
 #[test]

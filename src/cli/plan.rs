@@ -21,11 +21,14 @@ pub struct Args {
     /// min-axis-error, max-angle, weighted (the paper's) or search.
     #[arg(long)]
     pub scheme: Option<String>,
-    /// Step model: pivot (paper 3.2) or dynamic (paper 3.4).
+    /// Step model: pivot (paper 3.2), dynamic (paper 3.4) or coils (coil sets, every coil
+    /// pulling what the physics says). Default: the scenario's `[plan] model`, else dynamic
+    /// where the pair model describes the physics and coils where it does not.
     #[arg(long)]
     pub model: Option<String>,
     /// Pairs on after each step: K, or 2-K to choose per step (dynamic model: up to 8;
-    /// default 2-4 for the dynamic model, 2 for the pivot model).
+    /// default 2-4 for the dynamic model, 2 for the pivot model); coils on for the coil-set
+    /// model (default 2-4).
     #[arg(long)]
     pub pairs: Option<String>,
     /// Start orientation qx,qy,qz,qw (default: the scenario's, else identity).

@@ -12,8 +12,14 @@ use std::path::PathBuf;
 pub struct Args {
     /// Plan CSV (from `plan --out`).
     pub plan: PathBuf,
-    /// Scenario to simulate in (default: the built-in prototype).
+    /// Scenario to simulate in (default: the built-in prototype); with --plant, the scenario
+    /// the plan was made for (its pairs are checked against it).
     pub scenario: Option<PathBuf>,
+    /// Replay in this scenario's physics instead (the plant: its wells, interaction, body and
+    /// settle), to measure the model error of a plan made for another physics. Its packings
+    /// must be the plan's.
+    #[arg(long)]
+    pub plant: Option<PathBuf>,
     /// Write the per-step CSV here (else it goes alone to standard output, the summary to
     /// standard error).
     #[arg(long)]
@@ -28,6 +34,7 @@ impl Args {
         let Args {
             plan,
             scenario,
+            plant,
             out: out_file,
             json,
         } = self;
@@ -35,7 +42,8 @@ impl Args {
             Some(p) => Scenario::load(&p)?,
             None => Scenario::prototype(),
         };
-        let sim = app::simulate_plan(&sc, &plan)?;
+        let plant = plant.map(|p| Scenario::load(&p)).transpose()?;
+        let sim = app::simulate_plan_in(&sc, plant.as_ref(), &plan)?;
         let mut buf = Vec::new();
         spherestep::io::simfile::write_sim(&sim, &mut buf)?;
         // Without --out the CSV alone goes to standard output, the summary to standard error.

@@ -252,7 +252,7 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
     if let Some(m) = &o.model {
         s.model = StepModel::from_name(m).ok_or_else(|| Error::Arg {
             arg: "--model".into(),
-            expected: format!("pivot or dynamic, got '{m}'"),
+            expected: format!("pivot, dynamic or coils, got '{m}'"),
         })?;
         if o.pairs.is_none() {
             s.pairs = default_pairs_per_step(s.model);
@@ -309,7 +309,7 @@ pub fn plan_command(
         };
         let ax = settings.axis;
         let mut text = format!(
-            "{}: {} steps about [{:.4}, {:.4}, {:.4}] by {:.2} deg ({} model, {} pairs, {}): \
+            "{}: {} steps about [{:.4}, {:.4}, {:.4}] by {:.2} deg ({} model, {} {}, {}): \
              final angle {:.2} deg, worst axis error {:.2} deg, {}",
             sc.name,
             s.steps,
@@ -319,6 +319,7 @@ pub fn plan_command(
             settings.angle.0.to_degrees(),
             s.model,
             settings.pairs,
+            settings.model.unit(),
             s.scheme,
             s.final_angle_deg,
             s.max_axis_error_deg,
@@ -335,6 +336,18 @@ pub fn plan_command(
 /// Reads the plan at `plan_path`, checks its pairs against the scenario and replays it in the
 /// scenario's physics (`spherestep simulate`).
 pub fn simulate_plan(sc: &Scenario, plan_path: &Path) -> Result<Vec<SimRow>> {
+    simulate_plan_in(sc, None, plan_path)
+}
+
+/// Reads the plan at `plan_path` made for `sc`, checks its pairs against it and replays it in
+/// the physics of `plant` (`spherestep simulate --plant`: the model error of a plan made for
+/// one physics and run on another), or of `sc` itself. A plant with other packings than the
+/// plan's is refused.
+pub fn simulate_plan_in(
+    sc: &Scenario,
+    plant: Option<&Scenario>,
+    plan_path: &Path,
+) -> Result<Vec<SimRow>> {
     let rows = read_plan(plan_path)?;
     for (k, r) in rows.iter().enumerate() {
         sc.check_active(&r.active, "active")
@@ -344,5 +357,12 @@ pub fn simulate_plan(sc: &Scenario, plan_path: &Path) -> Result<Vec<SimRow>> {
                 message: format!("{e} (in scenario {})", sc.path.display()),
             })?;
     }
-    Ok(simulate(&sc.motor(), &rows))
+    let physics = match plant {
+        Some(p) => {
+            sc.check_same_packings(p, "--plant")?;
+            p
+        }
+        None => sc,
+    };
+    Ok(simulate(&physics.motor(), &rows))
 }

@@ -8,7 +8,9 @@ use crate::model::packing::{self, Cap, Packing, SemiRegular};
 use crate::model::symmetry::Group;
 use crate::physics::dynamics::{Body, Method, SettleParams};
 use crate::physics::torque::{Interaction, MagnetTorques, TorqueTable, Well, WellShape};
-use crate::planning::commutation::{Motor, PairsPerStep, StepLimits, StepModel};
+use crate::planning::commutation::{
+    default_step_model, Motor, PairsPerStep, StepLimits, StepModel,
+};
 use crate::planning::planner::{
     target_angle, PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET,
 };
@@ -243,7 +245,13 @@ impl Scenario {
         let well_and_interaction = ck.magnets(raw.magnets.unwrap_or_default())?;
         let body = ck.body(raw.body.unwrap_or_default())?;
         let settle = ck.settle(raw.settle.unwrap_or_default())?;
-        let plan = ck.plan(raw.plan.unwrap_or_default())?;
+        let torques = MagnetTorques {
+            rotor: rotor.points.iter().map(|p| p.into_inner()).collect(),
+            stator: stator.points.iter().map(|p| p.into_inner()).collect(),
+            well: well_and_interaction.0,
+            interaction: well_and_interaction.1,
+        };
+        let plan = ck.plan(raw.plan.unwrap_or_default(), &torques)?;
         let sweep = match raw.sweep {
             None => None,
             Some(sw) => Some(ck.sweep(sw, &plan)?),
@@ -273,12 +281,6 @@ impl Scenario {
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "scenario".into())
         });
-        let torques = MagnetTorques {
-            rotor: rotor.points.iter().map(|p| p.into_inner()).collect(),
-            stator: stator.points.iter().map(|p| p.into_inner()).collect(),
-            well: well_and_interaction.0,
-            interaction: well_and_interaction.1,
-        };
         Ok(Scenario {
             path: path.to_path_buf(),
             name,
@@ -335,7 +337,55 @@ impl Scenario {
     }
 }
 
-/// Checks a step model's pairs per step: the pivot model takes exactly 2, the dynamic 2 to 8.
+impl Scenario {
+    /// Checks that `plant` has this scenario's packings, so that a plan made here can be
+    /// replayed in the plant's physics: as many magnets and coils, each at the same place
+    /// (within [`COINCIDENT_TOL`]). The error names both scenarios, the counts and the first
+    /// magnet or coil that differs.
+    pub fn check_same_packings(&self, plant: &Scenario, arg: &str) -> Result<()> {
+        let counts = |sc: &Scenario| {
+            format!(
+                "{} ({}): {} magnets, {} coils",
+                sc.name,
+                sc.path.display(),
+                sc.rotor.len(),
+                sc.stator.len()
+            )
+        };
+        let moved = |what: &str, a: &Packing, b: &Packing| {
+            a.points
+                .iter()
+                .zip(&b.points)
+                .position(|(p, q)| (p.into_inner() - q.into_inner()).norm() > COINCIDENT_TOL)
+                .map(|k| {
+                    let d = crate::model::geometry::angular_distance(&a.points[k], &b.points[k]);
+                    format!("{what} {k} {:.4} deg from the plan's", d.0.to_degrees())
+                })
+        };
+        let differs = if self.rotor.len() != plant.rotor.len() {
+            Some("other magnet count".to_string())
+        } else if self.stator.len() != plant.stator.len() {
+            Some("other coil count".to_string())
+        } else {
+            moved("magnet", &self.rotor, &plant.rotor)
+                .or_else(|| moved("coil", &self.stator, &plant.stator))
+        };
+        match differs {
+            None => Ok(()),
+            Some(d) => Err(Error::Arg {
+                arg: arg.into(),
+                expected: format!(
+                    "a plant with the plan's packings ({}), got {}: {d}",
+                    counts(self),
+                    counts(plant)
+                ),
+            }),
+        }
+    }
+}
+
+/// Checks a step model's pairs per step: the pivot model takes exactly 2, the dynamic 2 to 8;
+/// the coil-set model 2 to 8 coils on after each step.
 pub fn check_pairs_per_step(
     model: StepModel,
     pairs: PairsPerStep,
@@ -349,6 +399,12 @@ pub fn check_pairs_per_step(
         }
         StepModel::Dynamic => Err(format!(
             "2 to {limit} pairs per step for the dynamic model, got {pairs}"
+        )),
+        StepModel::Coils if pairs.min >= 2 && pairs.min <= pairs.max && pairs.max <= limit => {
+            Ok(())
+        }
+        StepModel::Coils => Err(format!(
+            "2 to {limit} coils on after each step for the coil-set model, got {pairs}"
         )),
     }
 }
@@ -365,11 +421,11 @@ pub fn parse_pairs_per_step(s: &str) -> Option<PairsPerStep> {
 }
 
 /// The pairs per step a model takes when none are given: the paper's 2 for the pivot model,
-/// any of 2 to 4 chosen per step for the dynamic model.
+/// any of 2 to 4 chosen per step for the dynamic model (and coils for the coil-set model).
 pub fn default_pairs_per_step(model: StepModel) -> PairsPerStep {
     match model {
         StepModel::Pivot => PairsPerStep::exactly(2),
-        StepModel::Dynamic => PairsPerStep::up_to(4),
+        StepModel::Dynamic | StepModel::Coils => PairsPerStep::up_to(4),
     }
 }
 
@@ -714,7 +770,9 @@ impl Checker<'_> {
         })
     }
 
-    fn plan(&self, raw: RawPlan) -> Result<PlanSettings> {
+    /// The `[plan]` section; without `model`, the motor's physics chooses
+    /// ([`default_step_model`]).
+    fn plan(&self, raw: RawPlan, torques: &MagnetTorques) -> Result<PlanSettings> {
         let axis = self.unit("plan.axis", raw.axis.unwrap_or([0.0, 0.0, 1.0]))?;
         let angle = target_angle(raw.angle_deg.unwrap_or(90.0))
             .map_err(|m| self.err("plan.angle_deg", m))?;
@@ -722,7 +780,7 @@ impl Checker<'_> {
             None => Scheme::Search,
             Some(n) => Scheme::parse(n).map_err(|m| self.err("plan.scheme", m))?,
         };
-        let model = raw.model.unwrap_or(StepModel::Dynamic);
+        let model = raw.model.unwrap_or_else(|| default_step_model(torques));
         let (pairs, field) =
             match (raw.pairs_per_step, raw.max_pairs_per_step) {
                 (Some(_), Some(_)) => return Err(self.err(
@@ -860,15 +918,21 @@ impl Checker<'_> {
                 field,
                 format!(
                     "\"pivot\", \"dynamic\", \"dynamic:K\" (exactly K pairs per \
-                     step) or \"dynamic:2-K\" (2 to K), got \"{n}\""
+                     step), \"dynamic:2-K\" (2 to K), \"coils\" or \"coils:2-K\" (2 to K \
+                     coils on), got \"{n}\""
                 ),
             )
         };
         let m = match n.split_once(':') {
+            // a pair model alone: 2 pairs per step; coil sets alone: their default, 2 to 4 coils
             None => StepModel::from_name(n)
-                .map(|m| (m, PairsPerStep::exactly(2)))
+                .map(|m| match m {
+                    StepModel::Coils => (m, default_pairs_per_step(m)),
+                    _ => (m, PairsPerStep::exactly(2)),
+                })
                 .ok_or_else(bad)?,
             Some(("dynamic", k)) => (StepModel::Dynamic, parse_pairs_per_step(k).ok_or_else(bad)?),
+            Some(("coils", k)) => (StepModel::Coils, parse_pairs_per_step(k).ok_or_else(bad)?),
             _ => return Err(bad()),
         };
         check_pairs_per_step(m.0, m.1).map_err(|e| self.err(field, e))?;

@@ -22,17 +22,22 @@ pub enum StepModel {
     Pivot,
     /// Paper 3.4: the pivot and the new pairs settled by the dynamics engine.
     Dynamic,
+    /// The hardware's view (docs/model.md, item 5): a step switches a set of 2..=K coils;
+    /// every energised coil pulls what the interaction says it pulls, and where the ball
+    /// settles is the step's result (`planning::coilsets`).
+    Coils,
 }
 
 impl StepModel {
     /// Every step model, in the order their names are listed to users.
-    pub const ALL: [StepModel; 2] = [StepModel::Pivot, StepModel::Dynamic];
+    pub const ALL: [StepModel; 3] = [StepModel::Pivot, StepModel::Dynamic, StepModel::Coils];
 
     /// The model's name in scenarios, on the command line and in result files.
     pub fn name(self) -> &'static str {
         match self {
             StepModel::Pivot => "pivot",
             StepModel::Dynamic => "dynamic",
+            StepModel::Coils => "coils",
         }
     }
 
@@ -40,6 +45,57 @@ impl StepModel {
     pub fn from_name(name: &str) -> Option<StepModel> {
         StepModel::ALL.into_iter().find(|m| m.name() == name)
     }
+
+    /// What a step of the model switches: "pairs" or "coils" (for messages).
+    pub fn unit(self) -> &'static str {
+        match self {
+            StepModel::Coils => "coils",
+            _ => "pairs",
+        }
+    }
+}
+
+/// The pull, relative to the well's peak pull, above which a coil holding one magnet aligned
+/// also pulls its nearest neighbour as a second magnet (see [`pair_model_describes`]).
+pub const SECOND_MAGNET_PULL: f64 = 0.5;
+
+/// Whether the pair model describes a motor's physics: not when every energised coil pulls
+/// every magnet in reach (`interaction = "coils"`), nor when the wells are broad enough that
+/// one coil reaches two magnets, i.e. a coil holding a magnet aligned pulls the magnet's
+/// nearest neighbour (at the rotor's smallest separation) with at least [`SECOND_MAGNET_PULL`]
+/// of the well's peak pull. The prototype's gaussian wells (sigma 10 degrees, magnets 23.1
+/// degrees apart) pull the neighbour with 0.26 of the peak: pairs; sigma 14 gives 0.70 and a
+/// cosine well reaching 40 degrees 0.61: coil sets.
+pub fn pair_model_describes(torques: &MagnetTorques) -> bool {
+    if torques.interaction == crate::physics::torque::Interaction::Coils {
+        return false;
+    }
+    let well = &torques.well;
+    let peak = well.g(peak_pull_distance(well).0);
+    let separation = rotor_separation(&torques.rotor);
+    !(peak > 0.0 && well.g(separation.0) >= SECOND_MAGNET_PULL * peak)
+}
+
+/// The step model a scenario plans with when none is asked for: the dynamic pair model where
+/// the pair model describes the physics ([`pair_model_describes`]), coil sets elsewhere.
+pub fn default_step_model(torques: &MagnetTorques) -> StepModel {
+    if pair_model_describes(torques) {
+        StepModel::Dynamic
+    } else {
+        StepModel::Coils
+    }
+}
+
+/// The smallest angular distance between two magnets of a rotor (pi for fewer than two).
+fn rotor_separation(rotor: &[Vector3<f64>]) -> Radians {
+    let mut best = std::f64::consts::PI;
+    for (k, a) in rotor.iter().enumerate() {
+        for b in &rotor[..k] {
+            let d = angular_distance(&UnitVec::new_normalize(*a), &UnitVec::new_normalize(*b));
+            best = best.min(d.0);
+        }
+    }
+    Radians(best)
 }
 
 /// How many pairs are on after a step: the pivot kept from the held set plus `min - 1` to
@@ -144,10 +200,11 @@ pub struct Candidate {
     pub deviation: Radians,
 }
 
-/// A step: from a state, keep `pivot`, switch `new` on, and end at `to`.
+/// A step: from a state, keep `pivot` (a pair step; a coil-set step keeps no pair in
+/// particular), switch `new` on, and end at `to`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
-    pub pivot: Pair,
+    pub pivot: Option<Pair>,
     pub new: Vec<Pair>,
     pub to: CommutationState,
     /// Rotation of the step about the desired axis (signed), rad.
@@ -314,12 +371,16 @@ impl StepLimits {
     /// The capture distance in force: the one given; else [`PIVOT_CAPTURE`] for the pivot
     /// model, and for the dynamic model the distance at which the well's pull peaks
     /// ([`peak_pull_distance`]): nearer in, the pull grows as the magnet is pushed out, so the
-    /// pair holds; further out it weakens, and a push takes the magnet away.
+    /// pair holds; further out it weakens, and a push takes the magnet away. For the coil-set
+    /// model, the maximum attraction distance: every coil on pulls the magnet nearest it (what
+    /// holds the ball is the settle's own finding, a strict minimum of every coil's pull
+    /// together, not one magnet near one coil).
     pub fn capture_for(&self, model: StepModel, well: &Well) -> Radians {
         match (self.capture, model) {
             (Some(c), _) => c,
             (None, StepModel::Pivot) => PIVOT_CAPTURE,
             (None, StepModel::Dynamic) => peak_pull_distance(well),
+            (None, StepModel::Coils) => well.max_attraction,
         }
     }
 }
@@ -522,7 +583,7 @@ pub fn evaluate_proposals(
             .iter()
             .map(|(pivot, new)| Some(pivot_step(motor.torques, &state.q, *pivot, new[0])))
             .collect(),
-        StepModel::Dynamic => {
+        StepModel::Dynamic | StepModel::Coils => {
             let sets: Vec<Vec<Pair>> = proposals
                 .iter()
                 .map(|(p, new)| {
@@ -539,20 +600,36 @@ pub fn evaluate_proposals(
         .into_iter()
         .zip(outcomes)
         .filter_map(|((pivot, new), to)| {
-            let to = to?;
-            if !holds(motor.torques, &to, capture) {
-                return None;
-            }
-            let (angle, err) = step_measure(&state.q, &to.q, n);
-            (angle.0 >= limits.min_angle.0 && err.0 <= limits.max_axis_error.0).then_some(Step {
-                pivot,
-                new,
-                to,
-                angle,
-                axis_error: err,
+            admissible(motor.torques, &state.q, to?, n, limits, capture).map(|(to, angle, err)| {
+                Step {
+                    pivot: Some(pivot),
+                    new,
+                    to,
+                    angle,
+                    axis_error: err,
+                }
             })
         })
         .collect()
+}
+
+/// Whether the state a step from `from` settles to is admissible: every active pair holding
+/// (within `capture`), the step advancing about `n` by at least the limits' minimum angle and
+/// its axis within their largest error. Gives the state back with the step's angle and axis
+/// error.
+pub fn admissible(
+    torques: &MagnetTorques,
+    from: &Orientation,
+    to: CommutationState,
+    n: &UnitVec,
+    limits: &StepLimits,
+    capture: Radians,
+) -> Option<(CommutationState, Radians, Radians)> {
+    if !holds(torques, &to, capture) {
+        return None;
+    }
+    let (angle, err) = step_measure(from, &to.q, n);
+    (angle.0 >= limits.min_angle.0 && err.0 <= limits.max_axis_error.0).then_some((to, angle, err))
 }
 
 /// Whether every active pair of a state has its magnet within `capture` of its coil.
@@ -584,7 +661,7 @@ pub fn pivot_step(
 }
 
 /// All k-subsets of 0..n in lexicographic order.
-fn combinations(n: usize, k: usize) -> Vec<Vec<usize>> {
+pub(crate) fn combinations(n: usize, k: usize) -> Vec<Vec<usize>> {
     let mut out = Vec::new();
     if k == 0 || k > n {
         return out;
@@ -697,7 +774,7 @@ pub fn initial_states(
             .iter()
             .map(|(_, _, second)| Some(pivot_step(motor.torques, &q1, first, *second)))
             .collect(),
-        StepModel::Dynamic => {
+        StepModel::Dynamic | StepModel::Coils => {
             let sets: Vec<Vec<Pair>> = seconds.iter().map(|(_, _, p)| vec![first, *p]).collect();
             settled_states(motor, sets, start)
         }

@@ -1,8 +1,11 @@
-//! From settled equilibria to plans: which coil:magnet pairs to switch (`commutation`), the
-//! planners that chain steps towards a target rotation (`planner`) into a `plan`, and the replay of a plan
-//! through the dynamics (`simulate`).
+//! From settled equilibria to plans: which coil:magnet pairs to switch (`commutation`) or which
+//! sets of coils (`coilsets`), the searches that chain steps towards a target rotation
+//! (`search`, shared by every step model) and the planner that sets them going (`planner`) into
+//! a `plan`, and the replay of a plan through the dynamics (`simulate`).
 
+pub mod coilsets;
 pub mod commutation;
 pub mod plan;
 pub mod planner;
+pub mod search;
 pub mod simulate;

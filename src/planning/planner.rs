@@ -1,17 +1,18 @@
 //! Motion planning (paper section 3.2 and 4.1): sequences of commutation steps that turn the
 //! ball by a target angle about a desired axis. A consumer of settled equilibria: it chooses
-//! among the steps that `commutation` predicts and never integrates anything itself. The
-//! paper's three greedy schemes, and a beam search that looks ahead for the smallest worst
-//! cumulative axis error.
+//! among the steps that `commutation` (pairs) and `coilsets` (coil sets) predict and never
+//! integrates anything itself. The settings, the plan and its summary, and the pair models as a
+//! step source for the searches of `search` (the paper's three greedy schemes, a beam search
+//! and a best-first branch and bound).
 
-use crate::model::geometry::{Degrees, Orientation, Pair, Radians, UnitVec};
-use crate::planning::commutation::Proposal;
+use crate::model::geometry::{Degrees, Orientation, Radians, UnitVec};
+use crate::planning::coilsets::CoilSets;
 use crate::planning::commutation::{
-    candidate_steps, cumulative, evaluate_proposals, initial_states, predicted_orientation,
-    proposals_within, CommutationState, Motor, PairsPerStep, Step, StepLimits, StepModel,
+    candidate_steps, evaluate_proposals, initial_states, predicted_orientation, proposals_within,
+    CommutationState, Motor, PairsPerStep, Proposal, Step, StepLimits, StepModel, PIVOT_CAPTURE,
 };
 use crate::planning::plan::PlanRow;
-use rayon::prelude::*;
+use crate::planning::search::{self, predicted_rank, wide_limits, Frontier, StepSource};
 use serde::{Deserialize, Serialize};
 
 /// The dynamic search's default budget, in settles.
@@ -110,6 +111,9 @@ pub struct Plan {
     pub reached: bool,
     /// Why the plan stopped short, when it did.
     pub message: Option<String>,
+    /// The settles the best-first search spent on its expansions (what its budget counts;
+    /// the greedy seeds and the initial states are not counted); 0 for the other searches.
+    pub settles: usize,
 }
 
 /// The summary printed by `plan --json`.
@@ -124,6 +128,8 @@ pub struct PlanSummary {
     pub model: String,
     pub pairs_per_step: usize,
     pub message: Option<String>,
+    /// See [`Plan::settles`].
+    pub settles: usize,
 }
 
 impl Plan {
@@ -138,6 +144,7 @@ impl Plan {
             model: s.model.name().into(),
             pairs_per_step: s.pairs.max,
             message: self.message.clone(),
+            settles: self.settles,
         }
     }
 }
@@ -154,42 +161,7 @@ pub fn max_axis_error_deg(rows: &[PlanRow]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// A partial plan: the states so far and their running figures.
-#[derive(Debug, Clone)]
-struct Path {
-    rows: Vec<PlanRow>,
-    state: CommutationState,
-    worst: f64,
-    cum: f64,
-}
-
-impl Path {
-    fn extend(&self, step: &Step, q0: &Orientation, n: &UnitVec) -> Path {
-        let (ca, ce) = cumulative(q0, &step.to.q, n);
-        let row = PlanRow {
-            step: self.rows.len(),
-            pivot: Some(step.pivot),
-            new: step.new.clone(),
-            active: step.to.active.clone(),
-            q: step.to.q,
-            step_angle_deg: step.angle.0.to_degrees(),
-            step_axis_error_deg: step.axis_error.0.to_degrees(),
-            cum_angle_deg: ca.0.to_degrees(),
-            cum_axis_error_deg: ce.0.to_degrees(),
-            settle_time_s: step.to.settle_time_s,
-        };
-        let mut rows = self.rows.clone();
-        rows.push(row);
-        Path {
-            rows,
-            state: step.to.clone(),
-            worst: self.worst.max(ce.0),
-            cum: ca.0,
-        }
-    }
-}
-
-/// Plans a motion.
+/// Plans a motion, with the settings' step model.
 pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
     // The capture in force, resolved once (the dynamic model's is a search over its well's
     // pull), not in every evaluation of a step.
@@ -202,493 +174,107 @@ pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
         ..s.clone()
     };
     let s = &resolved;
-    let inits = initial_states(motor, &s.start, s.model, &s.axis, capture);
-    let Some(first) = inits.first() else {
-        return Plan {
-            rows: Vec::new(),
-            reached: false,
-            message: Some(
-                "no initial commutation state: no second pair within the maximum attraction \
-                 distance of the start orientation settles with both pairs holding (each magnet \
-                 within the capture distance of its coil)"
-                    .into(),
-            ),
+    match s.model {
+        StepModel::Coils => search::run(&CoilSets::new(motor, s), s),
+        StepModel::Pivot | StepModel::Dynamic => search::run(&PairSteps { motor, s }, s),
+    }
+}
+
+/// The pair models (pivot and dynamic) as a step source: each step keeps one held pair and
+/// switches on new ones that pass the paper's filter.
+struct PairSteps<'a> {
+    motor: &'a Motor<'a>,
+    /// The settings, with the capture resolved.
+    s: &'a PlanSettings,
+}
+
+impl StepSource for PairSteps<'_> {
+    fn initial_states(&self) -> Vec<CommutationState> {
+        let s = self.s;
+        let capture = s.limits.capture.unwrap_or(PIVOT_CAPTURE);
+        initial_states(self.motor, &s.start, s.model, &s.axis, capture)
+    }
+
+    fn no_initial_state(&self) -> String {
+        "no initial commutation state: no second pair within the maximum attraction \
+         distance of the start orientation settles with both pairs holding (each magnet \
+         within the capture distance of its coil)"
+            .into()
+    }
+
+    fn steps(&self, state: &CommutationState, wide: bool) -> Vec<Step> {
+        let s = self.s;
+        let limits = if wide {
+            wide_limits(&s.limits)
+        } else {
+            s.limits
         };
-    };
-    match s.scheme {
-        Scheme::Search => {
-            let roots: Vec<Path> = inits.iter().map(root_path).collect();
-            match s.model {
-                StepModel::Pivot => search(motor, s, roots),
-                StepModel::Dynamic => best_first(motor, s, roots),
-            }
-        }
-        g => greedy(motor, s, root_path(first), g),
+        candidate_steps(self.motor, state, &s.axis, s.model, s.pairs, &limits)
     }
-}
 
-/// A plan's start: row 0, the initial commutation state.
-fn root_path(init: &CommutationState) -> Path {
-    let row0 = PlanRow {
-        step: 0,
-        pivot: None,
-        new: init.active.clone(),
-        active: init.active.clone(),
-        q: init.q,
-        step_angle_deg: 0.0,
-        step_axis_error_deg: 0.0,
-        cum_angle_deg: 0.0,
-        cum_axis_error_deg: 0.0,
-        settle_time_s: init.settle_time_s,
-    };
-    Path {
-        rows: vec![row0],
-        state: init.clone(),
-        worst: 0.0,
-        cum: 0.0,
-    }
-}
-
-fn reached(p: &Path, s: &PlanSettings) -> bool {
-    p.cum >= s.angle.0 - s.angle_tolerance.0
-}
-
-fn steps_from(motor: &Motor, s: &PlanSettings, state: &CommutationState) -> Vec<Step> {
-    candidate_steps(motor, state, &s.axis, s.model, s.pairs, &s.limits)
-}
-
-/// The greedy key of a step (larger is better), ties broken by the step's pairs. Progress
-/// past the target counts against a step, so that the last step lands near the target.
-fn greedy_key(scheme: Scheme, st: &Step, remaining: f64) -> f64 {
-    let progress = st.angle.0 - 2.0 * (st.angle.0 - remaining).max(0.0);
-    match scheme {
-        Scheme::MinAxisError => -st.axis_error.0,
-        Scheme::MaxAngle => progress,
-        _ => progress - st.axis_error.0,
-    }
-}
-
-fn greedy(motor: &Motor, s: &PlanSettings, mut path: Path, scheme: Scheme) -> Plan {
-    let q0 = path.state.q;
-    let mut seen: Vec<Vec<Pair>> = vec![path.state.active.clone()];
-    loop {
-        if reached(&path, s) {
-            return Plan {
-                rows: path.rows,
-                reached: true,
-                message: None,
-            };
-        }
-        if path.rows.len() > s.max_steps {
-            return stopped(path, format!("gave up after {} steps", s.max_steps));
-        }
-        let steps = steps_from(motor, s, &path.state);
-        let remaining = s.angle.0 - path.cum;
-        let best = steps
-            .iter()
-            .filter(|st| !revisits(&seen, st))
-            .max_by(|a, b| {
-                greedy_key(scheme, a, remaining)
-                    .total_cmp(&greedy_key(scheme, b, remaining))
-                    .then_with(|| b.to.active.cmp(&a.to.active))
-            });
-        let Some(best) = best else {
-            return stopped(
-                path,
-                "no candidate step advances about the axis within the axis error limit".into(),
-            );
-        };
-        path = path.extend(best, &q0, &s.axis);
-        seen.push(path.state.active.clone());
-    }
-}
-
-/// A greedy plan must not cycle between the same active sets.
-fn revisits(seen: &[Vec<Pair>], st: &Step) -> bool {
-    let a = sorted(&st.to.active);
-    seen.iter().any(|v| sorted(v) == a)
-}
-
-fn stopped(path: Path, why: String) -> Plan {
-    let got = path.cum.to_degrees();
-    Plan {
-        rows: path.rows,
-        reached: false,
-        message: Some(format!(
-            "target not reached: {why} (reached {got:.2} degrees)"
-        )),
-    }
-}
-
-/// A search's plan: its best solution, else the deepest partial plan and why it stopped.
-fn outcome(best: Option<Path>, deepest: Path, why: String) -> Plan {
-    match best {
-        Some(b) => Plan {
-            rows: b.rows,
-            reached: true,
-            message: None,
-        },
-        None => stopped(deepest, why),
-    }
-}
-
-/// The plan of a search given no root.
-fn no_initial_state() -> Plan {
-    Plan {
-        rows: Vec::new(),
-        reached: false,
-        message: Some("no initial commutation state".into()),
-    }
-}
-
-/// Beam search: keeps the `beam_width` best partial plans at each depth (best = smallest worst
-/// cumulative axis error, with a credit for progress), expanding them all in parallel; a plan
-/// that reaches the target is a solution, and partial plans already as bad as the best solution
-/// are pruned (the worst error never falls along a path). The paper's greedy plans are
-/// candidates too, so the search is never worse than them.
-fn search(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
-    let Some(root) = roots.first().cloned() else {
-        return no_initial_state();
-    };
-    let mut best = greedy_best(motor, s, &root, better_solution);
-    let mut beam = roots;
-    let mut deepest = root;
-    let wide = PlanSettings {
-        limits: StepLimits {
-            bound_start: Radians(s.limits.bound_start.0.max(s.limits.search_bound.0)),
-            ..s.limits
-        },
-        ..s.clone()
-    };
-    for _depth in 0..s.max_steps {
-        if beam.is_empty() {
-            break;
-        }
-        let children: Vec<Vec<Path>> = beam
-            .par_iter()
-            .map(|p| {
-                let q0 = p.rows[0].q;
-                steps_from(motor, &wide, &p.state)
-                    .iter()
-                    .map(|st| p.extend(st, &q0, &s.axis))
-                    .collect()
-            })
-            .collect();
-        let mut next: Vec<Path> = Vec::new();
-        for c in children.into_iter().flatten() {
-            if best.as_ref().is_some_and(|b| c.worst > b.worst + 1e-9) {
-                continue;
-            }
-            if reached(&c, s) {
-                if better_solution(&c, best.as_ref(), s) {
-                    best = Some(c);
-                }
-            } else {
-                next.push(c);
-            }
-        }
-        let credit = 0.25;
-        next.sort_by(|a, b| {
-            let sa = a.worst - credit * a.cum;
-            let sb = b.worst - credit * b.cum;
-            sa.total_cmp(&sb)
-                .then_with(|| a.state.active.cmp(&b.state.active))
-                .then_with(|| {
-                    let ka: Vec<_> = a.rows.iter().map(|r| r.active.clone()).collect();
-                    let kb: Vec<_> = b.rows.iter().map(|r| r.active.clone()).collect();
-                    ka.cmp(&kb)
-                })
-        });
-        // one partial plan per end state
-        let mut kept: Vec<Path> = Vec::new();
-        for c in next {
-            let dup = kept
-                .iter()
-                .any(|k| k.state.active == c.state.active && k.state.q.angle_to(&c.state.q) < 1e-6);
-            if !dup {
-                kept.push(c);
-                if kept.len() == s.beam_width {
-                    break;
-                }
-            }
-        }
-        if let Some(front) = kept.first() {
-            if front.cum > deepest.cum {
-                deepest = front.clone();
-            }
-        }
-        beam = kept;
-    }
-    outcome(
-        best,
-        deepest,
-        "the search found no sequence that reaches the target".into(),
-    )
-}
-
-/// The best of the paper's three greedy plans from `root` that reaches the target, as a
-/// solution the searches must beat.
-fn greedy_best(
-    motor: &Motor,
-    s: &PlanSettings,
-    root: &Path,
-    better: fn(&Path, Option<&Path>, &PlanSettings) -> bool,
-) -> Option<Path> {
-    let mut best: Option<Path> = None;
-    for g in [Scheme::Weighted, Scheme::MinAxisError, Scheme::MaxAngle] {
-        let q0 = root.state.q;
-        let p = greedy(motor, s, root.clone(), g);
-        if p.reached {
-            let worst = max_axis_error_deg(&p.rows).to_radians();
-            let cum = p
-                .rows
-                .last()
-                .map(|r| r.cum_angle_deg.to_radians())
-                .unwrap_or(0.0);
-            let cand = Path {
-                state: CommutationState {
-                    q: p.rows.last().map(|r| r.q).unwrap_or(q0),
-                    active: p.rows.last().map(|r| r.active.clone()).unwrap_or_default(),
-                    settle_time_s: 0.0,
-                },
-                rows: p.rows,
-                worst,
-                cum,
-            };
-            if better(&cand, best.as_ref(), s) {
-                best = Some(cand);
-            }
-        }
-    }
-    best
-}
-
-/// Progress counts in a partial plan's rank with this weight against its worst axis error
-/// (both in radians): a plan 4 degrees further on may be 1 degree worse.
-const PROGRESS_CREDIT: f64 = 0.25;
-
-/// Two settled states with the same pairs on and orientations closer than this are one state.
-const SAME_STATE_RAD: f64 = 1e-3;
-
-/// A partial plan's rank in the best-first search (smaller first): its worst cumulative axis
-/// error so far, less a credit for progress (none past the target).
-fn rank(worst: f64, cum: f64, target: f64) -> f64 {
-    worst - PROGRESS_CREDIT * cum.min(target)
-}
-
-/// An entry of the best-first search's open list: rank, then arrival order.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Open {
-    rank: f64,
-    node: usize,
-}
-
-impl Eq for Open {}
-
-impl Ord for Open {
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        // BinaryHeap is a max-heap: the smallest rank, then the earliest node, on top
-        o.rank
-            .total_cmp(&self.rank)
-            .then_with(|| o.node.cmp(&self.node))
-    }
-}
-
-impl PartialOrd for Open {
-    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(o))
+    fn expand(&self, at: &Frontier) -> (usize, Vec<Step>) {
+        let s = self.s;
+        let proposals = ranked_proposals(self.motor, s, at);
+        let spent = proposals.len();
+        let steps = evaluate_proposals(
+            self.motor,
+            at.state,
+            &s.axis,
+            StepModel::Dynamic,
+            proposals,
+            &s.limits,
+        );
+        (spent, steps)
     }
 }
 
 /// The proposals from a partial plan's state that the search settles: all that pass the filter
 /// within the search bound, ranked by the rank their cheap prediction
 /// ([`predicted_orientation`]) would give the plan, the `settles_per_state` best.
-fn ranked_proposals(motor: &Motor, s: &PlanSettings, p: &Path) -> Vec<Proposal> {
-    let bound = Radians(s.limits.bound_start.0.max(s.limits.search_bound.0));
-    let q0 = p.rows[0].q;
-    let mut ranked: Vec<(f64, Proposal)> =
-        proposals_within(motor, &p.state, &s.axis, s.pairs, bound, &s.limits)
+fn ranked_proposals(motor: &Motor, s: &PlanSettings, at: &Frontier) -> Vec<Proposal> {
+    let bound = wide_limits(&s.limits).bound_start;
+    let ranked: Vec<(f64, Proposal)> =
+        proposals_within(motor, at.state, &s.axis, s.pairs, bound, &s.limits)
             .into_iter()
             .filter_map(|(pivot, new)| {
                 let mut set = vec![pivot];
                 set.extend_from_slice(&new);
-                let qp = predicted_orientation(motor.torques, &p.state.q, &set);
-                let (advance, _) = cumulative(&p.state.q, &qp, &s.axis);
-                if advance.0 <= 0.0 {
-                    return None;
-                }
-                let (ca, ce) = cumulative(&q0, &qp, &s.axis);
-                Some((rank(p.worst.max(ce.0), ca.0, s.angle.0), (pivot, new)))
+                let qp = predicted_orientation(motor.torques, &at.state.q, &set);
+                predicted_rank(at, &qp, s).map(|r| (r, (pivot, new)))
             })
             .collect();
-    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
     // The smallest sets are all weighed (few, and the physics least like the springs of the
     // prediction); the larger ones only where the prediction ranks them among the best.
-    let smallest = s.pairs.min - 1;
-    let mut taken = [0usize; PairsPerStep::LIMIT + 1];
-    ranked
-        .into_iter()
-        .filter(|(_, (_, new))| {
-            if new.len() <= smallest {
-                return true;
-            }
-            let k = new.len().min(PairsPerStep::LIMIT);
-            taken[k] += 1;
-            taken[k] <= s.settles_per_state
-        })
-        .map(|(_, p)| p)
-        .collect()
-}
-
-/// The settled states the best-first search has reached: (root, pairs on, sorted) -> each
-/// orientation reached with them and the node of the best partial plan that ends there.
-type StateIndex = std::collections::HashMap<(usize, Vec<Pair>), Vec<(Orientation, usize)>>;
-
-/// Best-first branch and bound over settled states (the dynamic model): the partial plan of
-/// smallest rank is expanded next, its best-ranked proposals settled in parallel; a plan that
-/// reaches the target is a solution, and partial plans already as bad as the best solution are
-/// pruned (a plan's worst error never falls along it). Two partial plans from the same root
-/// that end in the same state (same pairs on, orientation within [`SAME_STATE_RAD`]) are one:
-/// only the better goes on. The greedy plans are solutions from the start, so the search is
-/// never worse than them. The budget is counted in settles, so the plan is the same on any
-/// machine and any number of threads.
-fn best_first(motor: &Motor, s: &PlanSettings, roots: Vec<Path>) -> Plan {
-    let Some(root) = roots.first().cloned() else {
-        return no_initial_state();
-    };
-    let mut best = greedy_best(motor, s, &root, better_landing);
-    let mut deepest = root;
-    let mut nodes: Vec<(usize, Path)> = Vec::new();
-    let mut open = std::collections::BinaryHeap::new();
-    let mut states = StateIndex::new();
-    for (k, r) in roots.into_iter().enumerate() {
-        open.push(Open {
-            rank: rank(r.worst, r.cum, s.angle.0),
-            node: nodes.len(),
-        });
-        nodes.push((k, r));
-    }
-    let mut spent = 0usize;
-    while spent < s.settle_budget {
-        let Some(Open { node, .. }) = open.pop() else {
-            break;
-        };
-        let (root_id, path) = nodes[node].clone();
-        if best
-            .as_ref()
-            .is_some_and(|b| path.worst >= score(b, s) - 1e-9)
-        {
-            continue;
-        }
-        let key = (root_id, sorted(&path.state.active));
-        let current = states.get(&key).and_then(|v| {
-            v.iter()
-                .find(|(q, _)| q.angle_to(&path.state.q) < SAME_STATE_RAD)
-        });
-        if current.is_some_and(|&(_, k)| k != node) {
-            continue; // a better plan reached this state since
-        }
-        let proposals = ranked_proposals(motor, s, &path);
-        spent += proposals.len();
-        let q0 = path.rows[0].q;
-        let steps = evaluate_proposals(
-            motor,
-            &path.state,
-            &s.axis,
-            StepModel::Dynamic,
-            proposals,
-            &s.limits,
-        );
-        for st in &steps {
-            let c = path.extend(st, &q0, &s.axis);
-            if best.as_ref().is_some_and(|b| c.worst > score(b, s) + 1e-9) {
-                continue;
-            }
-            if reached(&c, s) {
-                if better_landing(&c, best.as_ref(), s) {
-                    best = Some(c);
-                }
-                continue;
-            }
-            let key = (root_id, sorted(&c.state.active));
-            let list = states.entry(key).or_default();
-            let id = nodes.len();
-            match list
-                .iter_mut()
-                .find(|(q, _)| q.angle_to(&c.state.q) < SAME_STATE_RAD)
-            {
-                Some(entry) => {
-                    if nodes[entry.1].1.worst <= c.worst + 1e-9 {
-                        continue;
-                    }
-                    entry.1 = id;
-                }
-                None => list.push((c.state.q, id)),
-            }
-            if c.cum > deepest.cum {
-                deepest = c.clone();
-            }
-            open.push(Open {
-                rank: rank(c.worst, c.cum, s.angle.0),
-                node: id,
-            });
-            nodes.push((root_id, c));
-        }
-    }
-    outcome(
-        best,
-        deepest,
-        format!(
-            "the search found no sequence that reaches the target within its budget of {} settles",
-            s.settle_budget
-        ),
+    weighed(
+        ranked,
+        |(_, new)| new.len(),
+        s.pairs.min - 1,
+        s.settles_per_state,
     )
 }
 
-fn sorted(v: &[Pair]) -> Vec<Pair> {
-    let mut v = v.to_vec();
-    v.sort();
-    v
-}
-
-/// How far a complete plan departs from the motion asked for, rad: its worst cumulative axis
-/// error, or how far it lands past the target (beyond the angle tolerance) if that is more.
-/// Both are angles by which the ball's rotation misses the requested one.
-fn score(p: &Path, s: &PlanSettings) -> f64 {
-    let landing = ((p.cum - s.angle.0).abs() - s.angle_tolerance.0).max(0.0);
-    p.worst.max(landing)
-}
-
-/// The best-first search's order of complete plans: the smaller [`score`] wins; on a tie
-/// (within 1e-9 rad), as [`better_solution`].
-fn better_landing(c: &Path, best: Option<&Path>, s: &PlanSettings) -> bool {
-    match best {
-        None => true,
-        Some(b) => {
-            let (sc, sb) = (score(c, s), score(b, s));
-            if (sc - sb).abs() > 1e-9 {
-                return sc < sb;
+/// Which of the ranked proposals (rank, proposal; smaller ranks first, ties by proposal) are
+/// weighed, best first: every one of size `all_up_to` or less, and of each larger size the
+/// `per_size` best.
+pub fn weighed<T: Ord>(
+    mut ranked: Vec<(f64, T)>,
+    size: impl Fn(&T) -> usize,
+    all_up_to: usize,
+    per_size: usize,
+) -> Vec<T> {
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
+    let mut taken = std::collections::BTreeMap::new();
+    ranked
+        .into_iter()
+        .filter(|(_, p)| {
+            let k = size(p);
+            if k <= all_up_to {
+                return true;
             }
-            better_solution(c, Some(b), s)
-        }
-    }
-}
-
-/// Smaller worst axis error wins; on a tie (within 1e-9 rad), landing nearer the target, then
-/// fewer steps.
-fn better_solution(c: &Path, best: Option<&Path>, s: &PlanSettings) -> bool {
-    let target = s.angle.0;
-    match best {
-        None => true,
-        Some(b) => {
-            if (c.worst - b.worst).abs() > 1e-9 {
-                return c.worst < b.worst;
-            }
-            let (oc, ob) = ((c.cum - target).abs(), (b.cum - target).abs());
-            if (oc - ob).abs() > 1e-9 {
-                return oc < ob;
-            }
-            c.rows.len() < b.rows.len()
-        }
-    }
+            let t = taken.entry(k).or_insert(0usize);
+            *t += 1;
+            *t <= per_size
+        })
+        .map(|(_, p)| p)
+        .collect()
 }

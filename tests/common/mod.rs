@@ -41,3 +41,10 @@ pub fn batch(args: &[&str]) -> std::process::Output {
         .output()
         .unwrap()
 }
+
+/// A plan's CSV bytes, as `plan --out` writes them.
+pub fn csv_bytes(p: &spherestep::planning::planner::Plan) -> Vec<u8> {
+    let mut b = Vec::new();
+    spherestep::io::planfile::write_plan(&p.rows, &mut b).unwrap();
+    b
+}

@@ -59,6 +59,7 @@ pub(super) fn case_label(c: &Case) -> String {
     match s.model {
         StepModel::Pivot => s.scheme.name().to_string(),
         StepModel::Dynamic => format!("{} (dynamic, {} pairs)", s.scheme.name(), s.pairs),
+        StepModel::Coils => format!("{} (coil sets, {} coils)", s.scheme.name(), s.pairs),
     }
 }
 

@@ -1,0 +1,326 @@
+//! Coil-set steps (docs/model.md, "Commutation", item 5): the hardware's view of commutation.
+//! A state is the set of coils on and the orientation the ball settled to; a step switches to
+//! another set of 2..=K coils among those in reach of the rotor's magnets, and where the ball
+//! goes is what the settle says (every candidate set settled in parallel), with whatever the
+//! scenario's interaction and well shape (gaussian, cosine, table) make every coil pull. Each
+//! coil on is written with the magnet nearest it at the settled orientation. A step source for
+//! the searches of `search`, which it shares with the pair models.
+
+use crate::model::geometry::{angular_distance, CoilId, Orientation, Pair, Radians, UnitVec};
+use crate::physics::dynamics::{settle_many, Stop};
+use crate::physics::torque::{Interaction, MagnetTorques};
+use crate::planning::commutation::{
+    admissible, bottom_coil, combinations, holds, nearest_magnet, pivot_error,
+    predicted_orientation, CommutationState, Motor, PairsPerStep, Step,
+};
+use crate::planning::planner::{weighed, PlanSettings};
+use crate::planning::search::{predicted_rank, Frontier, StepSource};
+
+/// How many of a state's candidate sets that the weighing left unheld are followed again (as
+/// `simulate` settles them: at tight tolerances, ten times the cost of a settle). In broad
+/// wells the best steps are often among them: on `scenarios/broad-wells.toml` following 4 takes
+/// the worst axis error about Y from 20 to 6 degrees; 8 or 16 find no better plans.
+pub const FOLLOWED_PER_STATE: usize = 4;
+
+/// The coil-set model as a step source.
+pub struct CoilSets<'a> {
+    motor: &'a Motor<'a>,
+    /// The settings, with the capture resolved.
+    s: &'a PlanSettings,
+    /// A coil counts only when the magnet nearest it is within this (by default the maximum
+    /// attraction distance: it pulls).
+    capture: Radians,
+}
+
+impl<'a> CoilSets<'a> {
+    /// The coil-set model of `motor` with the settings `s` (their capture, else the maximum
+    /// attraction distance).
+    pub fn new(motor: &'a Motor<'a>, s: &'a PlanSettings) -> Self {
+        let capture = s.limits.capture_for(s.model, &motor.torques.well);
+        CoilSets { motor, s, capture }
+    }
+
+    /// Settles each coil set from `q`, with the weighing settle, then follows again (as
+    /// `simulate` settles them) the sets it left unheld (the ball came to rest, but not near a
+    /// strict minimum it could be sure of: with broad wells, often a magnet at its well's
+    /// cut-off), the [`FOLLOWED_PER_STATE`] best of them by the rank where the weighing left
+    /// the ball would give the plan at `at` (all of them without `at`). Returns the settles
+    /// spent and, per set, the state it holds the ball in, each coil written with its nearest
+    /// magnet there; `None` where the set does not settle (within `t_max`, or unheld and not
+    /// followed), where a coil's nearest magnet is beyond the capture distance (the coil pulls
+    /// nothing), or (with the "pairs" interaction, where a coil pulls only its pair's magnet:
+    /// the one nearest it at `q`) where a coil's nearest magnet has changed, so that the plan's
+    /// pairs are exactly what was settled.
+    fn settle_sets(
+        &self,
+        q: &Orientation,
+        sets: &[Vec<CoilId>],
+        at: Option<&Frontier>,
+    ) -> (usize, Vec<Option<CommutationState>>) {
+        let (torques, motor) = (self.motor.torques, self.motor);
+        let pairs: Vec<Vec<Pair>> = sets.iter().map(|c| label(torques, c, q)).collect();
+        let mut results = settle_many(torques, &pairs, q, motor.body, motor.weighing());
+        let mut unheld: Vec<(f64, usize)> = results
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.stop == Stop::Unheld)
+            .map(|(k, r)| (at.map_or(0.0, |at| self.rank_at(at, &r.q)), k))
+            .collect();
+        unheld.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        if at.is_some() {
+            unheld.truncate(FOLLOWED_PER_STATE);
+        }
+        let again: Vec<Vec<Pair>> = unheld.iter().map(|&(_, k)| pairs[k].clone()).collect();
+        let followed = settle_many(torques, &again, q, motor.body, motor.settle);
+        for ((_, k), r) in unheld.iter().zip(followed) {
+            results[*k] = r;
+        }
+        let states = results
+            .into_iter()
+            .zip(sets)
+            .map(|(r, coils)| {
+                if !r.settled {
+                    return None;
+                }
+                let active = label(torques, coils, &r.q);
+                let expected = label(torques, coils, q);
+                if torques.interaction == Interaction::Pairs && active != expected {
+                    return None;
+                }
+                let to = CommutationState {
+                    q: r.q,
+                    active,
+                    settle_time_s: r.settle_time_s,
+                };
+                holds(torques, &to, self.capture).then_some(to)
+            })
+            .collect();
+        (sets.len() + again.len(), states)
+    }
+
+    /// The rank a partial plan at `at` would have after a step to `q` (unranked last).
+    fn rank_at(&self, at: &Frontier, q: &Orientation) -> f64 {
+        predicted_rank(at, q, self.s).unwrap_or(f64::INFINITY)
+    }
+
+    /// Settles candidate sets from `at` and keeps the admissible steps; with the settles spent.
+    fn weigh(&self, at: &Frontier, sets: &[Vec<CoilId>]) -> (usize, Vec<Step>) {
+        let from = at.state;
+        let on = coils_of(&from.active);
+        let (torques, limits) = (self.motor.torques, &self.s.limits);
+        let (spent, states) = self.settle_sets(&from.q, sets, Some(at));
+        let steps = states
+            .into_iter()
+            .flatten()
+            .filter_map(|to| {
+                let (to, angle, err) =
+                    admissible(torques, &from.q, to, &self.s.axis, limits, self.capture)?;
+                let new = to
+                    .active
+                    .iter()
+                    .filter(|p| !on.contains(&p.coil))
+                    .copied()
+                    .collect();
+                Some(Step {
+                    pivot: None,
+                    new,
+                    to,
+                    angle,
+                    axis_error: err,
+                })
+            })
+            .collect();
+        (spent, steps)
+    }
+
+    /// The candidate sets from a partial plan's state that are settled: every set of the
+    /// smallest size (the prediction is poorest where few coils pull many magnets), and of each
+    /// larger size the `settles_per_state` best by the rank their cheap prediction (each coil
+    /// pulling its nearest magnet like a spring) would give the plan, those predicted not to
+    /// advance last.
+    fn ranked_sets(&self, at: &Frontier) -> Vec<Vec<CoilId>> {
+        let (torques, s) = (self.motor.torques, self.s);
+        let reach = coils_in_reach(torques, &at.state.q);
+        let held = coils_of(&at.state.active);
+        let ranked: Vec<(f64, Vec<CoilId>)> =
+            coil_sets(&held, &reach, s.pairs, s.limits.max_coils_on)
+                .into_iter()
+                .map(|set| {
+                    let qp = predicted_orientation(
+                        torques,
+                        &at.state.q,
+                        &label(torques, &set, &at.state.q),
+                    );
+                    (predicted_rank(at, &qp, s).unwrap_or(f64::INFINITY), set)
+                })
+                .collect();
+        weighed(ranked, Vec::len, s.pairs.min, s.settles_per_state)
+    }
+
+    /// The initial sets: the coil nearest -Z with each other coil in reach at the start, the
+    /// better pivot for the axis first (as the pair models order their second pair), then the
+    /// coil whose magnet is nearest.
+    fn initial_sets(&self) -> Vec<Vec<CoilId>> {
+        let (torques, s) = (self.motor.torques, self.s);
+        let first = bottom_coil(torques);
+        let base = pivot_error(torques, first, &s.axis).0;
+        let mut seconds: Vec<(f64, f64, CoilId)> = coils_in_reach(torques, &s.start)
+            .into_iter()
+            .filter(|&c| c != first)
+            .map(|c| {
+                let pe = pivot_error(torques, c, &s.axis).0;
+                let key = if pe < base - 1e-9 { pe } else { base };
+                (key, nearest_magnet(torques, c, &s.start).1 .0, c)
+            })
+            .collect();
+        seconds.sort_by(|a, b| {
+            a.0.total_cmp(&b.0)
+                .then(a.1.total_cmp(&b.1))
+                .then(a.2.cmp(&b.2))
+        });
+        seconds
+            .into_iter()
+            .map(|(_, _, c)| vec![first, c])
+            .collect()
+    }
+}
+
+impl StepSource for CoilSets<'_> {
+    fn initial_states(&self) -> Vec<CommutationState> {
+        self.settle_sets(&self.s.start, &self.initial_sets(), None)
+            .1
+            .into_iter()
+            .flatten()
+            .collect()
+    }
+
+    fn no_initial_state(&self) -> String {
+        format!(
+            "no initial commutation state: no set of the coil nearest -Z and another coil in \
+             reach settles from the start orientation with every coil pulling (its nearest \
+             magnet within {:.2} degrees)",
+            self.capture.0.to_degrees()
+        )
+    }
+
+    fn steps(&self, state: &CommutationState, _wide: bool) -> Vec<Step> {
+        let at = Frontier {
+            state,
+            q0: state.q,
+            worst: 0.0,
+        };
+        self.weigh(&at, &self.ranked_sets(&at)).1
+    }
+
+    fn expand(&self, at: &Frontier) -> (usize, Vec<Step>) {
+        self.weigh(at, &self.ranked_sets(at))
+    }
+}
+
+/// The coils of an active set, sorted.
+pub fn coils_of(active: &[Pair]) -> Vec<CoilId> {
+    let mut c: Vec<CoilId> = active.iter().map(|p| p.coil).collect();
+    c.sort();
+    c.dedup();
+    c
+}
+
+/// Each coil with the magnet nearest to it at `q`.
+pub fn label(torques: &MagnetTorques, coils: &[CoilId], q: &Orientation) -> Vec<Pair> {
+    coils
+        .iter()
+        .map(|&coil| Pair {
+            coil,
+            magnet: nearest_magnet(torques, coil, q).0,
+        })
+        .collect()
+}
+
+/// The coils that pull some magnet at `q` (one within the maximum attraction distance), in
+/// index order.
+pub fn coils_in_reach(torques: &MagnetTorques, q: &Orientation) -> Vec<CoilId> {
+    let r = q.to_rotation_matrix();
+    let reach = torques.well.max_attraction.0;
+    (0..torques.stator.len())
+        .filter(|&i| {
+            let s = UnitVec::new_normalize(torques.stator[i]);
+            torques
+                .rotor
+                .iter()
+                .any(|m| angular_distance(&UnitVec::new_normalize(r * m), &s).0 <= reach)
+        })
+        .map(CoilId)
+        .collect()
+}
+
+/// The coil sets a step from the held coils may switch to: `per_step.min` to `per_step.max`
+/// coils, some of the held ones kept and the others from `reach`, other than the held set, and
+/// never more than `max_coils_on` coils on while the step switches (its new coils go on before
+/// the released ones go off: make before break). Each set sorted; the list in a fixed order.
+pub fn coil_sets(
+    held: &[CoilId],
+    reach: &[CoilId],
+    per_step: PairsPerStep,
+    max_coils_on: usize,
+) -> Vec<Vec<CoilId>> {
+    let fresh: Vec<CoilId> = reach
+        .iter()
+        .filter(|c| !held.contains(c))
+        .copied()
+        .collect();
+    let room = max_coils_on.saturating_sub(held.len()).min(per_step.max);
+    let mut out = Vec::new();
+    for b in 0..=room {
+        let picks: Vec<Vec<usize>> = if b == 0 {
+            vec![Vec::new()]
+        } else {
+            combinations(fresh.len(), b)
+        };
+        for pick in picks {
+            for mask in 0u32..(1 << held.len()) {
+                let mut set: Vec<CoilId> = (0..held.len())
+                    .filter(|k| mask & (1 << k) != 0)
+                    .map(|k| held[k])
+                    .collect();
+                if b == 0 && set.len() == held.len() {
+                    continue; // the held set itself
+                }
+                set.extend(pick.iter().map(|&k| fresh[k]));
+                if (per_step.min..=per_step.max).contains(&set.len()) {
+                    set.sort();
+                    out.push(set);
+                }
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coil_sets_keep_to_the_supply_and_leave_the_held_set() {
+        let held = [CoilId(0), CoilId(3)];
+        let reach: Vec<CoilId> = (0..6).map(CoilId).collect();
+        let sets = coil_sets(&held, &reach, PairsPerStep::up_to(4), 4);
+        assert!(!sets.contains(&held.to_vec()));
+        for s in &sets {
+            assert!((2..=4).contains(&s.len()), "{s:?}");
+            let mut all: Vec<CoilId> = s.iter().chain(&held).copied().collect();
+            all.sort();
+            all.dedup();
+            assert!(all.len() <= 4, "{s:?}");
+        }
+        // 4 fresh coils: 2 of them with 0..=2 held kept (6 x 4), one with one or both held
+        // (4 x 3), none with a held one dropped (no: one coil alone is too few)
+        assert_eq!(sets.len(), 6 * 4 + 4 * 3);
+        // four coils on: only switching some off is left
+        let full = [CoilId(0), CoilId(1), CoilId(2), CoilId(3)];
+        let sets = coil_sets(&full, &reach, PairsPerStep::up_to(4), 4);
+        assert_eq!(sets.len(), 6 + 4);
+        assert!(sets.iter().all(|s| s.iter().all(|c| full.contains(c))));
+    }
+}

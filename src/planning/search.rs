@@ -1,0 +1,571 @@
+//! The searches every step model shares: the paper's greedy schemes, the beam search (the pivot
+//! model's) and the best-first branch and bound over settled states (the dynamic pair model's
+//! and the coil-set model's), with their memo of states, pruning, budgets counted in settles and
+//! greedy seeds. They are generic over a [`StepSource`]: a step model says where a plan starts,
+//! which steps lead on from a state and which states are one; the searches decide the rest.
+
+use crate::model::geometry::{Orientation, Pair, Radians};
+use crate::planning::commutation::{cumulative, CommutationState, Step, StepLimits};
+use crate::planning::plan::PlanRow;
+use crate::planning::planner::{max_axis_error_deg, Plan, PlanSettings, Scheme};
+use rayon::prelude::*;
+
+/// Where a partial plan stands, as a step model needs it to rank the steps it proposes.
+#[derive(Debug, Clone, Copy)]
+pub struct Frontier<'a> {
+    /// The state the partial plan ends in.
+    pub state: &'a CommutationState,
+    /// Its initial commutation state's orientation (cumulative rotations count from it).
+    pub q0: Orientation,
+    /// Its worst cumulative axis error so far, rad.
+    pub worst: f64,
+}
+
+/// A step model as the searches see it.
+pub trait StepSource: Sync {
+    /// The initial commutation states, best first (each a root of the search).
+    fn initial_states(&self) -> Vec<CommutationState>;
+
+    /// Why there is no initial commutation state, for the plan's message.
+    fn no_initial_state(&self) -> String;
+
+    /// Every admissible step from `state` that the greedy schemes (and, `wide`, the beam search,
+    /// which can afford to look further) choose from, in a deterministic order.
+    fn steps(&self, state: &CommutationState, wide: bool) -> Vec<Step>;
+
+    /// The best-first search's expansion of a partial plan: the settles it spent and the
+    /// admissible steps it found.
+    fn expand(&self, at: &Frontier) -> (usize, Vec<Step>);
+
+    /// What two states must share to be one state (with orientations within
+    /// [`SAME_STATE_RAD`]): by default what is on, sorted.
+    fn key(&self, state: &CommutationState) -> Vec<Pair> {
+        sorted(&state.active)
+    }
+}
+
+/// A partial plan: the states so far and their running figures.
+#[derive(Debug, Clone)]
+pub(crate) struct Path {
+    rows: Vec<PlanRow>,
+    state: CommutationState,
+    worst: f64,
+    cum: f64,
+}
+
+impl Path {
+    fn extend(&self, step: &Step, q0: &Orientation, s: &PlanSettings) -> Path {
+        let (ca, ce) = cumulative(q0, &step.to.q, &s.axis);
+        let row = PlanRow {
+            step: self.rows.len(),
+            pivot: step.pivot,
+            new: step.new.clone(),
+            active: step.to.active.clone(),
+            q: step.to.q,
+            step_angle_deg: step.angle.0.to_degrees(),
+            step_axis_error_deg: step.axis_error.0.to_degrees(),
+            cum_angle_deg: ca.0.to_degrees(),
+            cum_axis_error_deg: ce.0.to_degrees(),
+            settle_time_s: step.to.settle_time_s,
+        };
+        let mut rows = self.rows.clone();
+        rows.push(row);
+        Path {
+            rows,
+            state: step.to.clone(),
+            worst: self.worst.max(ce.0),
+            cum: ca.0,
+        }
+    }
+
+    fn frontier(&self) -> Frontier<'_> {
+        Frontier {
+            state: &self.state,
+            q0: self.rows[0].q,
+            worst: self.worst,
+        }
+    }
+}
+
+/// Plans with a step model: from its initial states, by the settings' scheme (the search is
+/// the beam search for the pivot model, the best-first search for the others).
+pub fn run(src: &dyn StepSource, s: &PlanSettings) -> Plan {
+    let inits = src.initial_states();
+    let Some(first) = inits.first() else {
+        return Plan {
+            rows: Vec::new(),
+            reached: false,
+            message: Some(src.no_initial_state()),
+            settles: 0,
+        };
+    };
+    match s.scheme {
+        Scheme::Search => {
+            let roots: Vec<Path> = inits.iter().map(root_path).collect();
+            match s.model {
+                crate::planning::commutation::StepModel::Pivot => search(src, s, roots),
+                _ => best_first(src, s, roots),
+            }
+        }
+        g => greedy(src, s, root_path(first), g),
+    }
+}
+
+/// A plan's start: row 0, the initial commutation state.
+fn root_path(init: &CommutationState) -> Path {
+    let row0 = PlanRow {
+        step: 0,
+        pivot: None,
+        new: init.active.clone(),
+        active: init.active.clone(),
+        q: init.q,
+        step_angle_deg: 0.0,
+        step_axis_error_deg: 0.0,
+        cum_angle_deg: 0.0,
+        cum_axis_error_deg: 0.0,
+        settle_time_s: init.settle_time_s,
+    };
+    Path {
+        rows: vec![row0],
+        state: init.clone(),
+        worst: 0.0,
+        cum: 0.0,
+    }
+}
+
+fn reached(p: &Path, s: &PlanSettings) -> bool {
+    p.cum >= s.angle.0 - s.angle_tolerance.0
+}
+
+/// The greedy key of a step (larger is better), ties broken by the step's pairs. Progress
+/// past the target counts against a step, so that the last step lands near the target.
+fn greedy_key(scheme: Scheme, st: &Step, remaining: f64) -> f64 {
+    let progress = st.angle.0 - 2.0 * (st.angle.0 - remaining).max(0.0);
+    match scheme {
+        Scheme::MinAxisError => -st.axis_error.0,
+        Scheme::MaxAngle => progress,
+        _ => progress - st.axis_error.0,
+    }
+}
+
+fn greedy(src: &dyn StepSource, s: &PlanSettings, mut path: Path, scheme: Scheme) -> Plan {
+    let q0 = path.state.q;
+    let mut seen: Vec<Vec<Pair>> = vec![src.key(&path.state)];
+    loop {
+        if reached(&path, s) {
+            return Plan {
+                rows: path.rows,
+                reached: true,
+                message: None,
+                settles: 0,
+            };
+        }
+        if path.rows.len() > s.max_steps {
+            return stopped(path, format!("gave up after {} steps", s.max_steps));
+        }
+        let steps = src.steps(&path.state, false);
+        let remaining = s.angle.0 - path.cum;
+        // a greedy plan must not cycle between the same states
+        let best = steps
+            .iter()
+            .filter(|st| !seen.contains(&src.key(&st.to)))
+            .max_by(|a, b| {
+                greedy_key(scheme, a, remaining)
+                    .total_cmp(&greedy_key(scheme, b, remaining))
+                    .then_with(|| b.to.active.cmp(&a.to.active))
+            });
+        let Some(best) = best else {
+            return stopped(
+                path,
+                "no candidate step advances about the axis within the axis error limit".into(),
+            );
+        };
+        path = path.extend(best, &q0, s);
+        seen.push(src.key(&path.state));
+    }
+}
+
+fn stopped(path: Path, why: String) -> Plan {
+    let got = path.cum.to_degrees();
+    Plan {
+        rows: path.rows,
+        reached: false,
+        message: Some(format!(
+            "target not reached: {why} (reached {got:.2} degrees)"
+        )),
+        settles: 0,
+    }
+}
+
+/// A search's plan: its best solution, else the deepest partial plan and why it stopped.
+fn outcome(best: Option<Path>, deepest: Path, why: String) -> Plan {
+    match best {
+        Some(b) => Plan {
+            rows: b.rows,
+            reached: true,
+            message: None,
+            settles: 0,
+        },
+        None => stopped(deepest, why),
+    }
+}
+
+/// The plan of a search given no root.
+fn no_initial_state() -> Plan {
+    Plan {
+        rows: Vec::new(),
+        reached: false,
+        message: Some("no initial commutation state".into()),
+        settles: 0,
+    }
+}
+
+/// Beam search: keeps the `beam_width` best partial plans at each depth (best = smallest worst
+/// cumulative axis error, with a credit for progress), expanding them all in parallel; a plan
+/// that reaches the target is a solution, and partial plans already as bad as the best solution
+/// are pruned (the worst error never falls along a path). The paper's greedy plans are
+/// candidates too, so the search is never worse than them.
+fn search(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Path>) -> Plan {
+    let Some(root) = roots.first().cloned() else {
+        return no_initial_state();
+    };
+    let mut best = greedy_best(src, s, &root, better_solution);
+    let mut beam = roots;
+    let mut deepest = root;
+    for _depth in 0..s.max_steps {
+        if beam.is_empty() {
+            break;
+        }
+        let children: Vec<Vec<Path>> = beam
+            .par_iter()
+            .map(|p| {
+                let q0 = p.rows[0].q;
+                src.steps(&p.state, true)
+                    .iter()
+                    .map(|st| p.extend(st, &q0, s))
+                    .collect()
+            })
+            .collect();
+        let mut next: Vec<Path> = Vec::new();
+        for c in children.into_iter().flatten() {
+            if best.as_ref().is_some_and(|b| c.worst > b.worst + 1e-9) {
+                continue;
+            }
+            if reached(&c, s) {
+                if better_solution(&c, best.as_ref(), s) {
+                    best = Some(c);
+                }
+            } else {
+                next.push(c);
+            }
+        }
+        let kept = beam_of(next, s.beam_width);
+        if let Some(front) = kept.first() {
+            if front.cum > deepest.cum {
+                deepest = front.clone();
+            }
+        }
+        beam = kept;
+    }
+    outcome(
+        best,
+        deepest,
+        "the search found no sequence that reaches the target".into(),
+    )
+}
+
+/// The beam's next generation: the partial plans in rank order (worst error less a credit for
+/// progress, ties by what is on and then by the whole sequence), one per end state, at most
+/// `width`.
+fn beam_of(mut next: Vec<Path>, width: usize) -> Vec<Path> {
+    let credit = 0.25;
+    next.sort_by(|a, b| {
+        let sa = a.worst - credit * a.cum;
+        let sb = b.worst - credit * b.cum;
+        sa.total_cmp(&sb)
+            .then_with(|| a.state.active.cmp(&b.state.active))
+            .then_with(|| {
+                let ka: Vec<_> = a.rows.iter().map(|r| r.active.clone()).collect();
+                let kb: Vec<_> = b.rows.iter().map(|r| r.active.clone()).collect();
+                ka.cmp(&kb)
+            })
+    });
+    let mut kept: Vec<Path> = Vec::new();
+    for c in next {
+        let dup = kept
+            .iter()
+            .any(|k| k.state.active == c.state.active && k.state.q.angle_to(&c.state.q) < 1e-6);
+        if !dup {
+            kept.push(c);
+            if kept.len() == width {
+                break;
+            }
+        }
+    }
+    kept
+}
+
+/// The best of the paper's three greedy plans from `root` that reaches the target, as a
+/// solution the searches must beat.
+fn greedy_best(
+    src: &dyn StepSource,
+    s: &PlanSettings,
+    root: &Path,
+    better: fn(&Path, Option<&Path>, &PlanSettings) -> bool,
+) -> Option<Path> {
+    let mut best: Option<Path> = None;
+    for g in [Scheme::Weighted, Scheme::MinAxisError, Scheme::MaxAngle] {
+        let q0 = root.state.q;
+        let p = greedy(src, s, root.clone(), g);
+        if p.reached {
+            let worst = max_axis_error_deg(&p.rows).to_radians();
+            let cum = p
+                .rows
+                .last()
+                .map(|r| r.cum_angle_deg.to_radians())
+                .unwrap_or(0.0);
+            let cand = Path {
+                state: CommutationState {
+                    q: p.rows.last().map(|r| r.q).unwrap_or(q0),
+                    active: p.rows.last().map(|r| r.active.clone()).unwrap_or_default(),
+                    settle_time_s: 0.0,
+                },
+                rows: p.rows,
+                worst,
+                cum,
+            };
+            if better(&cand, best.as_ref(), s) {
+                best = Some(cand);
+            }
+        }
+    }
+    best
+}
+
+/// Progress counts in a partial plan's rank with this weight against its worst axis error
+/// (both in radians): a plan 4 degrees further on may be 1 degree worse.
+const PROGRESS_CREDIT: f64 = 0.25;
+
+/// Two settled states with the same key and orientations closer than this are one state.
+pub const SAME_STATE_RAD: f64 = 1e-3;
+
+/// A partial plan's rank in the best-first search (smaller first): its worst cumulative axis
+/// error so far, less a credit for progress (none past the target).
+pub fn rank(worst: f64, cum: f64, target: f64) -> f64 {
+    worst - PROGRESS_CREDIT * cum.min(target)
+}
+
+/// The rank a partial plan at `at` would have after a step predicted to end at `qp` (`None`
+/// when the prediction does not advance about the axis): how step models order the proposals
+/// they weigh.
+pub fn predicted_rank(at: &Frontier, qp: &Orientation, s: &PlanSettings) -> Option<f64> {
+    let (advance, _) = cumulative(&at.state.q, qp, &s.axis);
+    if advance.0 <= 0.0 {
+        return None;
+    }
+    let (ca, ce) = cumulative(&at.q0, qp, &s.axis);
+    Some(rank(at.worst.max(ce.0), ca.0, s.angle.0))
+}
+
+/// An entry of the best-first search's open list: rank, then arrival order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Open {
+    rank: f64,
+    node: usize,
+}
+
+impl Eq for Open {}
+
+impl Ord for Open {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        // BinaryHeap is a max-heap: the smallest rank, then the earliest node, on top
+        o.rank
+            .total_cmp(&self.rank)
+            .then_with(|| o.node.cmp(&self.node))
+    }
+}
+
+impl PartialOrd for Open {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+/// The settled states the best-first search has reached: (root, key) -> each orientation
+/// reached with that key and the node of the best partial plan that ends there.
+type StateIndex = std::collections::HashMap<(usize, Vec<Pair>), Vec<(Orientation, usize)>>;
+
+/// The best-first search's working set: its nodes (root, partial plan), open list and memo.
+struct Frontiers {
+    nodes: Vec<(usize, Path)>,
+    open: std::collections::BinaryHeap<Open>,
+    states: StateIndex,
+    deepest: Path,
+}
+
+impl Frontiers {
+    fn push(&mut self, root: usize, p: Path, target: f64) {
+        self.open.push(Open {
+            rank: rank(p.worst, p.cum, target),
+            node: self.nodes.len(),
+        });
+        self.nodes.push((root, p));
+    }
+
+    /// Whether `node` is still the best partial plan into its state.
+    fn current(&self, src: &dyn StepSource, node: usize) -> bool {
+        let (root, path) = &self.nodes[node];
+        let key = (*root, src.key(&path.state));
+        let found = self.states.get(&key).and_then(|v| {
+            v.iter()
+                .find(|(q, _)| q.angle_to(&path.state.q) < SAME_STATE_RAD)
+        });
+        found.is_none_or(|&(_, k)| k == node)
+    }
+
+    /// Files a new partial plan under its state, unless a plan at least as good ends there.
+    fn admit(&mut self, src: &dyn StepSource, root: usize, c: Path, target: f64) {
+        let id = self.nodes.len();
+        let list = self.states.entry((root, src.key(&c.state))).or_default();
+        match list
+            .iter_mut()
+            .find(|(q, _)| q.angle_to(&c.state.q) < SAME_STATE_RAD)
+        {
+            Some(entry) => {
+                if self.nodes[entry.1].1.worst <= c.worst + 1e-9 {
+                    return;
+                }
+                entry.1 = id;
+            }
+            None => list.push((c.state.q, id)),
+        }
+        if c.cum > self.deepest.cum {
+            self.deepest = c.clone();
+        }
+        self.push(root, c, target);
+    }
+}
+
+/// Best-first branch and bound over settled states (the dynamic and coil-set models): the
+/// partial plan of smallest rank is expanded next, its best-ranked proposals settled in
+/// parallel; a plan that reaches the target is a solution, and partial plans already as bad as
+/// the best solution are pruned (a plan's worst error never falls along it). Two partial plans
+/// from the same root that end in the same state (same key, orientation within
+/// [`SAME_STATE_RAD`]) are one: only the better goes on. The greedy plans are solutions from
+/// the start, so the search is never worse than them. The budget is counted in settles, so the
+/// plan is the same on any machine and any number of threads.
+fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Path>) -> Plan {
+    let Some(root) = roots.first().cloned() else {
+        return no_initial_state();
+    };
+    let mut best = greedy_best(src, s, &root, better_landing);
+    let mut f = Frontiers {
+        nodes: Vec::new(),
+        open: std::collections::BinaryHeap::new(),
+        states: StateIndex::new(),
+        deepest: root,
+    };
+    for (k, r) in roots.into_iter().enumerate() {
+        f.push(k, r, s.angle.0);
+    }
+    let mut spent = 0usize;
+    while spent < s.settle_budget {
+        let Some(Open { node, .. }) = f.open.pop() else {
+            break;
+        };
+        let (root_id, path) = f.nodes[node].clone();
+        if best
+            .as_ref()
+            .is_some_and(|b| path.worst >= score(b, s) - 1e-9)
+        {
+            continue;
+        }
+        if !f.current(src, node) {
+            continue; // a better plan reached this state since
+        }
+        let (settles, steps) = src.expand(&path.frontier());
+        spent += settles;
+        let q0 = path.rows[0].q;
+        for st in &steps {
+            let c = path.extend(st, &q0, s);
+            if best.as_ref().is_some_and(|b| c.worst > score(b, s) + 1e-9) {
+                continue;
+            }
+            if reached(&c, s) {
+                if better_landing(&c, best.as_ref(), s) {
+                    best = Some(c);
+                }
+                continue;
+            }
+            f.admit(src, root_id, c, s.angle.0);
+        }
+    }
+    let mut plan = outcome(
+        best,
+        f.deepest,
+        format!(
+            "the search found no sequence that reaches the target within its budget of {} settles",
+            s.settle_budget
+        ),
+    );
+    plan.settles = spent;
+    plan
+}
+
+/// A list of pairs, sorted.
+pub fn sorted(v: &[Pair]) -> Vec<Pair> {
+    let mut v = v.to_vec();
+    v.sort();
+    v
+}
+
+/// How far a complete plan departs from the motion asked for, rad: its worst cumulative axis
+/// error, or how far it lands past the target (beyond the angle tolerance) if that is more.
+/// Both are angles by which the ball's rotation misses the requested one.
+fn score(p: &Path, s: &PlanSettings) -> f64 {
+    let landing = ((p.cum - s.angle.0).abs() - s.angle_tolerance.0).max(0.0);
+    p.worst.max(landing)
+}
+
+/// The best-first search's order of complete plans: the smaller [`score`] wins; on a tie
+/// (within 1e-9 rad), as [`better_solution`].
+fn better_landing(c: &Path, best: Option<&Path>, s: &PlanSettings) -> bool {
+    match best {
+        None => true,
+        Some(b) => {
+            let (sc, sb) = (score(c, s), score(b, s));
+            if (sc - sb).abs() > 1e-9 {
+                return sc < sb;
+            }
+            better_solution(c, Some(b), s)
+        }
+    }
+}
+
+/// Smaller worst axis error wins; on a tie (within 1e-9 rad), landing nearer the target, then
+/// fewer steps.
+fn better_solution(c: &Path, best: Option<&Path>, s: &PlanSettings) -> bool {
+    let target = s.angle.0;
+    match best {
+        None => true,
+        Some(b) => {
+            if (c.worst - b.worst).abs() > 1e-9 {
+                return c.worst < b.worst;
+            }
+            let (oc, ob) = ((c.cum - target).abs(), (b.cum - target).abs());
+            if (oc - ob).abs() > 1e-9 {
+                return oc < ob;
+            }
+            c.rows.len() < b.rows.len()
+        }
+    }
+}
+
+/// The beam search weighs every candidate within the search bound, not the paper's narrower
+/// starting bound: the limits it looks with.
+pub fn wide_limits(l: &StepLimits) -> StepLimits {
+    StepLimits {
+        bound_start: Radians(l.bound_start.0.max(l.search_bound.0)),
+        ..*l
+    }
+}

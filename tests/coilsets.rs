@@ -1,0 +1,216 @@
+//! The coil-set planner (issue 13): the default model chosen by the physics, coil-set plans that
+//! are what the broad-well dynamics does (and pair plans that are not), the plan file of a
+//! coil-set step, the same bytes on any thread count, replay on relay boards, and the refusals
+//! (`--model`, `--plant`, a physics in which nothing settles).
+
+mod common;
+
+use common::csv_bytes;
+use spherestep::commands::{plan_settings, simulate_plan_in, PlanOverrides};
+use spherestep::io::planfile::parse_plan;
+use spherestep::io::scenario::Scenario;
+use spherestep::planning::commutation::{nearest_magnet, StepModel};
+use spherestep::planning::planner::{max_axis_error_deg, plan, PlanSettings};
+use spherestep::planning::simulate::simulate;
+use std::path::Path;
+
+fn load(name: &str) -> Scenario {
+    Scenario::load(Path::new(name)).unwrap()
+}
+
+fn scenario(text: &str) -> Scenario {
+    Scenario::from_toml(text, Path::new("test.toml")).unwrap()
+}
+
+fn about(sc: &Scenario, axis: &str, model: Option<&str>) -> PlanSettings {
+    plan_settings(
+        sc,
+        &PlanOverrides {
+            axis: Some(axis.into()),
+            angle_deg: Some(90.0),
+            model: model.map(Into::into),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn the_physics_chooses_the_default_model() {
+    // the prototype's sharp wells: pairs; the broad-well scenario ("coils" interaction): coil
+    // sets; gaussian wells of 14 degrees with the pair interaction reach a second magnet
+    assert_eq!(
+        load("scenarios/prototype.toml").plan.model,
+        StepModel::Dynamic
+    );
+    assert_eq!(
+        load("scenarios/broad-wells.toml").plan.model,
+        StepModel::Coils
+    );
+    let wide = scenario("[magnets]\nwidth_deg = 14.0\n");
+    assert_eq!(wide.plan.model, StepModel::Coils);
+    let sharp_coils = scenario("[magnets]\ninteraction = \"coils\"\n");
+    assert_eq!(sharp_coils.plan.model, StepModel::Coils);
+    let cosine_short = scenario("[magnets]\nshape = \"cosine\"\nmax_attraction_deg = 20.0\n");
+    assert_eq!(cosine_short.plan.model, StepModel::Dynamic);
+    // asked for, the model is what was asked
+    let asked = scenario("[magnets]\nwidth_deg = 14.0\n[plan]\nmodel = \"dynamic\"\n");
+    assert_eq!(asked.plan.model, StepModel::Dynamic);
+    let proto = load("scenarios/prototype.toml");
+    assert_eq!(
+        about(&proto, "0,0,1", Some("coils")).model,
+        StepModel::Coils
+    );
+    // a bad --model names the option and the choices
+    let e = plan_settings(
+        &proto,
+        &PlanOverrides {
+            model: Some("springs".into()),
+            ..Default::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    for needle in ["--model", "pivot, dynamic or coils", "springs"] {
+        assert!(e.contains(needle), "{e}");
+    }
+    let e = Scenario::from_toml("[plan]\nmodel = \"springs\"\n", Path::new("m.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("m.toml") && e.contains("coils"), "{e}");
+}
+
+#[test]
+fn a_coil_set_plan_is_what_the_broad_wells_do_and_a_pair_plan_is_not() {
+    let broad = load("scenarios/broad-wells.toml");
+    let s = about(&broad, "0,0,1", None);
+    let p = plan(&broad.motor(), &s);
+    assert!(p.reached, "{:?}", p.message);
+    assert_eq!(p.summary(&s).model, "coils");
+    let worst = max_axis_error_deg(&p.rows);
+    assert!(worst < 5.0, "worst cumulative axis error {worst}");
+    for r in simulate(&broad.motor(), &p.rows) {
+        assert!(
+            r.deviation_deg < 1e-6,
+            "step {}: {}",
+            r.step,
+            r.deviation_deg
+        );
+        assert!(r.settled);
+    }
+    // every step's pairs: the coils on, each with the magnet nearest it where the ball settled
+    for r in &p.rows[1..] {
+        assert!(r.pivot.is_none());
+        for pair in &r.active {
+            let (m, _) = nearest_magnet(&broad.torques, pair.coil, &r.q);
+            assert_eq!(pair.magnet, m, "step {}", r.step);
+        }
+    }
+    // the prototype's pair plan about Z, replayed in the broad wells: tens of degrees off
+    let dir = tempfile::tempdir().unwrap();
+    let proto = load("scenarios/prototype.toml");
+    let pair = plan(&proto.motor(), &about(&proto, "0,0,1", None));
+    let file = dir.path().join("pairs.csv");
+    std::fs::write(&file, csv_bytes(&pair)).unwrap();
+    let sim = simulate_plan_in(&proto, Some(&broad), &file).unwrap();
+    let off = sim.iter().map(|r| r.deviation_deg).fold(0.0, f64::max);
+    assert!(off > 10.0, "pair plan in broad wells: {off}");
+    // and in its own physics it replays exactly
+    let own = simulate_plan_in(&proto, None, &file).unwrap();
+    assert!(own.iter().all(|r| r.deviation_deg < 1e-6));
+}
+
+#[test]
+fn coil_set_plans_are_the_same_bytes_on_any_thread_count_and_read_back() {
+    let broad = load("scenarios/broad-wells.toml");
+    let s = about(&broad, "0,0,1", None);
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| csv_bytes(&plan(&broad.motor(), &s)))
+    };
+    let one = run(1);
+    assert_eq!(one, run(2));
+    let text = String::from_utf8(one).unwrap();
+    // a coil-set step: no pivot, the coils on with their nearest magnets
+    let step1 = text.lines().nth(2).unwrap();
+    assert!(step1.starts_with("1,,,"), "{step1}");
+    let rows = parse_plan(&text, Path::new("c.csv")).unwrap();
+    let p = plan(&broad.motor(), &s);
+    assert_eq!(rows.len(), p.rows.len());
+    for (back, made) in rows.iter().zip(&p.rows) {
+        assert_eq!(
+            (back.pivot, &back.new, &back.active),
+            (made.pivot, &made.new, &made.active)
+        );
+        // the orientation is renormalised on reading: the same to the last bits
+        assert!(back.q.angle_to(&made.q) < 1e-12);
+        assert_eq!(back.cum_axis_error_deg, made.cum_axis_error_deg);
+    }
+}
+
+#[test]
+fn a_coil_set_plan_replays_on_relay_boards() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("coils.csv");
+    let f = file.to_str().unwrap();
+    let (code, out, err) = common::run(&[
+        "plan",
+        "scenarios/broad-wells.toml",
+        "--axis",
+        "0,0,1",
+        "--out",
+        f,
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{out}{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(v["model"], "coils");
+    // broad wells settle slowly (up to seconds a step): with the dwell derived from the
+    // predicted settle times a coil would stay on past the on-time limit, and that is refused
+    let (code, out, err) = common::run(&["replay", f, "--board", "numato", "--dry-run"]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(err.contains("max_on_time_s"), "{err}");
+    let (code, out, err) = common::run(&[
+        "replay",
+        f,
+        "--board",
+        "numato",
+        "--dry-run",
+        "--dwell-ms",
+        "1000",
+    ]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("relay on"), "{out}");
+    assert!(out.contains("all coils off"), "{out}");
+}
+
+#[test]
+fn a_plant_with_other_packings_and_a_physics_that_holds_nothing_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let proto = load("scenarios/prototype.toml");
+    let p = plan(&proto.motor(), &about(&proto, "0,0,1", None));
+    let file = dir.path().join("p.csv");
+    std::fs::write(&file, csv_bytes(&p)).unwrap();
+    let small = scenario("[stator]\npoints = [[0, 0, -1], [0.3, 0, -0.95]]\n");
+    let e = simulate_plan_in(&proto, Some(&small), &file)
+        .unwrap_err()
+        .to_string();
+    for needle in ["--plant", "80 magnets, 16 coils", "80 magnets, 2 coils"] {
+        assert!(e.contains(needle), "{e}");
+    }
+    // nothing settles within t_max: no state, a clear message
+    let stiff = scenario(
+        "[magnets]\nshape = \"cosine\"\nmax_attraction_deg = 40\ninteraction = \"coils\"\n\
+         [settle]\nt_max_s = 0.001\n",
+    );
+    let p = plan(&stiff.motor(), &stiff.plan);
+    assert!(!p.reached && p.rows.is_empty());
+    let m = p.message.unwrap();
+    assert!(
+        m.contains("no initial commutation state") && m.contains("coil"),
+        "{m}"
+    );
+}
