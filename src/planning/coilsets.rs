@@ -13,8 +13,8 @@ use crate::planning::commutation::{
     admissible, bottom_coil, combinations, holds, nearest_magnet, pivot_error,
     predicted_orientation, CommutationState, Motor, PairsPerStep, Step,
 };
-use crate::planning::planner::{weighed, PlanSettings};
-use crate::planning::search::{predicted_rank, Frontier, StepSource};
+use crate::planning::plan::PlanSettings;
+use crate::planning::search::{predicted_rank, weighed, Frontier, StepSource};
 
 /// How many of a state's candidate sets that the weighing left unheld are followed again (as
 /// `simulate` settles them: at tight tolerances, ten times the cost of a settle). In broad

@@ -7,7 +7,7 @@
 use crate::model::geometry::{Orientation, Pair, Radians};
 use crate::planning::commutation::{cumulative, CommutationState, Step, StepLimits};
 use crate::planning::plan::PlanRow;
-use crate::planning::planner::{max_axis_error_deg, Plan, PlanSettings, Scheme};
+use crate::planning::plan::{max_axis_error_deg, Plan, PlanSettings, Scheme};
 use rayon::prelude::*;
 
 /// Where a partial plan stands, as a step model needs it to rank the steps it proposes.
@@ -46,15 +46,15 @@ pub trait StepSource: Sync {
 
 /// A partial plan: the states so far and their running figures.
 #[derive(Debug, Clone)]
-pub(crate) struct Path {
+pub(crate) struct Node {
     rows: Vec<PlanRow>,
     state: CommutationState,
     worst: f64,
     cum: f64,
 }
 
-impl Path {
-    fn extend(&self, step: &Step, q0: &Orientation, s: &PlanSettings) -> Path {
+impl Node {
+    fn extend(&self, step: &Step, q0: &Orientation, s: &PlanSettings) -> Node {
         let (ca, ce) = cumulative(q0, &step.to.q, &s.axis);
         let row = PlanRow {
             step: self.rows.len(),
@@ -70,7 +70,7 @@ impl Path {
         };
         let mut rows = self.rows.clone();
         rows.push(row);
-        Path {
+        Node {
             rows,
             state: step.to.clone(),
             worst: self.worst.max(ce.0),
@@ -101,18 +101,18 @@ pub fn run(src: &dyn StepSource, s: &PlanSettings) -> Plan {
     };
     match s.scheme {
         Scheme::Search => {
-            let roots: Vec<Path> = inits.iter().map(root_path).collect();
+            let roots: Vec<Node> = inits.iter().map(root_node).collect();
             match s.model {
                 crate::planning::commutation::StepModel::Pivot => search(src, s, roots),
                 _ => best_first(src, s, roots),
             }
         }
-        g => greedy(src, s, root_path(first), g),
+        g => greedy(src, s, root_node(first), g),
     }
 }
 
 /// A plan's start: row 0, the initial commutation state.
-fn root_path(init: &CommutationState) -> Path {
+fn root_node(init: &CommutationState) -> Node {
     let row0 = PlanRow {
         step: 0,
         pivot: None,
@@ -125,7 +125,7 @@ fn root_path(init: &CommutationState) -> Path {
         cum_axis_error_deg: 0.0,
         settle_time_s: init.settle_time_s,
     };
-    Path {
+    Node {
         rows: vec![row0],
         state: init.clone(),
         worst: 0.0,
@@ -133,7 +133,7 @@ fn root_path(init: &CommutationState) -> Path {
     }
 }
 
-fn reached(p: &Path, s: &PlanSettings) -> bool {
+fn reached(p: &Node, s: &PlanSettings) -> bool {
     p.cum >= s.angle.0 - s.angle_tolerance.0
 }
 
@@ -148,7 +148,7 @@ fn greedy_key(scheme: Scheme, st: &Step, remaining: f64) -> f64 {
     }
 }
 
-fn greedy(src: &dyn StepSource, s: &PlanSettings, mut path: Path, scheme: Scheme) -> Plan {
+fn greedy(src: &dyn StepSource, s: &PlanSettings, mut path: Node, scheme: Scheme) -> Plan {
     let q0 = path.state.q;
     let mut seen: Vec<Vec<Pair>> = vec![src.key(&path.state)];
     loop {
@@ -185,7 +185,7 @@ fn greedy(src: &dyn StepSource, s: &PlanSettings, mut path: Path, scheme: Scheme
     }
 }
 
-fn stopped(path: Path, why: String) -> Plan {
+fn stopped(path: Node, why: String) -> Plan {
     let got = path.cum.to_degrees();
     Plan {
         rows: path.rows,
@@ -198,7 +198,7 @@ fn stopped(path: Path, why: String) -> Plan {
 }
 
 /// A search's plan: its best solution, else the deepest partial plan and why it stopped.
-fn outcome(best: Option<Path>, deepest: Path, why: String) -> Plan {
+fn outcome(best: Option<Node>, deepest: Node, why: String) -> Plan {
     match best {
         Some(b) => Plan {
             rows: b.rows,
@@ -225,7 +225,7 @@ fn no_initial_state() -> Plan {
 /// that reaches the target is a solution, and partial plans already as bad as the best solution
 /// are pruned (the worst error never falls along a path). The paper's greedy plans are
 /// candidates too, so the search is never worse than them.
-fn search(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Path>) -> Plan {
+fn search(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan {
     let Some(root) = roots.first().cloned() else {
         return no_initial_state();
     };
@@ -236,7 +236,7 @@ fn search(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Path>) -> Plan {
         if beam.is_empty() {
             break;
         }
-        let children: Vec<Vec<Path>> = beam
+        let children: Vec<Vec<Node>> = beam
             .par_iter()
             .map(|p| {
                 let q0 = p.rows[0].q;
@@ -246,7 +246,7 @@ fn search(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Path>) -> Plan {
                     .collect()
             })
             .collect();
-        let mut next: Vec<Path> = Vec::new();
+        let mut next: Vec<Node> = Vec::new();
         for c in children.into_iter().flatten() {
             if best.as_ref().is_some_and(|b| c.worst > b.worst + 1e-9) {
                 continue;
@@ -277,7 +277,7 @@ fn search(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Path>) -> Plan {
 /// The beam's next generation: the partial plans in rank order (worst error less a credit for
 /// progress, ties by what is on and then by the whole sequence), one per end state, at most
 /// `width`.
-fn beam_of(mut next: Vec<Path>, width: usize) -> Vec<Path> {
+fn beam_of(mut next: Vec<Node>, width: usize) -> Vec<Node> {
     let credit = 0.25;
     next.sort_by(|a, b| {
         let sa = a.worst - credit * a.cum;
@@ -290,7 +290,7 @@ fn beam_of(mut next: Vec<Path>, width: usize) -> Vec<Path> {
                 ka.cmp(&kb)
             })
     });
-    let mut kept: Vec<Path> = Vec::new();
+    let mut kept: Vec<Node> = Vec::new();
     for c in next {
         let dup = kept
             .iter()
@@ -310,10 +310,10 @@ fn beam_of(mut next: Vec<Path>, width: usize) -> Vec<Path> {
 fn greedy_best(
     src: &dyn StepSource,
     s: &PlanSettings,
-    root: &Path,
-    better: fn(&Path, Option<&Path>, &PlanSettings) -> bool,
-) -> Option<Path> {
-    let mut best: Option<Path> = None;
+    root: &Node,
+    better: fn(&Node, Option<&Node>, &PlanSettings) -> bool,
+) -> Option<Node> {
+    let mut best: Option<Node> = None;
     for g in [Scheme::Weighted, Scheme::MinAxisError, Scheme::MaxAngle] {
         let q0 = root.state.q;
         let p = greedy(src, s, root.clone(), g);
@@ -324,7 +324,7 @@ fn greedy_best(
                 .last()
                 .map(|r| r.cum_angle_deg.to_radians())
                 .unwrap_or(0.0);
-            let cand = Path {
+            let cand = Node {
                 state: CommutationState {
                     q: p.rows.last().map(|r| r.q).unwrap_or(q0),
                     active: p.rows.last().map(|r| r.active.clone()).unwrap_or_default(),
@@ -397,14 +397,14 @@ type StateIndex = std::collections::HashMap<(usize, Vec<Pair>), Vec<(Orientation
 
 /// The best-first search's working set: its nodes (root, partial plan), open list and memo.
 struct Frontiers {
-    nodes: Vec<(usize, Path)>,
+    nodes: Vec<(usize, Node)>,
     open: std::collections::BinaryHeap<Open>,
     states: StateIndex,
-    deepest: Path,
+    deepest: Node,
 }
 
 impl Frontiers {
-    fn push(&mut self, root: usize, p: Path, target: f64) {
+    fn push(&mut self, root: usize, p: Node, target: f64) {
         self.open.push(Open {
             rank: rank(p.worst, p.cum, target),
             node: self.nodes.len(),
@@ -424,7 +424,7 @@ impl Frontiers {
     }
 
     /// Files a new partial plan under its state, unless a plan at least as good ends there.
-    fn admit(&mut self, src: &dyn StepSource, root: usize, c: Path, target: f64) {
+    fn admit(&mut self, src: &dyn StepSource, root: usize, c: Node, target: f64) {
         let id = self.nodes.len();
         let list = self.states.entry((root, src.key(&c.state))).or_default();
         match list
@@ -454,7 +454,7 @@ impl Frontiers {
 /// [`SAME_STATE_RAD`]) are one: only the better goes on. The greedy plans are solutions from
 /// the start, so the search is never worse than them. The budget is counted in settles, so the
 /// plan is the same on any machine and any number of threads.
-fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Path>) -> Plan {
+fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan {
     let Some(root) = roots.first().cloned() else {
         return no_initial_state();
     };
@@ -522,14 +522,14 @@ pub fn sorted(v: &[Pair]) -> Vec<Pair> {
 /// How far a complete plan departs from the motion asked for, rad: its worst cumulative axis
 /// error, or how far it lands past the target (beyond the angle tolerance) if that is more.
 /// Both are angles by which the ball's rotation misses the requested one.
-fn score(p: &Path, s: &PlanSettings) -> f64 {
+fn score(p: &Node, s: &PlanSettings) -> f64 {
     let landing = ((p.cum - s.angle.0).abs() - s.angle_tolerance.0).max(0.0);
     p.worst.max(landing)
 }
 
 /// The best-first search's order of complete plans: the smaller [`score`] wins; on a tie
 /// (within 1e-9 rad), as [`better_solution`].
-fn better_landing(c: &Path, best: Option<&Path>, s: &PlanSettings) -> bool {
+fn better_landing(c: &Node, best: Option<&Node>, s: &PlanSettings) -> bool {
     match best {
         None => true,
         Some(b) => {
@@ -544,7 +544,7 @@ fn better_landing(c: &Path, best: Option<&Path>, s: &PlanSettings) -> bool {
 
 /// Smaller worst axis error wins; on a tie (within 1e-9 rad), landing nearer the target, then
 /// fewer steps.
-fn better_solution(c: &Path, best: Option<&Path>, s: &PlanSettings) -> bool {
+fn better_solution(c: &Node, best: Option<&Node>, s: &PlanSettings) -> bool {
     let target = s.angle.0;
     match best {
         None => true,
@@ -568,4 +568,30 @@ pub fn wide_limits(l: &StepLimits) -> StepLimits {
         bound_start: Radians(l.bound_start.0.max(l.search_bound.0)),
         ..*l
     }
+}
+
+/// Which of the ranked proposals (rank, proposal; smaller ranks first, ties by proposal) are
+/// weighed, best first: every one of size `all_up_to` or less, and of each larger size the
+/// `per_size` best.
+pub fn weighed<T: Ord>(
+    mut ranked: Vec<(f64, T)>,
+    size: impl Fn(&T) -> usize,
+    all_up_to: usize,
+    per_size: usize,
+) -> Vec<T> {
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
+    let mut taken = std::collections::BTreeMap::new();
+    ranked
+        .into_iter()
+        .filter(|(_, p)| {
+            let k = size(p);
+            if k <= all_up_to {
+                return true;
+            }
+            let t = taken.entry(k).or_insert(0usize);
+            *t += 1;
+            *t <= per_size
+        })
+        .map(|(_, p)| p)
+        .collect()
 }

@@ -1,7 +1,7 @@
 //! The cases of a batch job: one plan for a plain scenario, one per combination of a sweep's
 //! models, schemes, angles and axes; computing them in parallel, and a sweep case's CSV row.
 
-use super::files::{append_progress, read_progress, start_progress};
+use super::progress::{append_progress, read_progress, start_progress};
 use super::{BatchOptions, Job};
 use crate::error::{Error, Result};
 use crate::io::output::write_atomic;

@@ -8,6 +8,7 @@
 
 mod cases;
 mod files;
+mod progress;
 mod summary;
 
 use crate::error::{Error, Result};
