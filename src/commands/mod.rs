@@ -11,6 +11,7 @@ use crate::io::scenario::{
     check_pairs_per_step, default_pairs_per_step, parse_axis, parse_orientation,
     parse_pairs_per_step, Scenario,
 };
+use crate::io::table::write_csv;
 use crate::model::geometry::{parse_pairs, xyzw, Orientation, Pair};
 use crate::model::packing::{self, points_csv};
 use crate::physics::dynamics::{settle, settle_many, SettleResult};
@@ -87,7 +88,7 @@ pub fn write_prototype(dir: &Path) -> Result<()> {
 }
 
 /// One settle result as a JSON object with the documented keys.
-pub fn settle_json(r: &SettleResult) -> serde_json::Value {
+pub fn settle_json(r: &SettleResult, h: &Holding) -> serde_json::Value {
     serde_json::json!({
         "q": xyzw(&r.q),
         "settle_time_s": r.settle_time_s,
@@ -96,10 +97,54 @@ pub fn settle_json(r: &SettleResult) -> serde_json::Value {
         "energy_j": r.energy_j,
         "residual_torque_nm": r.residual_torque_nm,
         "settled": r.settled,
+        "stop": r.stop.describe(),
+        "held": active_text(&h.held),
+        "not_held": active_text(&h.not_held),
+        "outcome": h.outcome(r),
     })
 }
 
+/// Which pairs of a settled set hold the ball: those whose magnet ends within its coil's reach
+/// (the well's maximum attraction distance). A pair beyond it pulls nothing: a "settled" set
+/// whose pairs are all out of reach was merely left alone.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Holding {
+    pub held: Vec<Pair>,
+    pub not_held: Vec<Pair>,
+}
+
+impl Holding {
+    /// The pairs of `active` that hold the ball at `q` in `sc`.
+    pub fn of(sc: &Scenario, active: &[Pair], q: &Orientation) -> Holding {
+        let reach = sc.torques.well.max_attraction.0;
+        let (held, not_held) = active.iter().partition(|p| {
+            let m = q * sc.torques.rotor[p.magnet.0];
+            m.angle(&sc.torques.stator[p.coil.0]) <= reach
+        });
+        Holding { held, not_held }
+    }
+
+    /// What the settle came to: `held` (settled, every pair holding), `partly held` (settled,
+    /// some pairs out of reach), `unheld` (settled with no pair holding: the ball was left
+    /// alone) or `not settled`.
+    pub fn outcome(&self, r: &SettleResult) -> &'static str {
+        match (r.settled, self.held.is_empty(), self.not_held.is_empty()) {
+            (false, _, _) => "not settled",
+            (true, _, true) => "held",
+            (true, true, false) => "unheld",
+            (true, false, false) => "partly held",
+        }
+    }
+}
+
 /// Text form of an active set in files: `coil:magnet;coil:magnet`.
+fn or_none(pairs: &[Pair]) -> String {
+    match pairs.is_empty() {
+        true => "none".into(),
+        false => active_text(pairs),
+    }
+}
+
 pub fn active_text(active: &[Pair]) -> String {
     active
         .iter()
@@ -119,9 +164,10 @@ pub fn settle_one(
     let active = parse_pairs(pairs, "--pairs")?;
     sc.check_active(&active, "--pairs")?;
     let r = settle(&sc.torques, &active, from, sc.body, sc.settle);
+    let h = Holding::of(sc, &active, &r.q);
     let w = write_err("<stdout>");
     if json {
-        writeln!(out, "{}", settle_json(&r)).map_err(&w)?;
+        writeln!(out, "{}", settle_json(&r, &h)).map_err(&w)?;
     } else {
         let q = xyzw(&r.q);
         writeln!(out, "active: {}", active_text(&active)).map_err(&w)?;
@@ -134,10 +180,22 @@ pub fn settle_one(
         writeln!(
             out,
             "settled: {}  at t = {:.6} s  ({} evaluations, {} steps)",
-            if r.settled { "yes" } else { "NO" },
+            if r.settled {
+                "yes".to_string()
+            } else {
+                format!("NO ({})", r.stop.describe())
+            },
             r.settle_time_s,
             r.evaluations,
             r.steps
+        )
+        .map_err(&w)?;
+        writeln!(
+            out,
+            "outcome: {}  (holding: {}; out of reach: {})",
+            h.outcome(&r),
+            or_none(&h.held),
+            or_none(&h.not_held)
         )
         .map_err(&w)?;
         writeln!(
@@ -151,7 +209,7 @@ pub fn settle_one(
 }
 
 /// Header of the CSV written by `settle --sets`.
-pub const SETS_HEADER: [&str; 12] = [
+pub const SETS_HEADER: [&str; 14] = [
     "line",
     "active",
     "qx",
@@ -164,6 +222,8 @@ pub const SETS_HEADER: [&str; 12] = [
     "energy_j",
     "residual_torque_nm",
     "settled",
+    "held",
+    "outcome",
 ];
 
 /// Reads a sets file: one active set per non-empty line (`#` starts a comment), each checked.
@@ -196,12 +256,10 @@ pub fn settle_sets(
     out: &mut dyn Write,
 ) -> Result<Vec<SettleResult>> {
     let results = settle_many(&sc.torques, sets, from, sc.body, sc.settle);
-    let mut w = csv::Writer::from_writer(out);
-    let e = |e: csv::Error| Error::io("<output>", std::io::Error::other(e.to_string()));
-    w.write_record(SETS_HEADER).map_err(e)?;
-    for (k, (set, r)) in sets.iter().zip(&results).enumerate() {
+    let record = |(k, (set, r)): (usize, (&Vec<Pair>, &SettleResult))| {
         let q = xyzw(&r.q);
-        w.write_record([
+        let h = Holding::of(sc, set, &r.q);
+        vec![
             (k + 1).to_string(),
             active_text(set),
             q[0].to_string(),
@@ -214,10 +272,12 @@ pub fn settle_sets(
             r.energy_j.to_string(),
             r.residual_torque_nm.to_string(),
             r.settled.to_string(),
-        ])
-        .map_err(e)?;
-    }
-    w.flush().map_err(|er| Error::io("<output>", er))?;
+            active_text(&h.held),
+            h.outcome(r).to_string(),
+        ]
+    };
+    let records = sets.iter().zip(&results).enumerate().map(record);
+    write_csv(out, "<settle output>", &SETS_HEADER, records)?;
     Ok(results)
 }
 
