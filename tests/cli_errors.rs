@@ -260,3 +260,28 @@ fn sets_csv_rows_follow_the_file_order_and_are_deterministic() {
     assert!(lines[1].starts_with("1,0:14;7:68,"));
     assert!(lines[3].starts_with("3,0:14;12:45;7:68,"));
 }
+
+/// Issue 14, item 14: a turn of more than 180 degrees can never be measured as reached (the
+/// cumulative rotation's angle lies in (-180, 180]); it is refused with the reason, on the
+/// command line and in a scenario, instead of searching until the budget runs out.
+#[test]
+fn targets_beyond_180_degrees_are_refused_with_the_reason() {
+    let (code, _, err) = run(&["plan", "scenarios/prototype.toml", "--angle", "200"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("argument --angle"), "{err}");
+    assert!(err.contains("(0, 180] degrees, got 200"), "{err}");
+    assert!(err.contains("moves of at most 180 degrees"), "{err}");
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let file = scenario(dir, "long.toml", "[plan]\nangle_deg = 270\n");
+    let (code, _, err) = run(&["plan", &file]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("`plan.angle_deg`") && err.contains("got 270"),
+        "{err}"
+    );
+    let file = scenario(dir, "sweep.toml", "[sweep]\nangles_deg = [90, 181]\n");
+    let (code, _, err) = run(&["plan", &file]);
+    assert_eq!(code, 1);
+    assert!(err.contains("`sweep.angles_deg[1]`"), "{err}");
+}

@@ -78,16 +78,28 @@ impl Scheme {
 }
 
 /// The largest target angle a plan may ask for, degrees.
-pub const MAX_TARGET_DEG: f64 = 3600.0;
+/// A plan's progress is the angle of the cumulative rotation R_k R_0^T about the axis, which
+/// lies in (-180, 180] degrees: a turn of more than 180 degrees about an axis ends where one of
+/// less than 180 about the opposite axis does, and at 360 the cumulative rotation has no axis
+/// to measure an error against.
+pub const MAX_TARGET_DEG: f64 = 180.0;
 
 /// A target angle given in degrees, checked to lie in (0, [`MAX_TARGET_DEG`]], or what was
-/// expected instead.
+/// expected instead (with the reason, and how to plan a longer turn).
 pub fn target_angle(deg: f64) -> std::result::Result<Radians, String> {
     if deg.is_finite() && deg > 0.0 && deg <= MAX_TARGET_DEG {
         Ok(Degrees(deg).to_radians())
     } else {
+        let longer = match deg.is_finite() && deg > MAX_TARGET_DEG {
+            true => {
+                "; a turn of more than 180 degrees ends where a shorter one about the opposite \
+                 axis does and cannot be measured as one rotation: plan it as moves of at most \
+                 180 degrees, each starting (--from) where the last one ended"
+            }
+            false => "",
+        };
         Err(format!(
-            "a target angle in (0, {MAX_TARGET_DEG}] degrees, got {deg}"
+            "a target angle in (0, {MAX_TARGET_DEG}] degrees, got {deg}{longer}"
         ))
     }
 }
