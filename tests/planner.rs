@@ -251,3 +251,22 @@ fn a_dynamic_plan_replays_exactly_in_its_own_scenario() {
     let sim = spherestep::planning::simulate::simulate(&broad.motor(), &p.rows);
     assert!(sim.iter().any(|r| r.deviation_deg > 0.01));
 }
+
+/// Issue 14, item 13: a geometric (pivot) plan predicts every step's settle time (the dynamics'
+/// settle of the step's set from the orientation the plan predicts before it), so that `replay`
+/// waits for the ball instead of only its 200 ms floor.
+#[test]
+fn pivot_plans_predict_each_steps_settle_time() {
+    use spherestep::physics::dynamics::settle;
+    let sc = load("scenarios/prototype.toml");
+    let s = settings(&sc, "0,0,1", "weighted", "pivot", "2");
+    let p = plan(&sc.motor(), &s);
+    assert!(p.rows.len() > 2);
+    let mut from = s.start;
+    for r in &p.rows {
+        let expect = settle(&sc.torques, &r.active, &from, sc.body, sc.settle);
+        assert!(r.settle_time_s > 0.05, "step {}: {}", r.step, r.settle_time_s);
+        assert_eq!(r.settle_time_s, expect.settle_time_s, "step {}", r.step);
+        from = r.q;
+    }
+}

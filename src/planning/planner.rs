@@ -6,12 +6,16 @@
 //! schemes, a beam search and a best-first branch and bound). The settings and the plan are in
 //! `plan` (re-exported here).
 
+use crate::model::geometry::Orientation;
+use crate::physics::dynamics::settle;
 use crate::planning::coilsets::CoilSets;
 use crate::planning::commutation::{
     candidate_steps, evaluate_proposals, initial_states, predicted_orientation, proposals_within,
     CommutationState, Motor, Proposal, Step, StepLimits, StepModel, PIVOT_CAPTURE,
 };
+use crate::planning::plan::PlanRow;
 use crate::planning::search::{self, predicted_rank, weighed, wide_limits, Frontier, StepSource};
+use rayon::prelude::*;
 
 pub use crate::planning::plan::{
     max_axis_error_deg, target_angle, total_settle_time, Plan, PlanSettings, PlanSummary, Scheme,
@@ -33,7 +37,31 @@ pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
     let s = &resolved;
     match s.model {
         StepModel::Coils => search::run(&CoilSets::new(motor, s), s),
-        StepModel::Pivot | StepModel::Dynamic => search::run(&PairSteps { motor, s }, s),
+        StepModel::Dynamic => search::run(&PairSteps { motor, s }, s),
+        StepModel::Pivot => {
+            let mut p = search::run(&PairSteps { motor, s }, s);
+            predict_settle_times(motor, &mut p.rows, &s.start);
+            p
+        }
+    }
+}
+
+/// The settle time of each step of a geometric (pivot) plan, which its model does not predict:
+/// the dynamics' settle of the step's active set from the orientation the plan predicts before
+/// it (`start` for step 0), all steps in parallel. `replay` waits this long (times its factor).
+fn predict_settle_times(motor: &Motor, rows: &mut [PlanRow], start: &Orientation) {
+    let froms: Vec<Orientation> = std::iter::once(*start)
+        .chain(rows.iter().map(|r| r.q))
+        .take(rows.len())
+        .collect();
+    let times: Vec<f64> = rows
+        .par_iter()
+        .zip(&froms)
+        .map(|(r, from)| settle(motor.torques, &r.active, from, motor.body, motor.settle))
+        .map(|res| res.settle_time_s)
+        .collect();
+    for (r, t) in rows.iter_mut().zip(times) {
+        r.settle_time_s = t;
     }
 }
 
