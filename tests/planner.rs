@@ -265,7 +265,12 @@ fn pivot_plans_predict_each_steps_settle_time() {
     let mut from = s.start;
     for r in &p.rows {
         let expect = settle(&sc.torques, &r.active, &from, sc.body, sc.settle);
-        assert!(r.settle_time_s > 0.05, "step {}: {}", r.step, r.settle_time_s);
+        assert!(
+            r.settle_time_s > 0.05,
+            "step {}: {}",
+            r.step,
+            r.settle_time_s
+        );
         assert_eq!(r.settle_time_s, expect.settle_time_s, "step {}", r.step);
         from = r.q;
     }

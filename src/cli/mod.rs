@@ -14,6 +14,19 @@ mod view;
 
 use clap::{Parser, Subcommand};
 use std::io::Write;
+use std::path::PathBuf;
+
+/// Where a command that makes a CSV (plan, simulate) sends it and its summary.
+#[derive(clap::Args)]
+pub struct CsvOutput {
+    /// Write the CSV here (else it goes alone to standard output, the summary to standard
+    /// error).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print a JSON summary.
+    #[arg(long)]
+    pub json: bool,
+}
 
 #[derive(Parser)]
 #[command(

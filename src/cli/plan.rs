@@ -1,6 +1,7 @@
 //! `spherestep plan`: plans which coils to switch, in which order, to turn the ball about an
 //! axis; the plan CSV and a summary.
 
+use super::CsvOutput;
 use anyhow::Result;
 use spherestep::commands::{self as app};
 use spherestep::io::scenario::Scenario;
@@ -34,13 +35,8 @@ pub struct Args {
     /// Start orientation qx,qy,qz,qw (default: the scenario's, else identity).
     #[arg(long, allow_hyphen_values = true)]
     pub from: Option<String>,
-    /// Write the plan CSV here (else it goes alone to standard output, the summary to
-    /// standard error).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Print a JSON summary.
-    #[arg(long)]
-    pub json: bool,
+    #[command(flatten)]
+    pub output: CsvOutput,
 }
 
 impl Args {
@@ -53,8 +49,10 @@ impl Args {
             model,
             pairs,
             from,
-            out: out_file,
-            json,
+            output: CsvOutput {
+                out: out_file,
+                json,
+            },
         } = self;
         let sc = Scenario::load(&scenario)?;
         let o = app::PlanOverrides {

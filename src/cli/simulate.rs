@@ -1,9 +1,12 @@
 //! `spherestep simulate`: replays a plan's coil sequence through the dynamic model and
 //! measures the "slop".
 
+use super::CsvOutput;
 use anyhow::Result;
 use spherestep::commands::{self as app};
+use spherestep::io::output::emit_csv;
 use spherestep::io::scenario::Scenario;
+use spherestep::io::simfile::write_sim;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -20,13 +23,8 @@ pub struct Args {
     /// must be the plan's.
     #[arg(long)]
     pub plant: Option<PathBuf>,
-    /// Write the per-step CSV here (else it goes alone to standard output, the summary to
-    /// standard error).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Print a JSON summary.
-    #[arg(long)]
-    pub json: bool,
+    #[command(flatten)]
+    pub output: CsvOutput,
 }
 
 impl Args {
@@ -35,8 +33,10 @@ impl Args {
             plan,
             scenario,
             plant,
-            out: out_file,
-            json,
+            output: CsvOutput {
+                out: out_file,
+                json,
+            },
         } = self;
         let sc = match scenario {
             Some(p) => Scenario::load(&p)?,
@@ -44,21 +44,14 @@ impl Args {
         };
         let plant = plant.map(|p| Scenario::load(&p)).transpose()?;
         let sim = app::simulate_plan_in(&sc, plant.as_ref(), &plan)?;
-        let mut buf = Vec::new();
-        spherestep::io::simfile::write_sim(&sim, &mut buf)?;
-        // Without --out the CSV alone goes to standard output, the summary to standard error.
-        let csv_on_stdout = out_file.is_none() && !json;
-        match &out_file {
-            Some(p) => spherestep::io::output::write_atomic(p, &buf)?,
-            None if csv_on_stdout => out.write_all(&buf)?,
-            None => {}
-        }
+        let mut csv = Vec::new();
+        write_sim(&sim, &mut csv)?;
+        let mut stderr = std::io::stderr();
+        let note = emit_csv(&csv, out_file.as_deref(), json, out, &mut stderr)?;
         let s = spherestep::planning::simulate::summary(&sim);
         if json {
-            writeln!(out, "{}", serde_json::to_string(&s)?)?;
+            writeln!(note, "{}", serde_json::to_string(&s)?)?;
         } else {
-            let mut stderr = std::io::stderr();
-            let note: &mut dyn Write = if csv_on_stdout { &mut stderr } else { out };
             writeln!(
                 note,
                 "{} steps: max deviation {:.3} deg, final deviation {:.3} deg, {} unsettled",

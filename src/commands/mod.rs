@@ -5,7 +5,7 @@ pub mod batch;
 pub mod replay;
 
 use crate::error::{Error, Result};
-use crate::io::output::write_atomic;
+use crate::io::output::emit_csv;
 use crate::io::planfile::{read_plan, write_plan};
 use crate::io::scenario::{
     check_pairs_per_step, default_pairs_per_step, parse_axis, parse_orientation,
@@ -346,11 +346,9 @@ pub fn plan_command(
     note: &mut dyn Write,
 ) -> Result<Plan> {
     let p = plan(&sc.motor(), settings);
-    if let Some(path) = out_file {
-        let mut buf = Vec::new();
-        write_plan(&p.rows, &mut buf)?;
-        write_atomic(path, &buf)?;
-    }
+    let mut csv = Vec::new();
+    write_plan(&p.rows, &mut csv)?;
+    let out = emit_csv(&csv, out_file, json, out, note)?;
     let s = p.summary(settings);
     let w = write_err("<stdout>");
     if json {
@@ -361,12 +359,6 @@ pub fn plan_command(
         )
         .map_err(&w)?;
     } else {
-        let out: &mut dyn Write = if out_file.is_none() {
-            write_plan(&p.rows, out)?;
-            note
-        } else {
-            out
-        };
         let ax = settings.axis;
         let mut text = format!(
             "{}: {} steps about [{:.4}, {:.4}, {:.4}] by {:.2} deg ({} model, {} {}, {}): \

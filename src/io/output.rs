@@ -142,6 +142,28 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     })
 }
 
+/// Sends a command's CSV where it goes: to `file` (atomically) when given, else alone to `out`
+/// unless a JSON summary is asked for (which takes `out`). Returns where the summary goes:
+/// `note` (standard error) when the CSV took `out`, else `out`; so that `cmd > file.csv` gives
+/// a CSV file.
+pub fn emit_csv<'a>(
+    csv: &[u8],
+    file: Option<&Path>,
+    json: bool,
+    out: &'a mut dyn Write,
+    note: &'a mut dyn Write,
+) -> Result<&'a mut dyn Write> {
+    match file {
+        Some(path) => write_atomic(path, csv)?,
+        None if !json => {
+            out.write_all(csv).map_err(|e| Error::io("<stdout>", e))?;
+            return Ok(note);
+        }
+        None => {}
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
