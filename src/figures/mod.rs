@@ -16,7 +16,7 @@
 //! - [`plot_csv`]: `spherestep plot`, the figure that suits an existing result CSV, with
 //!   [`sweep_csv`] reading a sweep CSV's points;
 //! - [`view`]: `spherestep view`, the interactive 3-D page of a plan;
-//! - [`report`]: the pictures and page `batch --plots` draws for each result.
+//! - [`batch_pictures`]: the pictures and page `batch --plots` draws for each result.
 //!
 //! Shared by the figures: [`figure`] (the [`Figure`] trait, writing SVG and PNG atomically),
 //! [`style`] (font, colours, series styles, marks, ticks), `chart` (title, axes and legend
@@ -27,12 +27,12 @@
 //! [`render_svg`]. Indices are 0-based, angles in degrees.
 
 pub mod axis_error;
+pub mod batch_pictures;
 mod chart;
 pub mod commutation_plot;
 pub mod figure;
 pub mod labels;
 pub mod plot_csv;
-pub mod report;
 pub mod style;
 pub mod sweep_csv;
 pub mod sweep_map;

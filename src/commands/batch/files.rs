@@ -5,7 +5,7 @@ use super::cases::{case_label, Outcome};
 use super::progress::progress_path;
 use super::{Job, Shard, SWEEP_HEADER};
 use crate::error::{Error, Result};
-use crate::figures::report;
+use crate::figures::batch_pictures;
 use crate::io::output::write_atomic;
 use crate::io::planfile::write_plan;
 use crate::io::scenario::Scenario;
@@ -106,7 +106,7 @@ pub(super) fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()
                 // From the plan as written, so that pictures drawn again by --resume (from the
                 // file) are the same bytes.
                 let rows = crate::io::planfile::read_plan(&job.csv)?;
-                files = report::plan_pictures(
+                files = batch_pictures::plan_pictures(
                     sc,
                     &c.settings.axis,
                     &case_label(c),
@@ -118,7 +118,7 @@ pub(super) fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()
         }
         Some(sw) => {
             if sw.axes.len() > 1 {
-                files = report::sweep_pictures(sc, &job.csv, out)?;
+                files = batch_pictures::sweep_pictures(sc, &job.csv, out)?;
             } else {
                 let plans: Vec<(String, Vec<PlanRow>)> = job
                     .cases
@@ -126,9 +126,9 @@ pub(super) fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()
                     .zip(outcomes)
                     .map(|(c, o)| (case_label(c), o.rows.clone()))
                     .collect();
-                files = report::schemes_picture(sc, &plans, out, &job.name)?;
+                files = batch_pictures::schemes_picture(sc, &plans, out, &job.name)?;
                 if let (Some(c), Some(o)) = (job.cases.last(), outcomes.last()) {
-                    files.extend(report::plan_pictures(
+                    files.extend(batch_pictures::plan_pictures(
                         sc,
                         &c.settings.axis,
                         &case_label(c),
