@@ -17,7 +17,11 @@ fn fibonacci_rotor(n: usize) -> String {
         let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
         let r = (1.0 - z * z).sqrt();
         let t = golden * i as f64;
-        s.push_str(&format!("{:.12},{:.12},{z:.12}\n", r * t.cos(), r * t.sin()));
+        s.push_str(&format!(
+            "{:.12},{:.12},{z:.12}\n",
+            r * t.cos(),
+            r * t.sin()
+        ));
     }
     s
 }
