@@ -15,7 +15,7 @@ use crate::io::table::write_csv;
 use crate::model::geometry::{parse_pairs, xyzw, Orientation, Pair};
 use crate::model::packing::{self, points_csv};
 use crate::physics::dynamics::{settle, settle_many, SettleResult};
-use crate::planning::commutation::StepModel;
+use crate::planning::commutation::{pair_gap, StepModel};
 use crate::planning::planner::{plan, target_angle, Plan, PlanSettings, Scheme};
 use crate::planning::simulate::{simulate, SimRow};
 use std::io::Write;
@@ -117,10 +117,10 @@ impl Holding {
     /// The pairs of `active` that hold the ball at `q` in `sc`.
     pub fn of(sc: &Scenario, active: &[Pair], q: &Orientation) -> Holding {
         let reach = sc.torques.well.max_attraction.0;
-        let (held, not_held) = active.iter().partition(|p| {
-            let m = q * sc.torques.rotor[p.magnet.0];
-            m.angle(&sc.torques.stator[p.coil.0]) <= reach
-        });
+        let r = q.to_rotation_matrix();
+        let (held, not_held) = active
+            .iter()
+            .partition(|&&p| pair_gap(&sc.torques, &r, p).0 <= reach);
         Holding { held, not_held }
     }
 

@@ -10,7 +10,7 @@ use crate::model::geometry::{
 };
 use crate::physics::dynamics::{settle_many, Body, SettleParams};
 use crate::physics::torque::{MagnetTorques, Well};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// How a candidate step's outcome is predicted.
@@ -632,14 +632,21 @@ pub fn admissible(
     (angle.0 >= limits.min_angle.0 && err.0 <= limits.max_axis_error.0).then_some((to, angle, err))
 }
 
+/// The angle between a pair's magnet, turned by `r` (an orientation's rotation matrix), and its
+/// coil.
+pub fn pair_gap(torques: &MagnetTorques, r: &Rotation3<f64>, p: Pair) -> Radians {
+    let m = UnitVec::new_normalize(r * torques.rotor[p.magnet.0]);
+    let s = UnitVec::new_normalize(torques.stator[p.coil.0]);
+    angular_distance(&m, &s)
+}
+
 /// Whether every active pair of a state has its magnet within `capture` of its coil.
 pub fn holds(torques: &MagnetTorques, state: &CommutationState, capture: Radians) -> bool {
     let r = state.q.to_rotation_matrix();
-    state.active.iter().all(|p| {
-        let m = UnitVec::new_normalize(r * torques.rotor[p.magnet.0]);
-        let s = UnitVec::new_normalize(torques.stator[p.coil.0]);
-        angular_distance(&m, &s).0 <= capture.0
-    })
+    state
+        .active
+        .iter()
+        .all(|&p| pair_gap(torques, &r, p).0 <= capture.0)
 }
 
 /// The pivot model's step: turn about the pivot coil's axis until the candidate magnet is as
