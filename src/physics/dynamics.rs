@@ -282,6 +282,22 @@ pub fn settle_traced<M: TorqueModel>(
     trace: Option<&mut Vec<(f64, State)>>,
 ) -> SettleResult {
     let y0 = [q0.i, q0.j, q0.k, q0.w, 0.0, 0.0, 0.0];
+    if let Some(near) = model.nearby(&rotation_matrix(y0[0], y0[1], y0[2], y0[3]), active) {
+        // the same torques to the bit, fewer magnets visited
+        return settle_from(&near, active, y0, body, params, trace);
+    }
+    settle_from(model, active, y0, body, params, trace)
+}
+
+/// [`settle_traced`] from the state `y0` (at rest) with the model as given.
+fn settle_from<M: TorqueModel>(
+    model: &M,
+    active: &[Pair],
+    y0: [f64; 7],
+    body: Body,
+    params: SettleParams,
+    trace: Option<&mut Vec<(f64, State)>>,
+) -> SettleResult {
     let sys = RotorDynamics::new(model, active, body);
     if sys.body_torque(&y0).norm() < params.torque_tol {
         // Already in equilibrium and at rest.

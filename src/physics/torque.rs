@@ -35,6 +35,14 @@ pub trait TorqueModel: Sync {
     fn stiffness_scale(&self) -> Option<f64> {
         None
     }
+
+    /// The same model for the motion from `r0` with `active` on, restricted to the magnets that
+    /// can come within reach of an energised coil while the ball stays within [`NEAR_SKIN`] of
+    /// `r0` (and the whole model beyond it): the same torques to the bit, at a fraction of the
+    /// cost where every coil pulls every magnet. `None` where there is nothing to gain.
+    fn nearby(&self, _r0: &Matrix3<f64>, _active: &[Pair]) -> Option<NearbyMagnets<'_>> {
+        None
+    }
 }
 
 /// The torque near an orientation, to first order: N_B(delta) = torque + jacobian delta.
@@ -44,10 +52,19 @@ pub struct Linearization {
     pub torque: Vector3<f64>,
     /// dN_B / d delta, N m / rad (minus the stiffness; symmetric at an equilibrium).
     pub jacobian: Matrix3<f64>,
-    /// The smallest distance of any attracted magnet's angle from the well's cut-off, rad: the
-    /// torque is smooth (and the linearization good) only within it.
+    /// The smallest distance of any magnet's angle from the well's cut-off, rad, capped at
+    /// [`MARGIN_CAP`]: the torque is smooth (and the linearization good) only within it, and
+    /// only a small margin matters.
     pub cutoff_margin: f64,
 }
+
+/// The cap of [`Linearization::cutoff_margin`], rad: magnets farther than this beyond the
+/// cut-off are passed over without trigonometry.
+pub const MARGIN_CAP: f64 = 0.1;
+
+/// How far (rad, 20 degrees) the ball may turn from where a [`NearbyMagnets`] was built before
+/// it evaluates every magnet again: the settles a planner weighs turn the ball by a few degrees.
+pub const NEAR_SKIN: f64 = 0.35;
 
 /// The body-to-world rotation matrix of the quaternion (x, y, z, w), which need not be
 /// normalised: it is the rotation of q / |q|, built without a square root or trigonometry.
@@ -349,15 +366,21 @@ impl MagnetTorques {
 
     /// Adds one pair's body-frame torque and its derivative to `lin` (coil `s` and magnet `p`
     /// in the body frame): with u = p x s and c = p . s, N = f u and
-    /// dN/d delta = f (s p^T - c 1) - (f'/sin d) u u^T. `None` without an analytic slope.
+    /// dN/d delta = f (s p^T - c 1) - (f'/sin d) u u^T. A magnet whose cosine is below
+    /// `cos_far` ([`MagnetTorques::cos_far`]) is beyond the cut-off by more than the margin's
+    /// cap and adds nothing. `None` without an analytic slope.
     #[inline]
     fn pair_linearization(
         &self,
         p: &Vector3<f64>,
         s: &Vector3<f64>,
+        cos_far: f64,
         lin: &mut Linearization,
     ) -> Option<()> {
         let c = p.dot(s);
+        if c < cos_far {
+            return Some(());
+        }
         let u = p.cross(s);
         let sin_d = u.norm();
         let d = angle_from_sin_cos(sin_d, c);
@@ -372,6 +395,25 @@ impl MagnetTorques {
         lin.jacobian +=
             (s * p.transpose() - Matrix3::identity() * c) * f - u * u.transpose() * slope;
         Some(())
+    }
+
+    /// The cosine of the cut-off plus [`MARGIN_CAP`] (-2 where that passes the antipode).
+    fn cos_far(&self) -> f64 {
+        let far = self.well.max_attraction.0 + MARGIN_CAP;
+        if far < std::f64::consts::PI {
+            far.cos()
+        } else {
+            -2.0
+        }
+    }
+
+    /// An empty linearization (the margin at its cap).
+    fn no_linearization() -> Linearization {
+        Linearization {
+            torque: Vector3::zeros(),
+            jacobian: Matrix3::zeros(),
+            cutoff_margin: MARGIN_CAP,
+        }
     }
 
     /// The distinct coils of an active set, in order of first appearance.
@@ -441,23 +483,20 @@ impl TorqueModel for MagnetTorques {
     }
 
     fn linearize(&self, r: &Matrix3<f64>, active: &[Pair]) -> Option<Linearization> {
-        let mut lin = Linearization {
-            torque: Vector3::zeros(),
-            jacobian: Matrix3::zeros(),
-            cutoff_margin: f64::INFINITY,
-        };
+        let mut lin = Self::no_linearization();
+        let cos_far = self.cos_far();
         match self.interaction {
             Interaction::Pairs => {
                 for pr in active {
                     let s = r.tr_mul(&self.stator[pr.coil.0]);
-                    self.pair_linearization(&self.rotor[pr.magnet.0], &s, &mut lin)?;
+                    self.pair_linearization(&self.rotor[pr.magnet.0], &s, cos_far, &mut lin)?;
                 }
             }
             Interaction::Coils => {
                 for c in Self::coils(active) {
                     let s = r.tr_mul(&self.stator[c]);
                     for m in &self.rotor {
-                        self.pair_linearization(m, &s, &mut lin)?;
+                        self.pair_linearization(m, &s, cos_far, &mut lin)?;
                     }
                 }
             }
@@ -470,6 +509,117 @@ impl TorqueModel for MagnetTorques {
             WellShape::Table(_) => None,
             _ => Some(self.well.stiffness()),
         }
+    }
+
+    fn nearby(&self, r0: &Matrix3<f64>, active: &[Pair]) -> Option<NearbyMagnets<'_>> {
+        (self.interaction == Interaction::Coils).then(|| NearbyMagnets::new(self, r0, active))
+    }
+}
+
+/// The "coils" interaction for one active set near one orientation R0: each energised coil
+/// with the magnets (in the rotor's order) within the cut-off plus [`NEAR_SKIN`] of it at R0.
+/// While R stays within [`NEAR_SKIN`] of R0 no other magnet can come within reach (the angle
+/// between R m and s changes by at most the angle of R0^T R), so the sums have the same
+/// non-zero terms in the same order as the whole model's: the same torques to the bit. Beyond
+/// the skin, or for another active set, it is the whole model.
+#[derive(Debug, Clone)]
+pub struct NearbyMagnets<'a> {
+    full: &'a MagnetTorques,
+    active: Vec<Pair>,
+    r0: Matrix3<f64>,
+    /// tr(R0^T R) = 1 + 2 cos(angle) at least this: R is within the skin.
+    trace_min: f64,
+    /// The energised coils' world axes, in the order of [`MagnetTorques::coils`] ...
+    coils: Vec<Vector3<f64>>,
+    /// ... and their nearby magnets (body frame): those of coil k at `starts[k]..starts[k + 1]`.
+    magnets: Vec<Vector3<f64>>,
+    starts: Vec<usize>,
+}
+
+impl<'a> NearbyMagnets<'a> {
+    fn new(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &[Pair]) -> Self {
+        let reach = full.well.max_attraction.0 + NEAR_SKIN + MARGIN_CAP;
+        let cos_list = if reach < std::f64::consts::PI {
+            reach.cos()
+        } else {
+            -2.0
+        };
+        let (mut coils, mut magnets, mut starts) = (Vec::new(), Vec::new(), vec![0]);
+        for c in MagnetTorques::coils(active) {
+            let s = r0.tr_mul(&full.stator[c]);
+            coils.push(full.stator[c]);
+            magnets.extend(full.rotor.iter().filter(|m| m.dot(&s) >= cos_list));
+            starts.push(magnets.len());
+        }
+        NearbyMagnets {
+            full,
+            active: active.to_vec(),
+            r0: *r0,
+            trace_min: 1.0 + 2.0 * NEAR_SKIN.cos(),
+            coils,
+            magnets,
+            starts,
+        }
+    }
+
+    /// Whether the lists hold every magnet in reach at `r` with `active` on (and every magnet
+    /// within the margin's cap beyond it).
+    #[inline]
+    fn covers(&self, r: &Matrix3<f64>, active: &[Pair]) -> bool {
+        self.r0.component_mul(r).sum() >= self.trace_min && active == self.active.as_slice()
+    }
+
+    /// Coil k's body-frame axis at `r` and its nearby magnets.
+    fn coil(&self, k: usize, r: &Matrix3<f64>) -> (Vector3<f64>, &[Vector3<f64>]) {
+        (
+            r.tr_mul(&self.coils[k]),
+            &self.magnets[self.starts[k]..self.starts[k + 1]],
+        )
+    }
+}
+
+impl TorqueModel for NearbyMagnets<'_> {
+    fn torque_energy(&self, r: &Matrix3<f64>, active: &[Pair]) -> (Vector3<f64>, f64) {
+        // the energy counts every magnet (the well is constant, not zero, beyond its cut-off)
+        self.full.torque_energy(r, active)
+    }
+
+    fn torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
+        r * self.body_torque(r, active)
+    }
+
+    fn body_torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
+        if !self.covers(r, active) {
+            return self.full.body_torque(r, active);
+        }
+        let cos_cutoff = self.full.well.max_attraction.0.cos();
+        let mut tau = Vector3::zeros();
+        for k in 0..self.coils.len() {
+            let (s, magnets) = self.coil(k, r);
+            for m in magnets {
+                tau += self.full.pair_torque(m, &s, cos_cutoff);
+            }
+        }
+        tau
+    }
+
+    fn linearize(&self, r: &Matrix3<f64>, active: &[Pair]) -> Option<Linearization> {
+        if !self.covers(r, active) {
+            return self.full.linearize(r, active);
+        }
+        let mut lin = MagnetTorques::no_linearization();
+        let cos_far = self.full.cos_far();
+        for k in 0..self.coils.len() {
+            let (s, magnets) = self.coil(k, r);
+            for m in magnets {
+                self.full.pair_linearization(m, &s, cos_far, &mut lin)?;
+            }
+        }
+        Some(lin)
+    }
+
+    fn stiffness_scale(&self) -> Option<f64> {
+        self.full.stiffness_scale()
     }
 }
 
@@ -597,6 +747,76 @@ mod tests {
         };
         assert!(m.linearize(&Matrix3::identity(), &active).is_none());
         assert!(m.stiffness_scale().is_none());
+    }
+
+    /// `n` points spread over the sphere (a Fibonacci lattice).
+    fn sphere_points(n: usize) -> Vec<Vector3<f64>> {
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        (0..n)
+            .map(|k| {
+                let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+                let rho = (1.0 - z * z).sqrt();
+                let phi = golden * k as f64;
+                Vector3::new(rho * phi.cos(), rho * phi.sin(), z)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn nearby_magnets_give_the_whole_models_torques_to_the_bit() {
+        let stator = vec![
+            Vector3::new(0.0, 0.0, -1.0),
+            Vector3::new(0.4, 0.1, -1.0).normalize(),
+            Vector3::new(-0.2, 0.5, -1.0).normalize(),
+        ];
+        let active = [Pair::new(0, 3), Pair::new(2, 7), Pair::new(0, 9)];
+        let r0 = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -0.2, 0.5));
+        for w in wells() {
+            let m = MagnetTorques {
+                rotor: sphere_points(200),
+                stator: stator.clone(),
+                well: w,
+                interaction: Interaction::Coils,
+            };
+            let near = m.nearby(r0.matrix(), &active).unwrap();
+            assert!(near.magnets.len() < 100, "{} of 400", near.magnets.len());
+            // turns of 0 to 19.5 degrees (within the skin) and of 25 and 70 (beyond it)
+            for (k, deg) in [0.0f64, 0.5, 3.0, 8.0, 14.0, 19.5, 25.0, 70.0]
+                .into_iter()
+                .enumerate()
+            {
+                let axis = Vector3::new(1.0, k as f64 - 3.0, 0.5 * k as f64).normalize();
+                let r = r0 * nalgebra::Rotation3::from_scaled_axis(axis * deg.to_radians());
+                let (a, b) = (
+                    near.body_torque(r.matrix(), &active),
+                    m.body_torque(r.matrix(), &active),
+                );
+                assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "{deg} deg");
+                assert!(b.norm() > 0.0);
+                assert_eq!(
+                    near.linearize(r.matrix(), &active),
+                    m.linearize(r.matrix(), &active)
+                );
+                assert_eq!(
+                    near.torque_energy(r.matrix(), &active),
+                    m.torque_energy(r.matrix(), &active)
+                );
+            }
+            // another active set: the whole model
+            let other = [Pair::new(1, 0)];
+            assert_eq!(
+                near.body_torque(r0.matrix(), &other),
+                m.body_torque(r0.matrix(), &other)
+            );
+        }
+        // the pairs interaction has nothing to gain
+        let m = MagnetTorques {
+            rotor: sphere_points(20),
+            stator,
+            well: wells().remove(0),
+            interaction: Interaction::Pairs,
+        };
+        assert!(m.nearby(r0.matrix(), &active).is_none());
     }
 
     #[test]
