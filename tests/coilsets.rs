@@ -121,6 +121,39 @@ fn a_coil_set_plan_is_what_the_broad_wells_do_and_a_pair_plan_is_not() {
 }
 
 #[test]
+fn the_soft_wells_are_planned_with_coil_sets_and_the_plan_is_what_they_do() {
+    // gaussian wells of 14 degrees, every coil pulling: the pair model finds no initial state,
+    // the coil sets turn the ball about Y within the paper's 15 degrees, and the plan's own
+    // dynamics lands where it says at every step, after settles of many simulated seconds
+    let soft = load("scenarios/soft-wells.toml");
+    let pairs = plan(&soft.motor(), &about(&soft, "0,1,0", Some("dynamic")));
+    assert!(!pairs.reached);
+    let s = about(&soft, "0,1,0", None);
+    assert_eq!(s.model, StepModel::Coils);
+    let p = plan(&soft.motor(), &s);
+    assert!(p.reached, "{:?}", p.message);
+    let worst = max_axis_error_deg(&p.rows);
+    assert!(worst < 15.0, "worst cumulative axis error {worst}");
+    let last = p.rows.last().unwrap();
+    assert!(
+        (last.cum_angle_deg - 90.0).abs() < 5.0,
+        "{}",
+        last.cum_angle_deg
+    );
+    let sim = simulate(&soft.motor(), &p.rows);
+    for r in &sim {
+        assert!(
+            r.settled && r.deviation_deg < 1.0,
+            "step {}: {}",
+            r.step,
+            r.deviation_deg
+        );
+    }
+    let slowest = p.rows.iter().map(|r| r.settle_time_s).fold(0.0, f64::max);
+    assert!(slowest > 5.0, "the soft wells settle slowly: {slowest} s");
+}
+
+#[test]
 fn coil_set_plans_are_the_same_bytes_on_any_thread_count_and_read_back() {
     let broad = load("scenarios/broad-wells.toml");
     let s = about(&broad, "0,0,1", None);

@@ -78,6 +78,11 @@ fn on_time_refused_before_any_byte() {
         msg.contains("coil 0 (channel 1) would stay on from step 0 through step 2 for 6.000 s"),
         "{msg}"
     );
+    // and says what to do about it
+    assert!(
+        msg.contains("give a shorter --dwell-ms, or raise relay.max_on_time_s"),
+        "{msg}"
+    );
     assert!(leftover(&mut board).is_empty(), "bytes were sent");
     // Step mode cannot know the waits in advance: it is guarded while waiting instead.
     opts.mode = Mode::Step;

@@ -189,13 +189,15 @@ pub enum RelayError {
         coils: String,
     },
     /// One coil would stay on longer than allowed (heat).
-    #[error("coil {coil} (channel {channel}) {when} {:.3} s, over the limit of {:.3} s (relay.max_on_time_s)", on.as_secs_f64(), max.as_secs_f64())]
+    #[error("coil {coil} (channel {channel}) {when} {:.3} s, over the limit of {:.3} s (relay.max_on_time_s){advice}", on.as_secs_f64(), max.as_secs_f64())]
     OnTooLong {
         coil: CoilId,
         channel: Channel,
         when: String,
         on: Duration,
         max: Duration,
+        /// What to do about it (empty when nothing is to be said).
+        advice: &'static str,
     },
     /// Ctrl-C, SIGTERM or SIGHUP.
     #[error("interrupted by a signal")]

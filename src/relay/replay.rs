@@ -246,6 +246,9 @@ fn check_on_time(entries: &[Entry], max: Duration) -> Result<(), RelayError> {
                     ),
                     on: slot.2,
                     max,
+                    advice: "; the dwells are the plan's settle times x relay.dwell_factor: \
+                             give a shorter --dwell-ms, or raise relay.max_on_time_s if the \
+                             coils can take the heat",
                 });
             }
         }
@@ -612,6 +615,7 @@ impl Runner<'_> {
                     when: format!("has been on since step {step} for"),
                     on,
                     max: self.max_on_time,
+                    advice: "",
                 });
             }
         }
