@@ -11,6 +11,7 @@ mod replay;
 mod settle;
 mod simulate;
 mod view;
+mod wells;
 
 use clap::{Parser, Subcommand};
 use std::io::Write;
@@ -60,6 +61,9 @@ enum Command {
     Plot(plot::Args),
     /// Regenerate the built-in prototype's coordinate files from their generators.
     Prototype(prototype::Args),
+    /// The torque on one magnet as it passes one energised coil, against the angle: a CSV in
+    /// the `table` format (angle_deg,torque_nm), its picture and a summary.
+    Wells(wells::Args),
 }
 
 impl Cli {
@@ -75,6 +79,7 @@ impl Cli {
             Command::View(a) => a.run(out),
             Command::Plot(a) => a.run(out),
             Command::Prototype(a) => a.run(out),
+            Command::Wells(a) => a.run(out),
         }
     }
 }

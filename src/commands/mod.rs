@@ -3,6 +3,7 @@
 
 pub mod batch;
 pub mod replay;
+pub mod wells;
 
 use crate::error::{Error, Result};
 use crate::io::output::emit_csv;

@@ -16,7 +16,9 @@
 //! - [`plot_csv`]: `spherestep plot`, the figure that suits an existing result CSV, with
 //!   [`sweep_csv`] reading a sweep CSV's points;
 //! - [`view`]: `spherestep view`, the interactive 3-D page of a plan;
-//! - [`batch_pictures`]: the pictures and page `batch --plots` draws for each result.
+//! - [`batch_pictures`]: the pictures and page `batch --plots` draws for each result;
+//! - [`well_plot`]: `spherestep wells`, the torque on one magnet passing one coil against the
+//!   angle, with the well's cut-off.
 //!
 //! Shared by the figures: [`figure`] (the [`Figure`] trait, writing SVG and PNG atomically),
 //! [`style`] (font, colours, series styles, marks, ticks), `chart` (title, axes and legend
@@ -38,6 +40,7 @@ pub mod sweep_csv;
 pub mod sweep_map;
 pub mod view;
 pub mod view_3d;
+pub mod well_plot;
 
 pub use axis_error::{plan_series, AxisErrorPlot, ErrorSeries, ReferenceLine};
 pub use commutation_plot::CommutationPlot;
@@ -50,3 +53,4 @@ pub use sweep_csv::{
 };
 pub use sweep_map::{scale_color, SweepMap};
 pub use view_3d::View3d;
+pub use well_plot::WellPlot;

@@ -307,6 +307,29 @@ impl Well {
         }
     }
 
+    /// The torque (N m) one energised coil exerts on one magnet `d` radians from it, about the
+    /// axis that turns the magnet towards the coil (positive: a pull), through the model's own
+    /// 3-D torque: what a bench measures as a magnet passes a coil, and what a `table` well
+    /// reads back. 0 at d = 0, where the pull has no direction.
+    pub fn passing_torque(&self, d: f64) -> f64 {
+        let s = Vector3::new(0.0, 0.0, -1.0);
+        // the magnet d from the coil in the x-z plane; the pull turns it about p x s (+y)
+        let p = Vector3::new(d.sin(), 0.0, -d.cos());
+        let pull = p.cross(&s);
+        let n = pull.norm();
+        if n == 0.0 {
+            return 0.0;
+        }
+        let one = MagnetTorques {
+            rotor: vec![p],
+            stator: vec![s],
+            well: self.clone(),
+            interaction: Interaction::Pairs,
+        };
+        one.torque(&Matrix3::identity(), &[Pair::new(0, 0)])
+            .dot(&(pull / n))
+    }
+
     /// Stiffness dg/dd at d = 0 (N m / rad): how hard a single aligned pair holds.
     pub fn stiffness(&self) -> f64 {
         match &self.shape {
