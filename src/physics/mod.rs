@@ -1,6 +1,9 @@
 //! The physics of the ball: torques of the magnet wells (`torque`), the adaptive stepper
-//! (`integrator`) and the rotor's quaternion equations of motion and settle (`dynamics`).
+//! (`integrator`), the rotor's quaternion equations of motion and settle (`dynamics`), and the
+//! physical magnets (`magnetics`: coil-loop and dipole fields, the torque of a coil on a
+//! magnet and its reduction to a well).
 
 pub mod dynamics;
 pub mod integrator;
+pub mod magnetics;
 pub mod torque;
