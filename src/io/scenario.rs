@@ -7,6 +7,9 @@ use crate::model::geometry::{orientation_from_xyzw, unit, Degrees, Pair, Radians
 use crate::model::packing::{self, Cap, Packing, SemiRegular};
 use crate::model::symmetry::Group;
 use crate::physics::dynamics::{Body, Method, SettleParams};
+use crate::physics::magnetics::{
+    disc_volume, magnet_moment_from_remanence, DipoleParts, DipoleWell,
+};
 use crate::physics::torque::{Interaction, MagnetTorques, TorqueTable, Well, WellShape};
 use crate::planning::commutation::{
     default_step_model, Motor, PairsPerStep, StepLimits, StepModel,
@@ -23,6 +26,9 @@ use std::path::{Path, PathBuf};
 pub const DEFAULT_STRENGTH_J: f64 = 0.25;
 pub const DEFAULT_WIDTH_DEG: f64 = 10.0;
 pub const DEFAULT_MAX_ATTRACTION_DEG: f64 = 30.0;
+/// The radius of the magnets' centres (m) of shape = "dipole" when not given: the prototype's
+/// 12 inch ball.
+pub const DEFAULT_BALL_RADIUS_M: f64 = 0.1524;
 /// Two magnets (or two coils) closer than this (chord of the unit sphere, about 6e-5 degrees)
 /// are the same place: refused.
 pub const COINCIDENT_TOL: f64 = 1e-6;
@@ -146,6 +152,7 @@ enum Shape {
     Gaussian,
     Cosine,
     Table,
+    Dipole,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -157,6 +164,43 @@ struct RawMagnets {
     max_attraction_deg: Option<f64>,
     table: Option<String>,
     interaction: Option<Interaction>,
+    // shape = "dipole": the physical parts (SI units)
+    ball_radius_m: Option<f64>,
+    magnet_moment_am2: Option<f64>,
+    remanence_t: Option<f64>,
+    magnet_volume_m3: Option<f64>,
+    magnet_diameter_m: Option<f64>,
+    magnet_thickness_m: Option<f64>,
+    coil_turns: Option<f64>,
+    coil_current_a: Option<f64>,
+    coil_ampere_turns: Option<f64>,
+    coil_radius_m: Option<f64>,
+    gap_m: Option<f64>,
+    core_gain: Option<f64>,
+}
+
+impl RawMagnets {
+    /// The dipole keys given, by name (refused unless shape = "dipole").
+    fn dipole_keys(&self) -> Vec<&'static str> {
+        [
+            ("ball_radius_m", self.ball_radius_m),
+            ("magnet_moment_am2", self.magnet_moment_am2),
+            ("remanence_t", self.remanence_t),
+            ("magnet_volume_m3", self.magnet_volume_m3),
+            ("magnet_diameter_m", self.magnet_diameter_m),
+            ("magnet_thickness_m", self.magnet_thickness_m),
+            ("coil_turns", self.coil_turns),
+            ("coil_current_a", self.coil_current_a),
+            ("coil_ampere_turns", self.coil_ampere_turns),
+            ("coil_radius_m", self.coil_radius_m),
+            ("gap_m", self.gap_m),
+            ("core_gain", self.core_gain),
+        ]
+        .into_iter()
+        .filter(|(_, v)| v.is_some())
+        .map(|(k, _)| k)
+        .collect()
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -657,6 +701,15 @@ impl Checker<'_> {
         if shape != Shape::Table && raw.table.is_some() {
             return Err(self.err("magnets.table", "no table unless shape = \"table\""));
         }
+        if let Some(k) = raw.dipole_keys().first().filter(|_| shape != Shape::Dipole) {
+            return Err(self.err(
+                &format!("magnets.{k}"),
+                "no physical parts unless shape = \"dipole\"",
+            ));
+        }
+        if shape == Shape::Dipole {
+            return self.dipole_magnets(&raw);
+        }
         let shape = match shape {
             Shape::Gaussian => {
                 let w = self.positive("magnets.width_deg", raw.width_deg, DEFAULT_WIDTH_DEG)?;
@@ -668,6 +721,7 @@ impl Checker<'_> {
             Shape::Cosine => WellShape::Cosine {
                 strength_j: strength,
             },
+            Shape::Dipole => unreachable!("returned above"),
             Shape::Table => {
                 let file = raw.table.ok_or_else(|| {
                     self.err(
@@ -691,6 +745,122 @@ impl Checker<'_> {
             },
             raw.interaction.unwrap_or_default(),
         ))
+    }
+
+    /// shape = "dipole": the parts, the well they make (attracting out to where its pull
+    /// ends, unless `max_attraction_deg` says otherwise) and the interaction ("coils" unless
+    /// given: every energised coil acts on every magnet).
+    fn dipole_magnets(&self, raw: &RawMagnets) -> Result<(Well, Interaction)> {
+        for (k, v) in [("strength_j", raw.strength_j), ("width_deg", raw.width_deg)] {
+            if v.is_some() {
+                return Err(self.err(
+                    &format!("magnets.{k}"),
+                    "no well strength or width with shape = \"dipole\" (the parts make the well)",
+                ));
+            }
+        }
+        let parts = self.dipole_parts(raw)?;
+        let well = DipoleWell::new(parts).map_err(|m| self.dipole_err(&m))?;
+        let max = match raw.max_attraction_deg {
+            // where the pull ends (g falls to 0): beyond, the coil repels weakly
+            None => Radians(well.reach(0.0)),
+            Some(d) => Degrees(d).to_radians(),
+        };
+        Ok((
+            Well {
+                shape: WellShape::Dipole(well),
+                max_attraction: max,
+            },
+            raw.interaction.unwrap_or(Interaction::Coils),
+        ))
+    }
+
+    /// A message of `magnetics` ("field: expected ...") as a scenario error on `magnets.field`.
+    fn dipole_err(&self, m: &str) -> Error {
+        match m.split_once(": expected ") {
+            Some((field, rest)) if !field.contains(' ') => {
+                // the parts' ampere-turns are the scenario's coil_ampere_turns (or turns x current)
+                let field = field.replace("coil_turns_amps", "coil_ampere_turns");
+                self.err(&format!("magnets.{field}"), rest.to_string())
+            }
+            _ => self.err("magnets", m.to_string()),
+        }
+    }
+
+    /// The physical parts of shape = "dipole": the magnet by its moment, or by its remanence
+    /// and volume (or disc diameter and thickness); the coil by its ampere-turns, or turns and
+    /// current; the ball's radius (default the prototype's) and the core's gain (default 1).
+    fn dipole_parts(&self, raw: &RawMagnets) -> Result<DipoleParts> {
+        let required = |k: &str, v: Option<f64>, what: &str| {
+            let field = format!("magnets.{k}");
+            match v {
+                None => Err(self.err(&field, format!("{what} when shape = \"dipole\""))),
+                Some(x) => self.positive(&field, Some(x), 0.0),
+            }
+        };
+        let moment = match (raw.magnet_moment_am2, raw.remanence_t) {
+            (Some(m), None) => self.positive("magnets.magnet_moment_am2", Some(m), 0.0)?,
+            (None, Some(br)) => {
+                let br = self.positive("magnets.remanence_t", Some(br), 0.0)?;
+                let volume = match raw.magnet_volume_m3 {
+                    Some(v) => self.positive("magnets.magnet_volume_m3", Some(v), 0.0)?,
+                    None => disc_volume(
+                        required("magnet_diameter_m", raw.magnet_diameter_m, "a disc's diameter (m), or magnet_volume_m3,")?,
+                        required("magnet_thickness_m", raw.magnet_thickness_m, "a disc's thickness (m), or magnet_volume_m3,")?,
+                    ),
+                };
+                magnet_moment_from_remanence(br, volume)
+            }
+            (Some(_), Some(_)) => {
+                return Err(self.err(
+                    "magnets.magnet_moment_am2",
+                    "either the moment or remanence_t (with the magnet's size), not both",
+                ))
+            }
+            (None, None) => {
+                return Err(self.err(
+                    "magnets.magnet_moment_am2",
+                    "the magnet's moment (A m^2), or remanence_t (T) with its size, when shape = \"dipole\"",
+                ))
+            }
+        };
+        let turns_amps = match (raw.coil_ampere_turns, raw.coil_turns, raw.coil_current_a) {
+            (Some(ni), None, None) => ni,
+            (None, Some(n), Some(i)) => self.positive("magnets.coil_turns", Some(n), 0.0)? * i,
+            _ => {
+                return Err(self.err(
+                    "magnets.coil_ampere_turns",
+                    "the coil's ampere-turns (A), or coil_turns and coil_current_a, when \
+                     shape = \"dipole\"",
+                ))
+            }
+        };
+        let parts =
+            DipoleParts {
+                ball_radius_m: self.positive(
+                    "magnets.ball_radius_m",
+                    raw.ball_radius_m,
+                    DEFAULT_BALL_RADIUS_M,
+                )?,
+                magnet_moment_am2: moment,
+                coil_turns_amps: turns_amps,
+                coil_radius_m: required(
+                    "coil_radius_m",
+                    raw.coil_radius_m,
+                    "the mean radius of a coil's winding (m)",
+                )?,
+                gap_m: match raw.gap_m {
+                    None => return Err(self.err(
+                        "magnets.gap_m",
+                        "the distance (m) from the magnets' centres (at ball_radius_m) out to a \
+                         coil's loop when shape = \"dipole\"",
+                    )),
+                    Some(g) => self.non_negative("magnets.gap_m", Some(g), 0.0)?,
+                },
+                core_gain: raw.core_gain.unwrap_or(1.0),
+            };
+        parts.validate().map_err(|m| self.dipole_err(&m))?;
+        Ok(parts)
     }
 
     fn body(&self, raw: RawBody) -> Result<Body> {

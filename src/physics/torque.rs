@@ -4,6 +4,7 @@
 //! e.g. dipoles, can be added without touching the integrator).
 
 use crate::model::geometry::{Pair, Radians};
+use crate::physics::magnetics::DipoleWell;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -95,11 +96,17 @@ pub enum WellShape {
     Gaussian { strength_j: f64, width: Radians },
     /// U = -k cos d: a broad well (off-the-shelf coils).
     Cosine { strength_j: f64 },
-    /// g(d) = -U'(d) read from a measured or computed curve, linearly interpolated.
+    /// g(d) = U'(d) read from a measured or computed curve, linearly interpolated.
     Table(TorqueTable),
+    /// Physical magnets: a radial point dipole passing a coil's current loop, g(d) from the
+    /// 3-D torque x x F + m x B (`magnetics`); it attracts out to where g crosses zero, and
+    /// repels weakly beyond.
+    Dipole(DipoleWell),
 }
 
-/// A torque curve g(d): angles (radians, ascending, starting at 0) and torques (N m, >= 0).
+/// A torque curve g(d): angles (radians, ascending, starting at 0) and torques (N m; positive
+/// pulls the magnet towards the coil, negative pushes it away, as a physical coil's field does
+/// beyond its winding).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TorqueTable {
     d: Vec<f64>,
@@ -123,12 +130,6 @@ impl TorqueTable {
         for (i, &(d, g)) in rows.iter().enumerate() {
             if !d.is_finite() || !g.is_finite() {
                 return Err(format!("row {}: expected finite numbers", i + 1));
-            }
-            if g < 0.0 {
-                return Err(format!(
-                    "row {}: expected a torque >= 0 (an attraction), got {g}",
-                    i + 1
-                ));
             }
             if i > 0 && d <= rows[i - 1].0 {
                 return Err(format!(
@@ -216,6 +217,7 @@ impl Well {
             }
             WellShape::Cosine { strength_j } => -strength_j * d.cos(),
             WellShape::Table(t) => t.integral(d) - t.integral(self.max_attraction.0),
+            WellShape::Dipole(w) => w.potential(d),
         }
     }
 
@@ -232,6 +234,7 @@ impl Well {
             }
             WellShape::Cosine { strength_j } => strength_j * d.sin(),
             WellShape::Table(t) => t.g(d),
+            WellShape::Dipole(w) => w.g(d),
         }
     }
 
@@ -274,6 +277,17 @@ impl Well {
                     t.g(d) / sin_d
                 }
             }
+            WellShape::Dipole(w) => {
+                if sin_d < SMALL {
+                    if d > 1.0 {
+                        0.0
+                    } else {
+                        w.stiffness()
+                    }
+                } else {
+                    w.g(d) / sin_d
+                }
+            }
         }
     }
 
@@ -304,6 +318,7 @@ impl Well {
             }
             WellShape::Cosine { strength_j } => Some((*strength_j, 0.0)),
             WellShape::Table(_) => None,
+            WellShape::Dipole(w) => Some(dipole_f_and_slope(w, d, sin_d)),
         }
     }
 
@@ -336,8 +351,25 @@ impl Well {
             WellShape::Gaussian { strength_j, width } => strength_j / (width.0 * width.0),
             WellShape::Cosine { strength_j } => *strength_j,
             WellShape::Table(t) => t.slope0(),
+            WellShape::Dipole(w) => w.stiffness(),
         }
     }
+}
+
+/// f(d) = g(d) / sin d of a dipole well and f'(d) / sin d, the slope by central differences of
+/// the exact f (h = 1e-5 rad: a relative error near 1e-9, which only the linear end phase's
+/// Newton steps and modes see, never the torque). f is even in d, so near 0 f'(d) / sin d is
+/// its curvature there.
+fn dipole_f_and_slope(w: &DipoleWell, d: f64, sin_d: f64) -> (f64, f64) {
+    const H: f64 = 1e-5;
+    const NEAR_ZERO: f64 = 1e-3;
+    let f = |x: f64| w.g(x) / x.sin();
+    if d < NEAR_ZERO {
+        let k = w.stiffness();
+        let f0 = if sin_d < 1e-7 { k } else { f(d) };
+        return (f0, 2.0 * (f(NEAR_ZERO) - k) / (NEAR_ZERO * NEAR_ZERO));
+    }
+    (f(d), (f(d + H) - f(d - H)) / (2.0 * H) / sin_d)
 }
 
 /// The angle in [0, pi] whose sine and cosine are `sin_d` >= 0 and `cos_d`: atan(sin/cos)
@@ -844,8 +876,10 @@ mod tests {
 
     #[test]
     fn bad_tables_are_rejected_with_the_row() {
-        let e = TorqueTable::from_rows(&[(0.0, 0.0), (5.0, -1.0)]).unwrap_err();
-        assert!(e.contains("row 2"), "{e}");
+        let e = TorqueTable::from_rows(&[(0.0, 0.0), (5.0, f64::NAN)]).unwrap_err();
+        assert!(e.contains("row 2") && e.contains("finite"), "{e}");
+        // a repulsion is physics, not an error
+        assert!(TorqueTable::from_rows(&[(0.0, 0.0), (5.0, 1.0), (20.0, -0.1)]).is_ok());
         let e = TorqueTable::from_rows(&[(0.0, 0.0), (5.0, 1.0), (5.0, 1.0)]).unwrap_err();
         assert!(e.contains("row 3") && e.contains("increasing"), "{e}");
         let e = TorqueTable::from_rows(&[(1.0, 0.0), (5.0, 1.0)]).unwrap_err();
