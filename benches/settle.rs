@@ -9,7 +9,11 @@
 //!   the number N of rotor magnets (evenly spread: `scenario::sphere_axes`), and `rhs_coils/N`;
 //! - `settle_many/threads/T`: 1,000 3-pair sets on a rayon pool of T = 1 and 2 threads;
 //! - `plan_y_dynamic3/angle/A`: the search planner, dynamic model, 3 pairs per step, about Y,
-//!   against the target angle A in degrees.
+//!   against the target angle A in degrees;
+//! - `dipole/rhs/W` and `dipole/settle/W`: physical magnets (`scenarios/prototype-physical.toml`,
+//!   W = dipole) against the prototype's gaussian wells with the same "coils" interaction
+//!   (W = gaussian): one evaluation with 3 coils on over the 80 magnets, and one settle of a
+//!   2-coil set (each coil's nearest magnet at the start).
 //!
 //! Run: `cargo bench --bench settle` (a group: `cargo bench --bench settle -- growth_pairs`).
 
@@ -194,11 +198,33 @@ fn bench_planner(c: &mut Criterion) {
     g.finish();
 }
 
+fn bench_dipole(c: &mut Criterion) {
+    let physical = load("scenarios/prototype-physical.toml");
+    let mut gaussian = load("scenarios/prototype.toml");
+    gaussian.torques.interaction = Interaction::Coils;
+    let q0 = start();
+    let mut g = c.benchmark_group("dipole");
+    for (name, sc) in [("dipole", &physical), ("gaussian", &gaussian)] {
+        let three = set_of(sc, 3, &q0);
+        let sys = RotorDynamics::new(&sc.torques, &three, sc.body);
+        let y = turning(&q0);
+        g.bench_function(BenchmarkId::new("rhs", name), |b| {
+            b.iter(|| rhs_once(&sys, &y))
+        });
+        let two = set_of(sc, 2, &q0);
+        g.bench_function(BenchmarkId::new("settle", name), |b| {
+            b.iter(|| settle(&sc.torques, black_box(&two), &q0, sc.body, sc.settle))
+        });
+    }
+    g.finish();
+}
+
 criterion_group!(
     benches,
     bench_settle,
     bench_growth,
     bench_threads,
-    bench_planner
+    bench_planner,
+    bench_dipole
 );
 criterion_main!(benches);
