@@ -266,26 +266,15 @@ impl Well {
                     *strength_j
                 }
             }
-            WellShape::Table(t) => {
+            WellShape::Table(_) | WellShape::Dipole(_) => {
                 if sin_d < SMALL {
                     if d > 1.0 {
                         0.0
                     } else {
-                        t.slope0()
+                        self.stiffness()
                     }
                 } else {
-                    t.g(d) / sin_d
-                }
-            }
-            WellShape::Dipole(w) => {
-                if sin_d < SMALL {
-                    if d > 1.0 {
-                        0.0
-                    } else {
-                        w.stiffness()
-                    }
-                } else {
-                    w.g(d) / sin_d
+                    self.g(d) / sin_d
                 }
             }
         }
