@@ -8,6 +8,7 @@ mod plan;
 mod plot;
 mod prototype;
 mod replay;
+mod run;
 mod settle;
 mod simulate;
 mod view;
@@ -29,6 +30,36 @@ pub struct CsvOutput {
     pub json: bool,
 }
 
+/// How a plan is played on a plant (run, simulate --plant): open or closed loop, the sensor.
+#[derive(clap::Args)]
+pub struct LoopArgs {
+    /// Close the loop: after each step measure the plant's orientation (plus the sensor's
+    /// noise) and, where it strays from the plan, replan the rest towards the same goal.
+    #[arg(long)]
+    pub closed_loop: bool,
+    /// The sensor's noise, degrees: each measurement turned about a random axis by a normally
+    /// distributed angle of this standard deviation.
+    #[arg(long, default_value_t = 0.0)]
+    pub sensor_noise_deg: f64,
+    /// Seed of the sensor's noise (the same seed, the same run).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// At most this many steps in closed loop (default: twice the planned steps).
+    #[arg(long)]
+    pub max_steps: Option<usize>,
+}
+
+impl LoopArgs {
+    pub fn options(&self) -> spherestep::commands::closed_loop::LoopOptions {
+        spherestep::commands::closed_loop::LoopOptions {
+            closed: self.closed_loop,
+            noise_deg: self.sensor_noise_deg,
+            seed: self.seed,
+            max_steps: self.max_steps,
+        }
+    }
+}
+
 #[derive(Parser)]
 #[command(
     name = "spherestep",
@@ -48,8 +79,12 @@ enum Command {
     Settle(settle::Args),
     /// Plan a motion: which coils to switch, in which order, to turn the ball about an axis.
     Plan(plan::Args),
-    /// Replay a plan's coil sequence through the dynamic model and measure the "slop".
+    /// Replay a plan's coil sequence through the dynamic model and measure the "slop" (with
+    /// --plant and --closed-loop: replan from measured orientations).
     Simulate(simulate::Args),
+    /// Plan a motion in one scenario's physics and play it on a plant (another scenario's),
+    /// open loop or closed loop on a (simulated, noisy) orientation sensor.
+    Run(run::Args),
     /// Run many scenarios (plans and sweeps) in parallel: one CSV each, plus summary.csv.
     Batch(batch::Args),
     /// Replay a plan on a relay board: switch each step's coils, wait, all off at the end
@@ -74,6 +109,7 @@ impl Cli {
             Command::Settle(a) => a.run(out),
             Command::Plan(a) => a.run(out),
             Command::Simulate(a) => a.run(out),
+            Command::Run(a) => a.run(out),
             Command::Batch(a) => a.run(out),
             Command::Replay(a) => a.run(out),
             Command::View(a) => a.run(out),

@@ -1,7 +1,7 @@
 //! `spherestep simulate`: replays a plan's coil sequence through the dynamic model and
 //! measures the "slop".
 
-use super::CsvOutput;
+use super::{CsvOutput, LoopArgs};
 use anyhow::Result;
 use spherestep::commands::{self as app};
 use spherestep::io::output::emit_csv;
@@ -23,6 +23,11 @@ pub struct Args {
     /// must be the plan's.
     #[arg(long)]
     pub plant: Option<PathBuf>,
+    /// With --closed-loop: the step model replans use (default: as `plan` in the scenario).
+    #[arg(long)]
+    pub model: Option<String>,
+    #[command(flatten)]
+    pub looping: LoopArgs,
     #[command(flatten)]
     pub output: CsvOutput,
 }
@@ -33,6 +38,8 @@ impl Args {
             plan,
             scenario,
             plant,
+            model,
+            looping,
             output: CsvOutput {
                 out: out_file,
                 json,
@@ -43,6 +50,39 @@ impl Args {
             None => Scenario::prototype(),
         };
         let plant = plant.map(|p| Scenario::load(&p)).transpose()?;
+        if looping.closed_loop || model.is_some() {
+            let Some(plant) = plant else {
+                anyhow::bail!(
+                    "--closed-loop and --model need --plant (the physics the ball obeys)"
+                );
+            };
+            let overrides = app::PlanOverrides {
+                model,
+                ..Default::default()
+            };
+            let settings = app::plan_settings(&sc, &overrides)?;
+            let mut stderr = std::io::stderr();
+            let s = app::closed_loop::simulate_closed_loop(
+                &sc,
+                &plant,
+                &settings,
+                &plan,
+                &looping.options(),
+                app::closed_loop::Report {
+                    file: out_file.as_deref(),
+                    json,
+                    out,
+                    note: &mut stderr,
+                },
+            )?;
+            if !s.run.reached {
+                anyhow::bail!(
+                    "the goal was not reached: {:.2} deg from it",
+                    s.run.final_error_deg
+                );
+            }
+            return Ok(());
+        }
         let sim = app::simulate_plan_in(&sc, plant.as_ref(), &plan)?;
         let mut csv = Vec::new();
         write_sim(&sim, &mut csv)?;

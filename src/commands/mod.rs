@@ -2,6 +2,7 @@
 //! write to a given output, so that they are testable without spawning the binary.
 
 pub mod batch;
+pub mod closed_loop;
 pub mod replay;
 pub mod wells;
 
@@ -147,11 +148,7 @@ fn or_none(pairs: &[Pair]) -> String {
 }
 
 pub fn active_text(active: &[Pair]) -> String {
-    active
-        .iter()
-        .map(|p| p.to_string())
-        .collect::<Vec<_>>()
-        .join(";")
+    crate::model::geometry::pairs_text(active)
 }
 
 /// `spherestep settle --pairs`: settles one active set and prints the result.

@@ -85,6 +85,15 @@ impl Pair {
     }
 }
 
+/// The text form of a set of pairs in files: `coil:magnet;coil:magnet`.
+pub fn pairs_text(pairs: &[Pair]) -> String {
+    pairs
+        .iter()
+        .map(|p| p.to_string())
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
 impl fmt::Display for Pair {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}:{}", self.coil, self.magnet)

@@ -1,8 +1,10 @@
 //! From settled equilibria to plans: which coil:magnet pairs to switch (`commutation`) or which
 //! sets of coils (`coilsets`), the searches that chain steps towards a target rotation
 //! (`search`, shared by every step model) and the planner that sets them going (`planner`) into
-//! a `plan`, and the replay of a plan through the dynamics (`simulate`).
+//! a `plan`, the replay of a plan through the dynamics (`simulate`) and the closed loop that
+//! replans from measured orientations (`closed_loop`).
 
+pub mod closed_loop;
 pub mod coilsets;
 pub mod commutation;
 pub mod plan;

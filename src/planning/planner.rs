@@ -24,6 +24,17 @@ pub use crate::planning::plan::{
 
 /// Plans a motion, with the settings' step model.
 pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
+    plan_with(motor, s, None)
+}
+
+/// Plans the motion from a given commutation state (the ball where it is, held by what is on:
+/// a measured orientation in closed loop) instead of the initial states the model finds from
+/// `s.start`; the plan's row 0 is that state.
+pub fn plan_from(motor: &Motor, s: &PlanSettings, state: CommutationState) -> Plan {
+    plan_with(motor, s, Some(state))
+}
+
+fn plan_with(motor: &Motor, s: &PlanSettings, from: Option<CommutationState>) -> Plan {
     // The capture in force, resolved once (the dynamic model's is a search over its well's
     // pull), not in every evaluation of a step.
     let capture = s.limits.capture_for(s.model, &motor.torques.well);
@@ -35,14 +46,52 @@ pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
         ..s.clone()
     };
     let s = &resolved;
+    let run = |src: &dyn StepSource| match &from {
+        Some(state) => search::run(
+            &FromState {
+                inner: src,
+                state: state.clone(),
+            },
+            s,
+        ),
+        None => search::run(src, s),
+    };
     match s.model {
-        StepModel::Coils => search::run(&CoilSets::new(motor, s), s),
-        StepModel::Dynamic => search::run(&PairSteps { motor, s }, s),
+        StepModel::Coils => run(&CoilSets::new(motor, s)),
+        StepModel::Dynamic => run(&PairSteps { motor, s }),
         StepModel::Pivot => {
-            let mut p = search::run(&PairSteps { motor, s }, s);
+            let mut p = run(&PairSteps { motor, s });
             predict_settle_times(motor, &mut p.rows, &s.start);
             p
         }
+    }
+}
+
+/// A step source that starts from one given state.
+struct FromState<'a> {
+    inner: &'a dyn StepSource,
+    state: CommutationState,
+}
+
+impl StepSource for FromState<'_> {
+    fn initial_states(&self) -> Vec<CommutationState> {
+        vec![self.state.clone()]
+    }
+
+    fn no_initial_state(&self) -> String {
+        self.inner.no_initial_state()
+    }
+
+    fn steps(&self, state: &CommutationState, wide: bool) -> Vec<Step> {
+        self.inner.steps(state, wide)
+    }
+
+    fn expand(&self, at: &Frontier) -> (usize, Vec<Step>) {
+        self.inner.expand(at)
+    }
+
+    fn key(&self, state: &CommutationState) -> Vec<crate::model::geometry::Pair> {
+        self.inner.key(state)
     }
 }
 

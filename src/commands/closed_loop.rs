@@ -1,0 +1,200 @@
+//! `spherestep run` (plan a motion in one scenario's physics and play it on a plant, open or
+//! closed loop) and `spherestep simulate PLAN --plant P --closed-loop` (the same from a plan
+//! file): the per-step CSV and the summary.
+
+use crate::error::{Error, Result};
+use crate::io::loopfile::write_loop;
+use crate::io::output::emit_csv;
+use crate::io::planfile::read_plan;
+use crate::io::scenario::Scenario;
+use crate::model::geometry::Radians;
+use crate::planning::closed_loop::{goal_of, run_closed_loop, target_of, LoopRun, LoopSettings};
+use crate::planning::plan::{Plan, PlanSettings};
+use crate::planning::planner::plan;
+use serde::Serialize;
+use std::io::Write;
+use std::path::Path;
+
+/// How to play a plan on the plant, as the command line gives it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopOptions {
+    /// Replan from the measurements (`--closed-loop`).
+    pub closed: bool,
+    /// The sensor's noise, degrees (`--sensor-noise-deg`).
+    pub noise_deg: f64,
+    /// The noise's seed (`--seed`).
+    pub seed: u64,
+    /// At most this many steps (`--max-steps`; default twice the open-loop plan's).
+    pub max_steps: Option<usize>,
+}
+
+/// Where a run's CSV and summary go: the CSV to `file` (atomically), else alone to `out`; the
+/// summary (text, or JSON) to `out`, or to `note` when the CSV took `out`.
+pub struct Report<'a> {
+    pub file: Option<&'a Path>,
+    pub json: bool,
+    pub out: &'a mut dyn Write,
+    pub note: &'a mut dyn Write,
+}
+
+/// What `run` and `simulate --closed-loop` report.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    /// "closed" or "open".
+    pub mode: &'static str,
+    pub sensor_noise_deg: f64,
+    pub seed: u64,
+    /// Steps of the plan made before the motion (the open-loop plan).
+    pub planned_steps: usize,
+    #[serde(flatten)]
+    pub run: crate::planning::closed_loop::LoopSummary,
+}
+
+/// The loop's settings from the options, checked.
+pub fn loop_settings(o: &LoopOptions, planned_steps: usize) -> Result<LoopSettings> {
+    if !(o.noise_deg.is_finite() && (0.0..=45.0).contains(&o.noise_deg)) {
+        return Err(Error::Arg {
+            arg: "--sensor-noise-deg".into(),
+            expected: format!("a noise in [0, 45] degrees, got {}", o.noise_deg),
+        });
+    }
+    if o.max_steps == Some(0) {
+        return Err(Error::Arg {
+            arg: "--max-steps".into(),
+            expected: "a whole number >= 1, got 0".into(),
+        });
+    }
+    let noise = Radians(o.noise_deg.to_radians());
+    Ok(if o.closed {
+        let max = o.max_steps.unwrap_or(2 * planned_steps.max(1));
+        LoopSettings::for_noise(noise, o.seed, max)
+    } else {
+        LoopSettings::open(noise, o.seed)
+    })
+}
+
+/// `spherestep run`: plans in `sc` (the model) with `settings`, plays the plan on `plant` as
+/// `o` says, and reports.
+pub fn run_command(
+    sc: &Scenario,
+    plant: &Scenario,
+    settings: &PlanSettings,
+    o: &LoopOptions,
+    report: Report,
+) -> Result<RunSummary> {
+    sc.check_same_packings(plant, "--plant")?;
+    let p = plan(&sc.motor(), settings);
+    if p.rows.len() < 2 {
+        return Err(Error::Arg {
+            arg: "--axis/--angle".into(),
+            expected: format!(
+                "a motion the model can plan: {}",
+                p.message.unwrap_or_else(|| "no step".into())
+            ),
+        });
+    }
+    let goal = goal_of(settings, &p.rows).ok_or_else(|| no_start(&sc.path))?;
+    play(sc, plant, settings, &p, goal, o, report)
+}
+
+/// `spherestep simulate PLAN SCENARIO --plant PLANT --closed-loop`: the plan file's own
+/// target (the rotation from its row 0 to its last row, the goal its last orientation), the
+/// plan's model and limits from `settings` (the scenario's, with any command-line overrides).
+pub fn simulate_closed_loop(
+    sc: &Scenario,
+    plant: &Scenario,
+    settings: &PlanSettings,
+    plan_path: &Path,
+    o: &LoopOptions,
+    report: Report,
+) -> Result<RunSummary> {
+    sc.check_same_packings(plant, "--plant")?;
+    let rows = read_plan(plan_path)?;
+    for r in &rows {
+        sc.check_active(&r.active, "active")?;
+    }
+    let (axis, angle) = target_of(&rows).ok_or_else(|| Error::Parse {
+        file: plan_path.to_path_buf(),
+        message: "expected a plan that turns the ball (its last row is where its first is)".into(),
+    })?;
+    let s = PlanSettings {
+        axis,
+        angle,
+        start: rows[0].q,
+        ..settings.clone()
+    };
+    let goal = rows[rows.len() - 1].q;
+    let p = Plan {
+        rows,
+        reached: true,
+        message: None,
+        settles: 0,
+    };
+    play(sc, plant, &s, &p, goal, o, report)
+}
+
+fn no_start(path: &Path) -> Error {
+    Error::Parse {
+        file: path.to_path_buf(),
+        message: "the plan has no initial commutation state".into(),
+    }
+}
+
+/// Plays `p` on the plant and reports.
+fn play(
+    sc: &Scenario,
+    plant: &Scenario,
+    s: &PlanSettings,
+    p: &Plan,
+    goal: crate::model::geometry::Orientation,
+    o: &LoopOptions,
+    report: Report,
+) -> Result<RunSummary> {
+    let planned_steps = p.rows.len() - 1;
+    let cl = loop_settings(o, planned_steps)?;
+    let run: LoopRun = run_closed_loop(&sc.motor(), &plant.motor(), s, p, goal, &cl);
+    let mut csv = Vec::new();
+    write_loop(&run.rows, &mut csv)?;
+    let Report {
+        file,
+        json,
+        out,
+        note,
+    } = report;
+    let out = emit_csv(&csv, file, json, out, note)?;
+    let summary = RunSummary {
+        mode: if o.closed { "closed" } else { "open" },
+        sensor_noise_deg: o.noise_deg,
+        seed: o.seed,
+        planned_steps,
+        run: run.summary,
+    };
+    let w = |e| Error::io("<stdout>", e);
+    if json {
+        let text =
+            serde_json::to_string(&summary).map_err(|e| Error::json("the run summary", e))?;
+        writeln!(out, "{text}").map_err(w)?;
+    } else {
+        let r = &summary.run;
+        writeln!(
+            out,
+            "{} loop on {}: {} steps ({} planned), {} replans: {:.2} deg from the goal, turned \
+             {:.2} deg, worst axis error {:.2} deg, {}{}",
+            summary.mode,
+            plant.name,
+            r.steps,
+            planned_steps,
+            r.replans,
+            r.final_error_deg,
+            r.final_angle_deg,
+            r.max_axis_error_deg,
+            if r.reached { "reached" } else { "NOT reached" },
+            r.message
+                .as_deref()
+                .map(|m| format!(": {m}"))
+                .unwrap_or_default()
+        )
+        .map_err(w)?;
+    }
+    Ok(summary)
+}

@@ -1,0 +1,376 @@
+//! Closed loop (docs/model.md, "Commutation" 6): a plan played on a plant, the ball's settled
+//! orientation measured after each step (the plant's, plus seeded sensor noise), and the rest of
+//! the motion replanned from the measurement towards the same goal R_target R_0 whenever the
+//! measurement strays from what the plan predicted. The plans are made in the model's physics;
+//! where the ball goes is the plant's. Everything is counted (steps, settles), nothing timed, so
+//! the same inputs and seed give the same rows on any machine.
+
+use crate::model::geometry::{rot_q, rotation_angle, rotation_axis, Orientation};
+use crate::model::geometry::{Pair, Radians, UnitVec};
+use crate::physics::dynamics::settle;
+use crate::planning::coilsets::label;
+use crate::planning::commutation::{cumulative, CommutationState, Motor};
+use crate::planning::plan::{Plan, PlanRow, PlanSettings};
+use crate::planning::planner::plan_from;
+use nalgebra::Vector3;
+use serde::Serialize;
+
+/// How the loop is closed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopSettings {
+    /// Replan at all (`false`: open loop, the plan played as it is, measured all the same).
+    pub replan: bool,
+    /// The sensor's noise: each measurement is the true orientation turned about a uniformly
+    /// random axis by an angle drawn from a normal distribution of this standard deviation.
+    pub noise: Radians,
+    /// The noise generator's seed.
+    pub seed: u64,
+    /// Replan when the measurement is farther than this from the plan's prediction.
+    pub replan_beyond: Radians,
+    /// Done when the measured orientation is within this of the goal.
+    pub goal_tolerance: Radians,
+    /// Give up after this many steps.
+    pub max_steps: usize,
+}
+
+impl LoopSettings {
+    /// Settings for a sensor noise of `noise`: replan beyond twice the noise (at least 1
+    /// degree), done within twice the noise (at least 1.5 degrees), at most `max_steps` steps.
+    pub fn for_noise(noise: Radians, seed: u64, max_steps: usize) -> LoopSettings {
+        LoopSettings {
+            replan: true,
+            noise,
+            seed,
+            replan_beyond: Radians((2.0 * noise.0).max(1f64.to_radians())),
+            goal_tolerance: Radians((2.0 * noise.0).max(1.5f64.to_radians())),
+            max_steps,
+        }
+    }
+
+    /// Open loop: the plan as it is, measured with the same sensor.
+    pub fn open(noise: Radians, seed: u64) -> LoopSettings {
+        LoopSettings {
+            replan: false,
+            max_steps: usize::MAX - 1,
+            ..LoopSettings::for_noise(noise, seed, 0)
+        }
+    }
+}
+
+/// One step played on the plant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopRow {
+    /// 0 is the initial commutation state.
+    pub step: usize,
+    /// What was on (the plan's set, as the model names its pairs).
+    pub active: Vec<Pair>,
+    /// Where the plan in force said the ball would be ...
+    pub planned: Orientation,
+    /// ... where the sensor said it was ...
+    pub measured: Orientation,
+    /// ... and where it was.
+    pub truth: Orientation,
+    /// The true cumulative rotation R_k R_0^T: its angle about the target axis and its axis
+    /// error, degrees.
+    pub cum_angle_deg: f64,
+    pub cum_axis_error_deg: f64,
+    /// The true orientation's angle from the goal R_target R_0, degrees.
+    pub error_to_goal_deg: f64,
+    /// Whether the rest of the motion was replanned after this step's measurement.
+    pub replanned: bool,
+    pub settled: bool,
+    pub settle_time_s: f64,
+}
+
+/// How a closed-loop run ended.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoopSummary {
+    pub steps: usize,
+    /// The true orientation's angle from the goal at the end, degrees.
+    pub final_error_deg: f64,
+    pub final_angle_deg: f64,
+    /// Worst true cumulative axis error over the steps, degrees.
+    pub max_axis_error_deg: f64,
+    pub replans: usize,
+    /// Within the goal tolerance by the measurement at the end.
+    pub reached: bool,
+    pub message: Option<String>,
+}
+
+/// A closed-loop run: the rows and its summary.
+#[derive(Debug, Clone)]
+pub struct LoopRun {
+    pub rows: Vec<LoopRow>,
+    pub summary: LoopSummary,
+}
+
+/// splitmix64 with Box-Muller normals: the same noise on every machine.
+struct Noise {
+    state: u64,
+    sigma: f64,
+}
+
+impl Noise {
+    fn uniform(&mut self) -> f64 {
+        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+
+    /// The true orientation as a sensor of this noise reports it.
+    fn measure(&mut self, truth: &Orientation) -> Orientation {
+        if self.sigma == 0.0 {
+            return *truth;
+        }
+        let (u1, u2) = (self.uniform(), self.uniform());
+        let angle = self.sigma * (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+        let z = 2.0 * self.uniform() - 1.0;
+        let phi = std::f64::consts::TAU * self.uniform();
+        let rho = (1.0 - z * z).max(0.0).sqrt();
+        let axis = UnitVec::new_normalize(Vector3::new(rho * phi.cos(), rho * phi.sin(), z));
+        rot_q(&axis, Radians(angle)) * truth
+    }
+}
+
+/// Plays `open` (a plan made with `model` for `settings`) on `plant`, closing the loop as
+/// `cl` says, towards `goal` (the plan's target: ROT[axis, angle] applied to its row 0, see
+/// [`goal_of`]).
+pub fn run_closed_loop(
+    model: &Motor,
+    plant: &Motor,
+    settings: &PlanSettings,
+    open: &Plan,
+    goal: Orientation,
+    cl: &LoopSettings,
+) -> LoopRun {
+    let Some(row0) = open.rows.first() else {
+        return no_run("the plan has no initial commutation state");
+    };
+    let q0 = row0.q;
+    let mut noise = Noise {
+        state: cl.seed,
+        sigma: cl.noise.0,
+    };
+    let mut lp = Loop {
+        model,
+        settings,
+        q0,
+        goal,
+        rows: Vec::new(),
+        replans: 0,
+    };
+    // row 0: the ball at rest at the plan's start, the initial set on
+    let mut truth = q0;
+    let mut plan_rows = open.rows.clone();
+    let mut next = 0;
+    let mut message = None;
+    while lp.rows.len() <= cl.max_steps {
+        let row = plan_rows[next].clone();
+        let row = &row;
+        let res = settle(plant.torques, &row.active, &truth, plant.body, plant.settle);
+        truth = res.q;
+        let measured = noise.measure(&truth);
+        let strayed = cl.replan && angular(&measured, &row.q) > cl.replan_beyond.0;
+        let at_goal = cl.replan && angular(&measured, &goal) <= cl.goal_tolerance.0;
+        let last = next + 1 >= plan_rows.len();
+        let mut replanned = false;
+        if at_goal || (last && !cl.replan) {
+            lp.push(row, measured, &res, false);
+            break;
+        }
+        if strayed || last {
+            match lp.replan(&measured, &row.active) {
+                Ok(p) => {
+                    plan_rows = p.rows;
+                    next = 0;
+                    replanned = true;
+                }
+                Err(m) => {
+                    lp.push(row, measured, &res, false);
+                    message = Some(m);
+                    break;
+                }
+            }
+        }
+        lp.push(row, measured, &res, replanned);
+        next += 1;
+    }
+    if lp.rows.len() > cl.max_steps && message.is_none() {
+        message = Some(format!("stopped after {} steps", cl.max_steps));
+    }
+    let reached = lp
+        .rows
+        .last()
+        .is_some_and(|r| angular(&r.measured, &goal) <= cl.goal_tolerance.0);
+    lp.finish(message, reached)
+}
+
+/// The goal of a plan made for `settings`: ROT[axis, angle] applied to its start (row 0).
+pub fn goal_of(settings: &PlanSettings, rows: &[PlanRow]) -> Option<Orientation> {
+    rows.first()
+        .map(|r| rot_q(&settings.axis, settings.angle) * r.q)
+}
+
+/// The target a plan file says it is for: the rotation from its row 0 to its last row, as the
+/// axis (`None` for no rotation) and angle of `settings`.
+pub fn target_of(rows: &[PlanRow]) -> Option<(UnitVec, Radians)> {
+    let (first, last) = (rows.first()?, rows.last()?);
+    let turn = last.q * first.q.inverse();
+    Some((rotation_axis(&turn)?, rotation_angle(&turn)))
+}
+
+fn angular(a: &Orientation, b: &Orientation) -> f64 {
+    a.angle_to(b)
+}
+
+fn no_run(message: &str) -> LoopRun {
+    LoopRun {
+        rows: Vec::new(),
+        summary: LoopSummary {
+            steps: 0,
+            final_error_deg: f64::NAN,
+            final_angle_deg: 0.0,
+            max_axis_error_deg: 0.0,
+            replans: 0,
+            reached: false,
+            message: Some(message.into()),
+        },
+    }
+}
+
+/// The loop's state while it runs.
+struct Loop<'a> {
+    model: &'a Motor<'a>,
+    settings: &'a PlanSettings,
+    q0: Orientation,
+    goal: Orientation,
+    rows: Vec<LoopRow>,
+    replans: usize,
+}
+
+impl Loop<'_> {
+    fn push(
+        &mut self,
+        row: &PlanRow,
+        measured: Orientation,
+        res: &crate::physics::dynamics::SettleResult,
+        replanned: bool,
+    ) {
+        let (angle, err) = cumulative(&self.q0, &res.q, &self.settings.axis);
+        self.rows.push(LoopRow {
+            step: self.rows.len(),
+            active: row.active.clone(),
+            planned: row.q,
+            measured,
+            truth: res.q,
+            cum_angle_deg: angle.0.to_degrees(),
+            cum_axis_error_deg: err.0.to_degrees(),
+            error_to_goal_deg: angular(&res.q, &self.goal).to_degrees(),
+            replanned,
+            settled: res.settled,
+            settle_time_s: res.settle_time_s,
+        });
+        if replanned {
+            self.replans += 1;
+        }
+    }
+
+    /// The rest of the motion from the measured orientation, held by the coils now on (each
+    /// with the magnet nearest it there), towards the goal: a plan in the model's physics whose
+    /// row 0 is that state.
+    fn replan(&self, measured: &Orientation, active: &[Pair]) -> Result<Plan, String> {
+        let rest = self.goal * measured.inverse();
+        let angle = rotation_angle(&rest);
+        let axis = rotation_axis(&rest).ok_or("no rotation left to plan")?;
+        let mut coils = Vec::new();
+        for p in active {
+            if !coils.contains(&p.coil) {
+                coils.push(p.coil);
+            }
+        }
+        let state = CommutationState {
+            q: *measured,
+            active: label(self.model.torques, &coils, measured),
+            settle_time_s: 0.0,
+        };
+        let s = PlanSettings {
+            axis,
+            angle,
+            start: *measured,
+            ..self.settings.clone()
+        };
+        let p = plan_from(self.model, &s, state);
+        if p.rows.len() < 2 {
+            return Err(format!(
+                "replanning {:.2} deg about [{:.3}, {:.3}, {:.3}] found no step{}",
+                angle.0.to_degrees(),
+                axis.x,
+                axis.y,
+                axis.z,
+                p.message.map(|m| format!(": {m}")).unwrap_or_default()
+            ));
+        }
+        Ok(p)
+    }
+
+    fn finish(self, message: Option<String>, reached: bool) -> LoopRun {
+        let last = self.rows.last();
+        let summary = LoopSummary {
+            steps: self.rows.len().saturating_sub(1),
+            final_error_deg: last.map(|r| r.error_to_goal_deg).unwrap_or(f64::NAN),
+            final_angle_deg: last.map(|r| r.cum_angle_deg).unwrap_or(0.0),
+            max_axis_error_deg: self
+                .rows
+                .iter()
+                .map(|r| r.cum_axis_error_deg)
+                .fold(0.0, f64::max),
+            replans: self.replans,
+            reached,
+            message,
+        };
+        LoopRun {
+            rows: self.rows,
+            summary,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_sensor_noise_has_the_asked_spread_and_no_preferred_axis() {
+        // |angle| of a normal of deviation sigma averages sigma sqrt(2 / pi); the turn axes
+        // are uniform on the sphere (their mean is near 0)
+        let sigma = 1f64.to_radians();
+        let mut noise = Noise { state: 99, sigma };
+        let truth = rot_q(
+            &UnitVec::new_normalize(Vector3::new(0.3, -0.2, 1.0)),
+            Radians(0.7),
+        );
+        let n = 20_000;
+        let (mut sum, mut axes) = (0.0, Vector3::zeros());
+        for _ in 0..n {
+            let m = noise.measure(&truth);
+            let d = m * truth.inverse();
+            sum += rotation_angle(&d).0;
+            axes += rotation_axis(&d)
+                .map(|a| a.into_inner())
+                .unwrap_or_default();
+        }
+        let mean = sum / n as f64;
+        let expected = sigma * (2.0 / std::f64::consts::PI).sqrt();
+        assert!((mean / expected - 1.0).abs() < 0.02, "{mean} vs {expected}");
+        assert!(axes.norm() / (n as f64) < 0.02, "{axes}");
+        // no noise: the truth itself
+        let mut none = Noise {
+            state: 1,
+            sigma: 0.0,
+        };
+        assert_eq!(none.measure(&truth), truth);
+    }
+}
