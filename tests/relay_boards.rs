@@ -194,6 +194,32 @@ channels = 8
 2 = \"0:2\"
 3 = \"1:8\"";
 
+/// The listing rows (without time) of the short plan on `TWO_LCUS`, in the order sent.
+fn two_lcus_rows() -> Vec<String> {
+    let all_off = |b: usize| -> Vec<String> {
+        (1..=8u8)
+            .map(|c| format!("    - all-off      -     {b}       -  A0 0{c} 00 A{c}"))
+            .collect()
+    };
+    let mut want: Vec<String> = [all_off(0), all_off(1)].concat();
+    want.extend(
+        [
+            "    0 on           0     0       1  A0 01 01 A2",
+            "    0 on           1     1       1  A0 01 01 A2",
+            "    0 dwell 0 ms",
+            "    1 on           2     0       2  A0 02 01 A3",
+            "    1 off          1     1       1  A0 01 00 A1",
+            "    1 dwell 0 ms",
+            "    2 on           3     1       8  A0 08 01 A9",
+            "    2 off          0     0       1  A0 01 00 A1",
+            "    2 dwell 0 ms",
+        ]
+        .map(String::from),
+    );
+    want.extend([all_off(0), all_off(1)].concat());
+    want
+}
+
 #[test]
 fn two_lcus_boards_exact_frames_on_each() {
     let dir = tempfile::tempdir().unwrap();
@@ -244,28 +270,7 @@ fn two_lcus_boards_exact_frames_on_each() {
         lines.next(),
         Some("      t_s  step action    coil board channel  bytes")
     );
-    let all_off = |b: usize| -> Vec<String> {
-        (1..=8u8)
-            .map(|c| format!("    - all-off      -     {b}       -  A0 0{c} 00 A{c}"))
-            .collect()
-    };
-    let mut want: Vec<String> = [all_off(0), all_off(1)].concat();
-    want.extend(
-        [
-            "    0 on           0     0       1  A0 01 01 A2",
-            "    0 on           1     1       1  A0 01 01 A2",
-            "    0 dwell 0 ms",
-            "    1 on           2     0       2  A0 02 01 A3",
-            "    1 off          1     1       1  A0 01 00 A1",
-            "    1 dwell 0 ms",
-            "    2 on           3     1       8  A0 08 01 A9",
-            "    2 off          0     0       1  A0 01 00 A1",
-            "    2 dwell 0 ms",
-        ]
-        .map(String::from),
-    );
-    want.extend([all_off(0), all_off(1)].concat());
-    assert_eq!(rows_without_time(&text), want, "{text}");
+    assert_eq!(rows_without_time(&text), two_lcus_rows(), "{text}");
     assert!(
         text.ends_with("done: 3 step(s) replayed; all coils off\n"),
         "{text}"

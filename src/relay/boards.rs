@@ -157,12 +157,14 @@ fn slot_value(f: &Fields, field: &str, v: &toml::Value, boards: &[BoardSpec]) ->
     );
     let text = match v {
         toml::Value::String(s) => s.as_str(),
-        toml::Value::Integer(n) => return Err(f.err(
-            field,
-            format!(
+        toml::Value::Integer(n) => {
+            return Err(f.err(
+                field,
+                format!(
                 "{form}; with [[relay.boards]] a bare channel does not say which board, got {n}"
             ),
-        )),
+            ))
+        }
         other => return Err(f.err(field, format!("{form}, got {other}"))),
     };
     let parsed = text.split_once(':').and_then(|(b, c)| {
