@@ -224,3 +224,71 @@ fn step_mode_waits_for_enter_and_quits_on_q() {
     let text = String::from_utf8(out).unwrap();
     assert!(text.contains("resume with --from-step 1"), "{text}");
 }
+
+#[test]
+fn one_board_closing_mid_replay_names_its_port_and_the_other_board_goes_off() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two LCUS boards, no map: coils 0 and 1 on board 0 channels 1 and 2, coil 8 on board 1
+    // channel 1.
+    let sc = scenario(
+        dir.path(),
+        "[[relay.boards]]\nboard = \"lcus\"\n[[relay.boards]]\nboard = \"lcus\"",
+    );
+    let plan = plan(dir.path(), "p.csv", &["0:1;8:2", "1:3;8:2", "8:2"], 0.1);
+    let mut opts = options(&plan, &sc);
+    // Step mode: each step waits for a line, so the board end closes between two steps.
+    opts.mode = Mode::Step;
+    let (tx, rx) = std::sync::mpsc::channel();
+    tx.send(String::new()).unwrap(); // Enter: step 0
+    let (mut board0, computer0) = pty();
+    let (mut board1, computer1) = pty();
+    let (p0, p1) = (path_of(&computer0), path_of(&computer1));
+    let links = vec![named_link(&computer0), named_link(&computer1)];
+    let replay = std::thread::spawn(move || run_on(&opts, links, Some(rx)));
+    let mut start = all_off_lcus8();
+    start.extend([0xA0, 0x01, 0x01, 0xA2]); // step 0: channel 1 on
+    assert_eq!(read_n(&mut board0, start.len()), start);
+    assert_eq!(read_n(&mut board1, start.len()), start);
+    // Board 0 goes away; step 1 begins by switching coil 1 on there. Board 0 comes first,
+    // so board 1's all-off is sent after board 0's failed.
+    drop(board0);
+    tx.send(String::new()).unwrap();
+    let (r, text) = replay.join().unwrap();
+    // Board 1 still gets its all-off, and nothing else.
+    assert_eq!(read_n(&mut board1, 32), all_off_lcus8());
+    assert!(leftover(&mut board1).is_empty());
+    assert!(
+        text.contains("    1 on           1     0       2  A0 02 01 A3"),
+        "{text}"
+    );
+    let e = r.unwrap_err();
+    assert!(
+        matches!(
+            e.root(),
+            RelayError::Closed { .. } | RelayError::Port { .. }
+        ),
+        "{e}"
+    );
+    let msg = e.to_string();
+    assert!(
+        msg.starts_with(&format!("board 0 ({p0}): serial port {p0}: ")),
+        "{msg}"
+    );
+    assert!(
+        msg.contains(&format!(
+            "then switching all coils off FAILED on board 0 ({p0}): serial port {p0}: the board end closed the connection"
+        )),
+        "{msg}"
+    );
+    assert!(
+        msg.contains(&format!(
+            "the coils on board 0 may still be on: cut the coil supply (switched off: board 1 ({p1}))"
+        )),
+        "{msg}"
+    );
+    drop((computer0, computer1));
+}
+
+fn all_off_lcus8() -> Vec<u8> {
+    (1..=8u8).flat_map(|c| [0xA0, c, 0x00, 0xA0 + c]).collect()
+}

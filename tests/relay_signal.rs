@@ -104,3 +104,56 @@ fn dry_run_prints_frames_without_a_port() {
         "{text}"
     );
 }
+
+#[test]
+fn sigterm_mid_replay_on_two_boards_sends_all_off_to_both() {
+    let dir = tempfile::tempdir().unwrap();
+    // Coil 0 on board 0 channel 1, coil 8 on board 1 channel 1 (laid in order); the ports in
+    // the scenario are replaced by --port, once per board.
+    let plan = plan(dir.path(), "p.csv", &["0:10;8:11", "8:11"], 0.1);
+    let sc = scenario(
+        dir.path(),
+        "max_on_time_s = 100000\n[[relay.boards]]\nport = \"/dev/nonexistent-0\"\nboard = \"lcus\"\n[[relay.boards]]\nport = \"/dev/nonexistent-1\"\nboard = \"lcus\"",
+    );
+    let (mut board0, computer0) = pty();
+    let (mut board1, computer1) = pty();
+    let child = Command::new(env!("CARGO_BIN_EXE_spherestep"))
+        .arg("replay")
+        .arg(&plan)
+        .arg(&sc)
+        .args(["--port", &path_of(&computer0)])
+        .args(["--port", &path_of(&computer1)])
+        .args(["--mode", "realtime", "--dwell-ms", "600000"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut start = all_off_lcus();
+    start.extend([0xA0, 0x01, 0x01, 0xA2]);
+    assert_eq!(read_n(&mut board0, start.len()), start);
+    assert_eq!(read_n(&mut board1, start.len()), start);
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    assert_eq!(read_n(&mut board0, 32), all_off_lcus());
+    assert_eq!(read_n(&mut board1, 32), all_off_lcus());
+    let out = child.wait_with_output().unwrap();
+    assert!(!out.status.success(), "exit status {:?}", out.status);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr
+            .contains("interrupted by a signal; all coils switched off; resume with --from-step 0"),
+        "{stderr}"
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.starts_with("replaying on 2 boards: make-before-break, realtime, steps 0..=1"),
+        "{stdout}"
+    );
+    assert!(leftover(&mut board0).is_empty());
+    assert!(leftover(&mut board1).is_empty());
+    drop((computer0, computer1));
+}

@@ -87,8 +87,9 @@ enum Command {
     Run(run::Args),
     /// Run many scenarios (plans and sweeps) in parallel: one CSV each, plus summary.csv.
     Batch(batch::Args),
-    /// Replay a plan on a relay board: switch each step's coils, wait, all off at the end
-    /// (and on error or Ctrl-C). Settings come from the scenario's [relay] section or --map.
+    /// Replay a plan on a relay board (or several): switch each step's coils, wait, all off at
+    /// the end (and on error or Ctrl-C). Settings come from the scenario's [relay] section or
+    /// --map.
     Replay(replay::Args),
     /// Write one self-contained HTML page showing a plan in 3-D (opens from disk, no network).
     View(view::Args),

@@ -1,5 +1,5 @@
-//! `spherestep replay`: replays a plan on a relay board, every coil off at the end, on an
-//! error and on Ctrl-C.
+//! `spherestep replay`: replays a plan on a relay board (or several), every coil off at the
+//! end, on an error and on Ctrl-C.
 
 use anyhow::{Context, Result};
 use spherestep::commands::replay::{self, ReplayOptions};
@@ -16,13 +16,14 @@ pub struct Args {
     pub plan: PathBuf,
     /// Scenario file (TOML) with the coil count and [relay] settings (default: prototype).
     pub scenario: Option<PathBuf>,
-    /// Serial device, e.g. /dev/ttyUSB0 (not needed with --dry-run).
-    #[arg(long, required_unless_present = "dry_run")]
-    pub port: Option<String>,
-    /// Board protocol: lcus, kmtronic, numato or modbus (default: relay.board).
+    /// Serial device, e.g. /dev/ttyUSB0 (not needed with --dry-run); with [[relay.boards]],
+    /// given once per board in list order to override their ports.
+    #[arg(long)]
+    pub port: Vec<String>,
+    /// Board protocol: lcus, kmtronic, numato or modbus (default: relay.board; single board).
     #[arg(long)]
     pub board: Option<spherestep::relay::BoardKind>,
-    /// Baud rate (default: relay.baud, else the vendor's).
+    /// Baud rate (default: relay.baud, else the vendor's; single board).
     #[arg(long)]
     pub baud: Option<u32>,
     /// realtime (switch, wait the dwell) or step (wait for Enter; q quits).
@@ -54,7 +55,7 @@ impl Args {
             plan: self.plan,
             scenario: self.scenario,
             map: self.map,
-            port: self.port,
+            ports: self.port,
             board: self.board,
             baud: self.baud,
             mode: self.mode,

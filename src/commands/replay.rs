@@ -1,11 +1,11 @@
 //! `spherestep replay`: reads the plan, the scenario and the relay map, and hands the relay layer
-//! what it needs to drive the board (`crate::relay::replay`); also reads a replay log to say
-//! where to resume.
+//! what it needs to drive the board, or the boards (`crate::relay::replay`); also reads a replay
+//! log to say where to resume.
 
 use crate::error::Error;
 use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
-use crate::relay::replay::{execute, Drive, Mode, Prepared, Summary};
+use crate::relay::replay::{execute_on, open_ports, Drive, Mode, Prepared, Summary};
 use crate::relay::{BoardKind, Link, RelayError, RelaySettings};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -22,11 +22,12 @@ pub struct ReplayOptions {
     pub scenario: Option<PathBuf>,
     /// A TOML map file with the `[relay]` keys at the top; replaces the scenario's section.
     pub map: Option<PathBuf>,
-    /// Serial device (not needed with `dry_run`).
-    pub port: Option<String>,
-    /// Overrides `relay.board`.
+    /// Serial device (`--port`; not needed with `dry_run`): one for a single board; with
+    /// `[[relay.boards]]`, none (their `port` keys) or one per board in list order.
+    pub ports: Vec<String>,
+    /// Overrides `relay.board` (single board only).
     pub board: Option<BoardKind>,
-    /// Overrides `relay.baud`.
+    /// Overrides `relay.baud` (single board only).
     pub baud: Option<u32>,
     pub mode: Mode,
     /// A fixed dwell for every step instead of settle time x factor (at least the floor).
@@ -47,7 +48,7 @@ impl ReplayOptions {
             plan: plan.into(),
             scenario: None,
             map: None,
-            port: None,
+            ports: Vec::new(),
             board: None,
             baud: None,
             mode: Mode::Realtime,
@@ -64,6 +65,7 @@ impl ReplayOptions {
         Drive {
             board: self.board,
             baud: self.baud,
+            ports: self.ports.clone(),
             mode: self.mode,
             dwell_ms: self.dwell_ms,
             from_step: self.from_step,
@@ -90,7 +92,7 @@ pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
     crate::relay::replay::prepare(&rows, settings, scenario.stator.len(), opts.drive())
 }
 
-/// `spherestep replay`: prepares, opens the port (unless dry run) and replays.
+/// `spherestep replay`: prepares, opens the ports (unless dry run) and replays.
 pub fn run(
     opts: &ReplayOptions,
     stop: Arc<AtomicBool>,
@@ -98,16 +100,12 @@ pub fn run(
     out: &mut dyn Write,
 ) -> Result<Summary, RelayError> {
     let prep = prepare(opts)?;
-    let link = if opts.dry_run {
-        Link::dry_run()
+    let links = if opts.dry_run {
+        prep.boards.iter().map(|_| Link::dry_run()).collect()
     } else {
-        let port = opts.port.as_deref().ok_or_else(|| RelayError::Arg {
-            arg: "--port".into(),
-            expected: "a serial device such as /dev/ttyUSB0 (or --dry-run)".into(),
-        })?;
-        Link::open_serial(port, prep.baud, prep.settings.timeout)?
+        open_ports(&prep)?
     };
-    execute(&prep, link, stop, input, out)
+    execute_on(&prep, links, stop, input, out)
 }
 
 /// Reads a replay log and returns the step to resume from: the one after the last step whose

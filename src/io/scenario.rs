@@ -246,7 +246,7 @@ pub struct Scenario {
     pub sweep: Option<Sweep>,
     /// The `[report]` section (reference lines of the pictures).
     pub report: ReportSettings,
-    /// Relay board, coil map and replay limits (`[relay]`, see `crate::relay::config`).
+    /// Relay board (or boards), coil map and replay limits (`[relay]`, see `crate::relay::config`).
     pub relay: crate::relay::RelaySettings,
 }
 

@@ -1,9 +1,11 @@
 //! Replay settings: the `[relay]` section of a scenario, or the same keys at the top of a small
-//! TOML map file (`replay --map FILE`). Which relay channel drives which stator coil, the board,
-//! its serial settings, and the safety limits. Unknown keys are refused; every value is checked
-//! and an error names the file and the field.
+//! TOML map file (`replay --map FILE`). Which relay channel drives which stator coil, the board
+//! (or the boards, `[[relay.boards]]`, checked in `super::boards`), its serial settings, and the
+//! safety limits. Unknown keys are refused; every value is checked and an error names the file
+//! and the field.
 
-use super::{BoardKind, Channel};
+use super::boards::{self, BoardConfig};
+use super::{BoardKind, BoardSpec, Channel, Slot};
 use crate::error::{Error, Result};
 use crate::model::geometry::CoilId;
 use serde::Deserialize;
@@ -36,7 +38,9 @@ pub enum SwitchOrder {
     BreakBeforeMake,
 }
 
-/// The `[relay]` section as written (every key optional).
+/// The `[relay]` section as written (every key optional). One board is described by the keys
+/// `board`, `baud`, `slave_address`, `channels` and `timeout_ms` here; several by `boards`
+/// (`[[relay.boards]]`, each entry with those keys and its `port`), never both.
 #[derive(Debug, Default, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RelayConfig {
@@ -60,31 +64,61 @@ pub struct RelayConfig {
     pub dwell_floor_ms: Option<f64>,
     /// "make-before-break" (default) or "break-before-make".
     pub order: Option<SwitchOrder>,
-    /// Coil (0-based, as a key) to channel (1-based): `[relay.map]` with `0 = 1`, `1 = 2`, ...
-    /// Without it, coil i is on channel i + 1.
-    pub map: Option<BTreeMap<String, i64>>,
+    /// Several boards, in order (board 0 first): `[[relay.boards]]`.
+    pub boards: Option<Vec<BoardConfig>>,
+    /// Coil (0-based, as a key) to channel (1-based): `[relay.map]` with `0 = 1`, `1 = 2`, ...;
+    /// with `boards`, to `"board:channel"` (`0 = "0:1"`, `15 = "1:8"`). Without it, coil i is
+    /// on channel i + 1 (with `boards`: laid onto the boards in order).
+    pub map: Option<BTreeMap<String, toml::Value>>,
 }
 
-/// Which channel drives which coil.
+/// Which channel (of which board) drives which coil.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum CoilMap {
-    /// Coil i on channel i + 1.
+    /// One board: coil i on channel i + 1.
     Default,
-    /// Only the listed coils are driven.
+    /// One board: only the listed coils are driven.
     Explicit(BTreeMap<CoilId, Channel>),
+    /// `[[relay.boards]]` and no map: the coils laid onto the boards in order (coil 0 on board
+    /// 0 channel 1, ..., then board 1 channel 1, ...); the boards' channel counts.
+    Laid(Vec<u16>),
+    /// `[[relay.boards]]`: only the listed coils are driven, each on a board's channel.
+    Slots(BTreeMap<CoilId, Slot>),
 }
 
 impl CoilMap {
-    /// The channel driving `coil`, if any.
+    /// The channel driving `coil` (on whichever board), if any.
     pub fn channel(&self, coil: CoilId) -> Option<Channel> {
+        self.slot(coil).map(|s| s.channel)
+    }
+
+    /// The board and channel driving `coil`, if any (board 0 with a single board).
+    pub fn slot(&self, coil: CoilId) -> Option<Slot> {
+        let on_board_0 = |channel| Slot { board: 0, channel };
         match self {
-            CoilMap::Default => u16::try_from(coil.0 + 1).ok().map(Channel),
-            CoilMap::Explicit(m) => m.get(&coil).copied(),
+            CoilMap::Default => u16::try_from(coil.0 + 1).ok().map(Channel).map(on_board_0),
+            CoilMap::Explicit(m) => m.get(&coil).copied().map(on_board_0),
+            CoilMap::Laid(counts) => {
+                let mut k = coil.0;
+                for (board, &n) in counts.iter().enumerate() {
+                    let n = usize::from(n);
+                    if k < n {
+                        let channel = Channel(u16::try_from(k + 1).ok()?);
+                        return Some(Slot { board, channel });
+                    }
+                    k -= n;
+                }
+                None
+            }
+            CoilMap::Slots(m) => m.get(&coil).copied(),
         }
     }
 }
 
-/// Checked replay settings.
+/// Checked replay settings. With a single board, `board`, `baud`, `slave_address`, `channels`
+/// and `timeout` describe it (the command line may override the first two) and `boards` is
+/// empty; with `[[relay.boards]]`, `boards` holds them (those fields are then unset or default
+/// and unused).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RelaySettings {
     pub board: Option<BoardKind>,
@@ -98,6 +132,8 @@ pub struct RelaySettings {
     pub dwell_floor: Duration,
     pub order: SwitchOrder,
     pub map: CoilMap,
+    /// `[[relay.boards]]`, checked (empty: the single-board form).
+    pub boards: Vec<BoardSpec>,
 }
 
 impl Default for RelaySettings {
@@ -110,29 +146,16 @@ impl Default for RelaySettings {
 impl RelaySettings {
     /// Checks a `[relay]` section; `prefix` is how fields are named in errors (`relay.` in a
     /// scenario, empty in a map file).
-    pub fn from_config(raw: RelayConfig, file: &Path, prefix: &str) -> Result<RelaySettings> {
+    pub fn from_config(mut raw: RelayConfig, file: &Path, prefix: &str) -> Result<RelaySettings> {
         let f = Fields { file, prefix };
-        let board = match raw.board.as_deref() {
-            None => None,
-            Some(s) => Some(s.parse::<BoardKind>().map_err(|m| f.err("board", m))?),
-        };
-        let max_channels = i64::from(super::modbus::MAX_CHANNELS);
-        let channels = f
-            .int("channels", raw.channels, 1, max_channels)?
-            .map(|c| c as u16);
-        if let (Some(b), Some(c)) = (board, channels) {
-            if c > b.max_channels() {
-                let hint = match b {
-                    BoardKind::Lcus => {
-                        " (16 coils need a bigger board, e.g. numato or modbus, or two boards)"
-                    }
-                    _ => "",
-                };
-                let limit = b.max_channels();
-                let expected = format!("at most {limit} for a {b} board, got {c}{hint}");
-                return Err(f.err("channels", expected));
+        let listed = match raw.boards.take() {
+            None => Vec::new(),
+            Some(list) => {
+                boards::refuse_single_board_keys(&raw, &f)?;
+                boards::check_boards(&f, list)?
             }
-        }
+        };
+        let one = single_board(&raw, &f)?;
         let ms = |x: f64| Duration::from_secs_f64(x / 1000.0);
         let dwell_floor_ms = match raw.dwell_floor_ms {
             None => DEFAULT_DWELL_FLOOR_MS,
@@ -142,14 +165,18 @@ impl RelaySettings {
                 return Err(f.err("dwell_floor_ms", expected));
             }
         };
+        let map = match (raw.map, listed.is_empty()) {
+            (None, true) => CoilMap::Default,
+            (None, false) => CoilMap::Laid(listed.iter().map(|b| b.channels).collect()),
+            (Some(m), true) => coil_map(&f, m)?,
+            (Some(m), false) => boards::slot_map(&f, m, &listed)?,
+        };
         Ok(RelaySettings {
-            board,
-            baud: f.int("baud", raw.baud, 1, 4_000_000)?.map(|b| b as u32),
-            slave_address: f
-                .int("slave_address", raw.slave_address, 1, 247)?
-                .map_or(DEFAULT_SLAVE_ADDRESS, |a| a as u8),
-            channels,
-            timeout: ms(f.positive("timeout_ms", raw.timeout_ms, DEFAULT_TIMEOUT_MS)?),
+            board: one.board,
+            baud: one.baud,
+            slave_address: one.slave_address,
+            channels: one.channels,
+            timeout: one.timeout,
             max_coils_on: f
                 .int("max_coils_on", raw.max_coils_on, 1, 1000)?
                 .map_or(DEFAULT_MAX_COILS_ON, |m| m as usize),
@@ -161,10 +188,8 @@ impl RelaySettings {
             dwell_factor: f.positive("dwell_factor", raw.dwell_factor, DEFAULT_DWELL_FACTOR)?,
             dwell_floor: ms(dwell_floor_ms),
             order: raw.order.unwrap_or_default(),
-            map: match raw.map {
-                None => CoilMap::Default,
-                Some(m) => coil_map(&f, m)?,
-            },
+            map,
+            boards: listed,
         })
     }
 
@@ -178,19 +203,63 @@ impl RelaySettings {
     }
 }
 
+/// The single-board keys at the top of `[relay]`, checked (all unset with `[[relay.boards]]`).
+struct SingleBoard {
+    board: Option<BoardKind>,
+    baud: Option<u32>,
+    slave_address: u8,
+    channels: Option<u16>,
+    timeout: Duration,
+}
+
+/// Checks the single-board keys at the top of `[relay]`.
+fn single_board(raw: &RelayConfig, f: &Fields) -> Result<SingleBoard> {
+    let board = match raw.board.as_deref() {
+        None => None,
+        Some(s) => Some(s.parse::<BoardKind>().map_err(|m| f.err("board", m))?),
+    };
+    let max_channels = i64::from(super::modbus::MAX_CHANNELS);
+    let channels = f
+        .int("channels", raw.channels, 1, max_channels)?
+        .map(|c| c as u16);
+    if let (Some(b), Some(c)) = (board, channels) {
+        if c > b.max_channels() {
+            let hint = match b {
+                BoardKind::Lcus => {
+                    " (16 coils need a bigger board, e.g. numato or modbus, or two boards)"
+                }
+                _ => "",
+            };
+            let limit = b.max_channels();
+            let expected = format!("at most {limit} for a {b} board, got {c}{hint}");
+            return Err(f.err("channels", expected));
+        }
+    }
+    let timeout_ms = f.positive("timeout_ms", raw.timeout_ms, DEFAULT_TIMEOUT_MS)?;
+    Ok(SingleBoard {
+        board,
+        baud: f.int("baud", raw.baud, 1, 4_000_000)?.map(|b| b as u32),
+        slave_address: f
+            .int("slave_address", raw.slave_address, 1, 247)?
+            .map_or(DEFAULT_SLAVE_ADDRESS, |a| a as u8),
+        channels,
+        timeout: Duration::from_secs_f64(timeout_ms / 1000.0),
+    })
+}
+
 /// How the fields of a `[relay]` section are named in errors: the file and the prefix.
-struct Fields<'a> {
-    file: &'a Path,
-    prefix: &'a str,
+pub(super) struct Fields<'a> {
+    pub(super) file: &'a Path,
+    pub(super) prefix: &'a str,
 }
 
 impl Fields<'_> {
-    fn err(&self, field: &str, expected: String) -> Error {
+    pub(super) fn err(&self, field: &str, expected: String) -> Error {
         Error::field(self.file, &format!("{}{field}", self.prefix), expected)
     }
 
     /// An optional integer in `lo..=hi`.
-    fn int(&self, field: &str, v: Option<i64>, lo: i64, hi: i64) -> Result<Option<i64>> {
+    pub(super) fn int(&self, field: &str, v: Option<i64>, lo: i64, hi: i64) -> Result<Option<i64>> {
         match v {
             Some(x) if x < lo || x > hi => {
                 Err(self.err(field, format!("an integer in {lo}..={hi}, got {x}")))
@@ -200,7 +269,7 @@ impl Fields<'_> {
     }
 
     /// An optional finite number > 0, `default` when absent.
-    fn positive(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
+    pub(super) fn positive(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
         match v {
             None => Ok(default),
             Some(x) if x.is_finite() && x > 0.0 => Ok(x),
@@ -209,18 +278,33 @@ impl Fields<'_> {
     }
 }
 
-/// The `[relay.map]` table: coil index -> channel, each channel used once.
-fn coil_map(f: &Fields, m: BTreeMap<String, i64>) -> Result<CoilMap> {
+/// A `[relay.map]` key: the coil index.
+pub(super) fn coil_key(f: &Fields, field: &str, k: &str) -> Result<CoilId> {
+    k.trim().parse::<usize>().map(CoilId).map_err(|_| {
+        f.err(
+            field,
+            format!("a coil index (0, 1, ...) as the key, got '{k}'"),
+        )
+    })
+}
+
+/// The `[relay.map]` table of a single board: coil index -> channel, each channel used once.
+fn coil_map(f: &Fields, m: BTreeMap<String, toml::Value>) -> Result<CoilMap> {
     let mut out = BTreeMap::new();
     let mut used: BTreeMap<Channel, CoilId> = BTreeMap::new();
     for (k, v) in m {
         let field = format!("map.{k}");
-        let coil = k.trim().parse::<usize>().map(CoilId).map_err(|_| {
-            f.err(
-                &field,
-                format!("a coil index (0, 1, ...) as the key, got '{k}'"),
-            )
-        })?;
+        let coil = coil_key(f, &field, &k)?;
+        let v = match v {
+            toml::Value::Integer(v) => v,
+            toml::Value::String(s) => {
+                return Err(f.err(
+                    &field,
+                    format!("a channel number (1, 2, ...); \"board:channel\" values need [[relay.boards]], got \"{s}\""),
+                ))
+            }
+            other => return Err(f.err(&field, format!("a channel number (1, 2, ...), got {other}"))),
+        };
         let ch = f
             .int(&field, Some(v), 1, i64::from(u16::MAX))?
             .map(|c| Channel(c as u16))

@@ -1,9 +1,11 @@
 //! Relay boards that switch the stator coils: one driver per board type behind one trait
 //! (`RelayBoard`, in the spirit of the crelay project), the serial link they talk over, the
-//! coil-to-channel map and replay settings (`[relay]` in a scenario, or a `--map` file), and the
-//! hardware replay of a plan (`replay`). Channels are numbered from 1, as printed on the boards;
-//! each driver converts to its own wire numbering.
+//! coil-to-channel map and replay settings (`[relay]` in a scenario, or a `--map` file; one
+//! board, or several as `[[relay.boards]]`), and the hardware replay of a plan (`replay`), which
+//! drives one driver per board. Channels are numbered from 1, as printed on the boards; each
+//! driver converts to its own wire numbering. Boards are numbered from 0, in list order.
 
+pub mod boards;
 pub mod config;
 pub mod kmtronic;
 pub mod lcus;
@@ -12,6 +14,7 @@ pub mod modbus;
 pub mod numato;
 pub mod replay;
 
+pub use boards::BoardConfig;
 pub use config::{CoilMap, RelayConfig, RelaySettings, SwitchOrder};
 pub use link::Link;
 
@@ -29,6 +32,36 @@ impl fmt::Display for Channel {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}", self.0)
     }
+}
+
+/// A relay channel on one of a replay's boards: the board (0-based, in `[[relay.boards]]`
+/// order; always 0 with a single board) and its channel (1-based). Ordered board first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Slot {
+    pub board: usize,
+    pub channel: Channel,
+}
+
+impl fmt::Display for Slot {
+    /// As written in `[relay.map]`: `board:channel`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}", self.board, self.channel)
+    }
+}
+
+/// One board of a replay, resolved: its type, channel count, serial settings and port.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoardSpec {
+    pub kind: BoardKind,
+    pub channels: u16,
+    pub baud: u32,
+    /// Modbus slave address (other boards ignore it).
+    pub slave_address: u8,
+    /// How long to wait for a reply.
+    pub timeout: Duration,
+    /// The serial device (`port` of a `[[relay.boards]]` entry, or `--port`); `None` when not
+    /// given (a dry run needs none).
+    pub port: Option<String>,
 }
 
 /// The supported board types.
@@ -189,9 +222,11 @@ pub enum RelayError {
         coils: String,
     },
     /// One coil would stay on longer than allowed (heat).
-    #[error("coil {coil} (channel {channel}) {when} {:.3} s, over the limit of {:.3} s (relay.max_on_time_s){advice}", on.as_secs_f64(), max.as_secs_f64())]
+    #[error("coil {coil} ({}) {when} {:.3} s, over the limit of {:.3} s (relay.max_on_time_s){advice}", where_on(*board, *channel), on.as_secs_f64(), max.as_secs_f64())]
     OnTooLong {
         coil: CoilId,
+        /// The board, with `[[relay.boards]]` (`None` with a single board).
+        board: Option<usize>,
         channel: Channel,
         when: String,
         on: Duration,
@@ -230,6 +265,23 @@ pub enum RelayError {
         cause: Box<RelayError>,
         off: Box<RelayError>,
     },
+    /// Something failed on one board of several (`[[relay.boards]]`): which board, on which
+    /// port (the configured one in a dry run), and what.
+    #[error("board {index} ({port}): {error}")]
+    OnBoard {
+        index: usize,
+        port: String,
+        error: Box<RelayError>,
+    },
+    /// With several boards: the replay finished (`cause` `None`) or stopped on `cause`, and
+    /// switching all off failed on the `failed` boards (each an `OnBoard`); the boards in
+    /// `switched_off` (their labels) were switched off.
+    #[error("{}", boards_off_failed(cause.as_deref(), failed, switched_off))]
+    BoardsOffFailed {
+        cause: Option<Box<RelayError>>,
+        failed: Vec<RelayError>,
+        switched_off: Vec<String>,
+    },
 }
 
 impl RelayError {
@@ -237,9 +289,56 @@ impl RelayError {
     pub fn root(&self) -> &RelayError {
         match self {
             RelayError::Stopped { cause, .. } | RelayError::OffFailed { cause, .. } => cause.root(),
+            RelayError::OnBoard { error, .. } => error.root(),
+            RelayError::BoardsOffFailed {
+                cause: Some(cause), ..
+            } => cause.root(),
             e => e,
         }
     }
+}
+
+/// Where a coil is switched, in messages: `channel 3`, or `board 1, channel 3`.
+fn where_on(board: Option<usize>, channel: Channel) -> String {
+    match board {
+        None => format!("channel {channel}"),
+        Some(b) => format!("board {b}, channel {channel}"),
+    }
+}
+
+/// The message of `RelayError::BoardsOffFailed`: which boards failed and why, that their coils
+/// may still be on, and which boards were switched off.
+fn boards_off_failed(
+    cause: Option<&RelayError>,
+    failed: &[RelayError],
+    switched_off: &[String],
+) -> String {
+    let head = match cause {
+        Some(c) => format!("{c}; then switching all coils off FAILED on "),
+        None => "the replay finished, but switching all coils off FAILED on ".to_string(),
+    };
+    let why: Vec<String> = failed.iter().map(|e| e.to_string()).collect();
+    let which: Vec<String> = failed
+        .iter()
+        .map(|e| match e {
+            RelayError::OnBoard { index, .. } => index.to_string(),
+            _ => "?".to_string(),
+        })
+        .collect();
+    let boards = match which.as_slice() {
+        [one] => format!("board {one}"),
+        [most @ .., last] => format!("boards {} and {last}", most.join(", ")),
+        [] => "the boards".to_string(),
+    };
+    let others = if switched_off.is_empty() {
+        String::new()
+    } else {
+        format!(" (switched off: {})", switched_off.join(", "))
+    };
+    format!(
+        "{head}{}; the coils on {boards} may still be on: cut the coil supply{others}",
+        why.join("; and on ")
+    )
 }
 
 /// Bytes as upper-case hex pairs separated by spaces: `A0 01 01 A2`.

@@ -1,18 +1,22 @@
 //! Hardware replay of a plan (`spherestep replay`): turns each step's active set into relay
-//! switching on a board, in order (new coils on before released ones off, by default), waits
-//! the dwell (realtime) or for Enter (step mode), and always ends with every channel off: at
-//! the end, on an error, on Ctrl-C/SIGTERM (a flag the caller sets), and when the port fails
-//! (tried, and reported). The limits (coils on at once, one coil's continuous on-time) are
-//! checked on the whole schedule before any byte is sent. `--dry-run` runs the same code on a
-//! link that only records, with a simulated clock. `--log` writes what was sent when.
+//! switching, on one board or on several (`[[relay.boards]]`, one driver each, every coil on
+//! its board and channel), in order (new coils on before released ones off, by default), waits
+//! the dwell (realtime) or for Enter (step mode), and always ends with every channel of every
+//! board off: at the end, on an error, on Ctrl-C/SIGTERM/SIGHUP (a flag the caller sets), and
+//! when a port fails (the all-off is still sent to every other board, and every failure is
+//! reported with its board and port). The limits (coils on at once, one coil's continuous
+//! on-time) are checked on the whole schedule, counting the coils of all boards, before any
+//! byte is sent. `--dry-run` runs the same code on links that only record, with a simulated
+//! clock. `--log` writes what was sent when (and, with several boards, to which board).
 
 use super::{
-    connect, hex, BoardKind, Channel, Link, RelayBoard, RelayError, RelaySettings, SwitchOrder,
+    connect, hex, BoardKind, BoardSpec, Channel, CoilMap, Link, RelayBoard, RelayError,
+    RelaySettings, Slot, SwitchOrder,
 };
 use crate::model::geometry::CoilId;
 use crate::planning::plan::PlanRow;
 use std::collections::{BTreeMap, BTreeSet};
-use std::io::Write;
+use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -40,12 +44,23 @@ impl FromStr for Mode {
     }
 }
 
-/// One relay switched.
+/// One relay switched: a coil, on its board (0 with a single board) and channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Switch {
     pub coil: CoilId,
+    pub board: usize,
     pub channel: Channel,
     pub on: bool,
+}
+
+impl Switch {
+    /// Where the relay is.
+    pub fn slot(&self) -> Slot {
+        Slot {
+            board: self.board,
+            channel: self.channel,
+        }
+    }
 }
 
 /// One entry of the schedule: a plan step (or, when resuming, the re-energising of the step
@@ -57,9 +72,9 @@ pub struct Entry {
     pub hold: bool,
     /// The switching, in the order it is sent.
     pub switches: Vec<Switch>,
-    /// What is on after the entry, by channel.
-    pub on_after: BTreeMap<Channel, CoilId>,
-    /// The most coils on at any moment of the entry.
+    /// What is on after the entry, by board and channel.
+    pub on_after: BTreeMap<Slot, CoilId>,
+    /// The most coils on at any moment of the entry, all boards together.
     pub peak: usize,
     /// Time to wait after switching (realtime).
     pub dwell: Duration,
@@ -68,8 +83,6 @@ pub struct Entry {
 /// The whole replay, worked out and checked before anything is sent.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Schedule {
-    pub board: BoardKind,
-    pub channels: u16,
     pub entries: Vec<Entry>,
 }
 
@@ -93,15 +106,45 @@ pub fn dwell(
     }
 }
 
-/// Works out the schedule of a plan and checks it: every coil on the stator and driven by a
-/// channel of the board, never more than `max_coils_on` coils on, and (realtime) no coil on
-/// longer than `max_on_time` in a row.
+/// `schedule_on` for a single board of type `board` with `channels` channels.
 #[allow(clippy::too_many_arguments)]
 pub fn schedule(
     rows: &[PlanRow],
     settings: &RelaySettings,
     board: BoardKind,
     channels: u16,
+    stator_coils: usize,
+    dwell_override: Option<Duration>,
+    from_step: usize,
+    mode: Mode,
+) -> Result<Schedule, RelayError> {
+    let spec = BoardSpec {
+        kind: board,
+        channels,
+        baud: board.default_baud(),
+        slave_address: settings.slave_address,
+        timeout: settings.timeout,
+        port: None,
+    };
+    let dwell = dwell_override;
+    schedule_on(
+        rows,
+        settings,
+        &[spec],
+        stator_coils,
+        dwell,
+        from_step,
+        mode,
+    )
+}
+
+/// Works out the schedule of a plan on `boards` and checks it: every coil on the stator and
+/// driven by a channel of a board, never more than `max_coils_on` coils on (all boards
+/// together), and (realtime) no coil on longer than `max_on_time` in a row.
+pub fn schedule_on(
+    rows: &[PlanRow],
+    settings: &RelaySettings,
+    boards: &[BoardSpec],
     stator_coils: usize,
     dwell_override: Option<Duration>,
     from_step: usize,
@@ -118,12 +161,12 @@ pub fn schedule(
     }
     let first = from_step.saturating_sub(1);
     let mut entries = Vec::new();
-    let mut prev: BTreeMap<Channel, CoilId> = BTreeMap::new();
+    let mut prev: BTreeMap<Slot, CoilId> = BTreeMap::new();
     for (k, row) in rows.iter().enumerate().skip(first) {
         let mut target = BTreeMap::new();
         for p in &row.active {
-            let ch = channel_of(p.coil, row.step, settings, board, channels, stator_coils)?;
-            target.insert(ch, p.coil);
+            let slot = slot_of(p.coil, row.step, settings, boards, stator_coils)?;
+            target.insert(slot, p.coil);
         }
         let (switches, peak) = transition(&prev, &target, settings.order);
         if peak > settings.max_coils_on {
@@ -140,26 +183,28 @@ pub fn schedule(
         prev = target;
     }
     if mode == Mode::Realtime {
-        check_on_time(&entries, settings.max_on_time)?;
+        let listed = !settings.boards.is_empty();
+        check_on_time(&entries, settings.max_on_time, listed)?;
     }
-    Ok(Schedule {
-        board,
-        channels,
-        entries,
-    })
+    Ok(Schedule { entries })
 }
 
-/// The switching from what is on (`prev`, by channel) to `target`, in the order it is sent,
-/// and the most coils on at any moment of it.
+/// The switching from what is on (`prev`, by board and channel) to `target`, in the order it
+/// is sent, and the most coils on at any moment of it.
 fn transition(
-    prev: &BTreeMap<Channel, CoilId>,
-    target: &BTreeMap<Channel, CoilId>,
+    prev: &BTreeMap<Slot, CoilId>,
+    target: &BTreeMap<Slot, CoilId>,
     order: SwitchOrder,
 ) -> (Vec<Switch>, usize) {
-    let switches = |from: &BTreeMap<Channel, CoilId>, to: &BTreeMap<Channel, CoilId>, on| {
+    let switches = |from: &BTreeMap<Slot, CoilId>, to: &BTreeMap<Slot, CoilId>, on| {
         from.iter()
-            .filter(|(ch, _)| !to.contains_key(ch))
-            .map(|(&channel, &coil)| Switch { coil, channel, on })
+            .filter(|(slot, _)| !to.contains_key(slot))
+            .map(|(&slot, &coil)| Switch {
+                coil,
+                board: slot.board,
+                channel: slot.channel,
+                on,
+            })
             .collect::<Vec<_>>()
     };
     let ons = switches(target, prev, true);
@@ -180,8 +225,8 @@ fn transition(
 fn too_many_on(
     step: usize,
     peak: usize,
-    prev: &BTreeMap<Channel, CoilId>,
-    target: &BTreeMap<Channel, CoilId>,
+    prev: &BTreeMap<Slot, CoilId>,
+    target: &BTreeMap<Slot, CoilId>,
     settings: &RelaySettings,
 ) -> RelayError {
     let coils: BTreeSet<CoilId> = prev.values().chain(target.values()).copied().collect();
@@ -194,23 +239,65 @@ fn too_many_on(
     }
 }
 
-fn channel_of(
+/// The board and channel driving `coil` in plan step `step`, checked against the stator and
+/// the boards.
+fn slot_of(
     coil: CoilId,
     step: usize,
     settings: &RelaySettings,
-    board: BoardKind,
-    channels: u16,
+    boards: &[BoardSpec],
     stator_coils: usize,
-) -> Result<Channel, RelayError> {
+) -> Result<Slot, RelayError> {
     let unmapped = |reason: String| RelayError::Unmapped { step, coil, reason };
     if coil.0 >= stator_coils {
         return Err(unmapped(format!(
             "is not on the stator (the scenario has {stator_coils} coils)"
         )));
     }
-    let ch = settings.map.channel(coil).ok_or_else(|| {
-        unmapped("no relay channel drives (add it to [relay.map] or the --map file)".into())
-    })?;
+    let slot = settings
+        .map
+        .slot(coil)
+        .ok_or_else(|| unmapped(unmapped_reason(&settings.map)))?;
+    if settings.boards.is_empty() {
+        let (board, channels) = boards
+            .first()
+            .map_or((BoardKind::Lcus, 0), |b| (b.kind, b.channels));
+        return single_channel(slot, board, channels).map_err(unmapped);
+    }
+    match boards.get(slot.board) {
+        Some(b) if (1..=b.channels).contains(&slot.channel.0) => Ok(slot),
+        Some(b) => Err(unmapped(format!(
+            "is mapped to board {} channel {}, but board {} ({} board) has channels 1..={}",
+            slot.board, slot.channel, slot.board, b.kind, b.channels
+        ))),
+        None => Err(unmapped(format!(
+            "is mapped to board {}, but [[relay.boards]] lists {} boards",
+            slot.board,
+            boards.len()
+        ))),
+    }
+}
+
+/// Why no channel drives a coil, for each kind of map.
+fn unmapped_reason(map: &CoilMap) -> String {
+    match map {
+        CoilMap::Laid(counts) => {
+            let total: usize = counts.iter().map(|&n| usize::from(n)).sum();
+            format!(
+                "lies past the {total} channels of the {} boards (without [relay.map] the coils are laid onto [[relay.boards]] in order; give it a \"board:channel\" in [relay.map])",
+                counts.len()
+            )
+        }
+        CoilMap::Slots(_) => {
+            "no relay channel drives (add it to [relay.map] as \"board:channel\", or to the --map file)".into()
+        }
+        _ => "no relay channel drives (add it to [relay.map] or the --map file)".into(),
+    }
+}
+
+/// Checks a single board's channel against its count (the reason when it is past it).
+fn single_channel(slot: Slot, board: BoardKind, channels: u16) -> Result<Slot, String> {
+    let ch = slot.channel;
     if ch.0 > channels {
         let hint = if board == BoardKind::Lcus {
             format!(
@@ -220,31 +307,32 @@ fn channel_of(
         } else {
             " (set relay.channels, or map the coil to a lower channel)".into()
         };
-        return Err(unmapped(format!(
+        return Err(format!(
             "is mapped to channel {ch}, but the {board} board has {channels} channels{hint}"
-        )));
+        ));
     }
-    Ok(ch)
+    Ok(slot)
 }
 
 /// Simulates the schedule: a coil's continuous on-time is the sum of the dwells while it stays
-/// on.
-fn check_on_time(entries: &[Entry], max: Duration) -> Result<(), RelayError> {
-    let mut on: BTreeMap<Channel, (CoilId, usize, Duration)> = BTreeMap::new();
+/// on. `listed`: name the board in the error.
+fn check_on_time(entries: &[Entry], max: Duration, listed: bool) -> Result<(), RelayError> {
+    let mut on: BTreeMap<Slot, (CoilId, usize, Duration)> = BTreeMap::new();
     for e in entries {
-        on.retain(|ch, _| e.on_after.contains_key(ch));
-        for (&ch, &coil) in &e.on_after {
-            let slot = on.entry(ch).or_insert((coil, e.step, Duration::ZERO));
-            slot.2 += e.dwell;
-            if slot.2 > max {
+        on.retain(|slot, _| e.on_after.contains_key(slot));
+        for (&slot, &coil) in &e.on_after {
+            let held = on.entry(slot).or_insert((coil, e.step, Duration::ZERO));
+            held.2 += e.dwell;
+            if held.2 > max {
                 return Err(RelayError::OnTooLong {
                     coil,
-                    channel: ch,
+                    board: listed.then_some(slot.board),
+                    channel: slot.channel,
                     when: format!(
                         "would stay on from step {} through step {} for",
-                        slot.1, e.step
+                        held.1, e.step
                     ),
-                    on: slot.2,
+                    on: held.2,
                     max,
                     advice: "; the dwells are the plan's settle times x relay.dwell_factor: \
                              give a shorter --dwell-ms, or raise relay.max_on_time_s if the \
@@ -260,20 +348,30 @@ fn check_on_time(entries: &[Entry], max: Duration) -> Result<(), RelayError> {
 #[derive(Debug, Clone)]
 pub struct Prepared {
     pub settings: RelaySettings,
-    pub board: BoardKind,
-    pub channels: u16,
-    pub baud: u32,
+    /// The boards, in order (one with the single-board form), ports resolved with `--port`.
+    pub boards: Vec<BoardSpec>,
     pub schedule: Schedule,
     pub drive: Drive,
+}
+
+impl Prepared {
+    /// Whether the boards come from `[[relay.boards]]`: the output and the log then say which
+    /// board each frame went to, and errors name the board.
+    pub fn listed(&self) -> bool {
+        !self.settings.boards.is_empty()
+    }
 }
 
 /// How to replay: the choices of the command line that the relay layer needs.
 #[derive(Debug, Clone)]
 pub struct Drive {
-    /// Overrides `relay.board`.
+    /// Overrides `relay.board` (single board only).
     pub board: Option<BoardKind>,
-    /// Overrides `relay.baud`.
+    /// Overrides `relay.baud` (single board only).
     pub baud: Option<u32>,
+    /// `--port`: the single board's device, or one per `[[relay.boards]]` entry, in order
+    /// (overriding their `port`); empty when not given.
+    pub ports: Vec<String>,
     pub mode: Mode,
     /// A fixed dwell for every step instead of settle time x factor (at least the floor).
     pub dwell_ms: Option<u64>,
@@ -281,18 +379,42 @@ pub struct Drive {
     pub from_step: usize,
     /// CSV log of what was sent when (appended to when it exists).
     pub log: Option<PathBuf>,
-    /// Read the relays back after each step and stop on a mismatch.
+    /// Read the relays back after each step (every board that can) and stop on a mismatch.
     pub verify: bool,
 }
 
-/// Resolves the board, channels and baud rate of `settings` under the overrides of `drive`
-/// and works out the checked schedule of `rows` on a stator of `stator_coils` coils.
+/// Resolves the boards (type, channels, baud rate, port) of `settings` under the overrides of
+/// `drive` and works out the checked schedule of `rows` on a stator of `stator_coils` coils.
 pub fn prepare(
     rows: &[PlanRow],
     settings: RelaySettings,
     stator_coils: usize,
     drive: Drive,
 ) -> Result<Prepared, RelayError> {
+    let boards = if settings.boards.is_empty() {
+        vec![single_board(&settings, &drive)?]
+    } else {
+        listed_boards(&settings, &drive)?
+    };
+    let schedule = schedule_on(
+        rows,
+        &settings,
+        &boards,
+        stator_coils,
+        drive.dwell_ms.map(Duration::from_millis),
+        drive.from_step,
+        drive.mode,
+    )?;
+    Ok(Prepared {
+        settings,
+        boards,
+        schedule,
+        drive,
+    })
+}
+
+/// The board of the single-board form: `--board`/`--baud` over the settings, one `--port`.
+fn single_board(settings: &RelaySettings, drive: &Drive) -> Result<BoardSpec, RelayError> {
     let board = drive
         .board
         .or(settings.board)
@@ -309,25 +431,139 @@ pub fn prepare(
             expected: format!("a baud rate from 1 to 4000000, got {b}"),
         });
     }
-    let baud = drive.baud.or(settings.baud).unwrap_or(board.default_baud());
-    let schedule = schedule(
-        rows,
-        &settings,
-        board,
+    if drive.ports.len() > 1 {
+        return Err(RelayError::Arg {
+            arg: "--port".into(),
+            expected: format!(
+                "one serial device for the board, got {} (several boards are listed as [[relay.boards]] in [relay])",
+                drive.ports.len()
+            ),
+        });
+    }
+    Ok(BoardSpec {
+        kind: board,
         channels,
-        stator_coils,
-        drive.dwell_ms.map(Duration::from_millis),
-        drive.from_step,
-        drive.mode,
-    )?;
-    Ok(Prepared {
-        settings,
-        board,
-        channels,
-        baud,
-        schedule,
-        drive,
+        baud: drive.baud.or(settings.baud).unwrap_or(board.default_baud()),
+        slave_address: settings.slave_address,
+        timeout: settings.timeout,
+        port: drive.ports.first().cloned(),
     })
+}
+
+/// The boards of `[[relay.boards]]`, their ports overridden by `--port` (once per board, in
+/// order); `--board` and `--baud` are refused (each entry has its own).
+fn listed_boards(settings: &RelaySettings, drive: &Drive) -> Result<Vec<BoardSpec>, RelayError> {
+    let refuse = |arg: &str, key: &str| {
+        RelayError::Arg {
+        arg: arg.into(),
+        expected: format!(
+            "no {arg} with [[relay.boards]] (each entry gives its board's `{key}`; {arg} applies to the single-board form only)"
+        ),
+    }
+    };
+    if drive.board.is_some() {
+        return Err(refuse("--board", "board"));
+    }
+    if drive.baud.is_some() {
+        return Err(refuse("--baud", "baud"));
+    }
+    let mut boards = settings.boards.clone();
+    if !drive.ports.is_empty() {
+        if drive.ports.len() != boards.len() {
+            return Err(RelayError::Arg {
+                arg: "--port".into(),
+                expected: format!(
+                    "once per board of [[relay.boards]], in list order ({} boards), or not at all; got {}",
+                    boards.len(),
+                    drive.ports.len()
+                ),
+            });
+        }
+        for (i, (b, p)) in boards.iter_mut().zip(&drive.ports).enumerate() {
+            if let Some(j) = drive.ports[..i].iter().position(|q| q == p) {
+                return Err(RelayError::Arg {
+                    arg: "--port".into(),
+                    expected: format!(
+                        "a different device for each board, got {p} for boards {j} and {i}"
+                    ),
+                });
+            }
+            b.port = Some(p.clone());
+        }
+    }
+    for (i, b) in boards.iter().enumerate() {
+        connect(b.kind, b.channels, b.slave_address, Link::dry_run())
+            .map_err(|e| on_board(i, &configured_port(b), e))?;
+    }
+    Ok(boards)
+}
+
+/// How a board's port is named before it is opened (and in a dry run).
+fn configured_port(spec: &BoardSpec) -> String {
+    spec.port.clone().unwrap_or_else(|| "no port".into())
+}
+
+/// An error on board `index` (on `port`), for the multi-board form.
+fn on_board(index: usize, port: &str, error: RelayError) -> RelayError {
+    RelayError::OnBoard {
+        index,
+        port: port.to_string(),
+        error: Box::new(error),
+    }
+}
+
+/// Opens every board's serial port (8N1, its baud rate and timeout); every board needs one.
+/// With several boards, when a port cannot be opened the boards already open are switched all
+/// off (their state is unknown) before the error, naming the board, is returned.
+pub fn open_ports(prep: &Prepared) -> Result<Vec<Link>, RelayError> {
+    let listed = prep.listed();
+    let ports = prep
+        .boards
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            b.port.as_deref().ok_or_else(|| RelayError::Arg {
+                arg: "--port".into(),
+                expected: if listed {
+                    format!("a serial device for board {i}: its `port` in [[relay.boards]], or --port once per board in list order (or --dry-run)")
+                } else {
+                    "a serial device such as /dev/ttyUSB0 (or --dry-run)".into()
+                },
+            })
+        })
+        .collect::<Result<Vec<&str>, RelayError>>()?;
+    let mut links = Vec::with_capacity(ports.len());
+    for (i, (spec, port)) in prep.boards.iter().zip(ports).enumerate() {
+        match Link::open_serial(port, spec.baud, spec.timeout) {
+            Ok(l) => links.push(l),
+            Err(e) if !listed => return Err(e),
+            Err(e) => return Err(switch_off_opened(prep, links, on_board(i, port, e))),
+        }
+    }
+    Ok(links)
+}
+
+/// Switches the boards already opened all off after `cause` (a port that failed to open).
+fn switch_off_opened(prep: &Prepared, links: Vec<Link>, cause: RelayError) -> RelayError {
+    let mut failed = Vec::new();
+    let mut switched_off = Vec::new();
+    for (i, (spec, link)) in prep.boards.iter().zip(links).enumerate() {
+        let port = link.name().to_string();
+        let off = connect(spec.kind, spec.channels, spec.slave_address, link)
+            .and_then(|mut b| b.all_off());
+        match off {
+            Ok(()) => switched_off.push(format!("board {i} ({port})")),
+            Err(e) => failed.push(on_board(i, &port, e)),
+        }
+    }
+    if failed.is_empty() {
+        return cause;
+    }
+    RelayError::BoardsOffFailed {
+        cause: Some(Box::new(cause)),
+        failed,
+        switched_off,
+    }
 }
 
 /// What a finished (or quit) replay did.
@@ -341,7 +577,8 @@ pub struct Summary {
     pub quit: bool,
 }
 
-/// Replays a prepared schedule over `link` (a port opened by the caller, or a dry run).
+/// Replays a prepared single-board schedule over `link` (a port opened by the caller, or a
+/// dry run): `execute_on` with one link.
 pub fn execute(
     prep: &Prepared,
     link: Link,
@@ -349,20 +586,59 @@ pub fn execute(
     input: Option<Receiver<String>>,
     out: &mut dyn Write,
 ) -> Result<Summary, RelayError> {
-    let dry_run = link.is_dry_run();
-    let port = link.name().to_string();
-    let mut board = connect(prep.board, prep.channels, prep.settings.slave_address, link)?;
+    execute_on(prep, vec![link], stop, input, out)
+}
+
+/// Replays a prepared schedule over `links`, one per board in order (ports opened by the
+/// caller, e.g. with `open_ports`, or dry runs).
+pub fn execute_on(
+    prep: &Prepared,
+    links: Vec<Link>,
+    stop: Arc<AtomicBool>,
+    input: Option<Receiver<String>>,
+    out: &mut dyn Write,
+) -> Result<Summary, RelayError> {
+    let n = prep.boards.len();
+    let mut switches = prep.schedule.entries.iter().flat_map(|e| &e.switches);
+    if n == 0 || links.len() != n || switches.any(|s| s.board >= n) {
+        return Err(RelayError::Arg {
+            arg: "--port".into(),
+            expected: format!("one link per board ({n} boards), got {}", links.len()),
+        });
+    }
+    let dry_run = links.iter().all(Link::is_dry_run);
+    let listed = prep.listed();
+    let mut boards = Vec::with_capacity(n);
+    for (i, (spec, link)) in prep.boards.iter().zip(links).enumerate() {
+        let port = if link.is_dry_run() {
+            configured_port(spec)
+        } else {
+            link.name().to_string()
+        };
+        let driver = connect(spec.kind, spec.channels, spec.slave_address, link).map_err(|e| {
+            if listed {
+                on_board(i, &port, e)
+            } else {
+                e
+            }
+        })?;
+        boards.push(Driven {
+            driver,
+            port,
+            verify: false,
+        });
+    }
     if prep.drive.verify {
-        board.read_back()?;
+        choose_verified(&mut boards, listed)?;
     }
     let log = match &prep.drive.log {
-        Some(p) => Some(Log::open(p)?),
+        Some(p) => Some(Log::open(p, listed)?),
         None => None,
     };
-    let s = &prep.schedule;
-    print_header(out, prep, &port, dry_run).map_err(stdout_error)?;
+    print_header(out, prep, &boards, dry_run).map_err(stdout_error)?;
     let mut r = Runner {
-        board: board.as_mut(),
+        boards,
+        listed,
         out,
         log,
         start: Instant::now(),
@@ -371,15 +647,33 @@ pub fn execute(
         stop,
         input,
         mode: prep.drive.mode,
-        verify: prep.drive.verify,
         max_on_time: prep.settings.max_on_time,
         on_since: BTreeMap::new(),
         next_step: prep.drive.from_step,
         steps_done: 0,
     };
     r.log_start(prep.drive.from_step)?;
-    let result = r.drive(s);
+    let result = r.drive(&prep.schedule);
     r.finish(result)
+}
+
+/// `--verify`: a single board must be able to read back; of several, those that can are read
+/// back (at least one must).
+fn choose_verified(boards: &mut [Driven], listed: bool) -> Result<(), RelayError> {
+    let mut refused = None;
+    for (i, b) in boards.iter_mut().enumerate() {
+        match b.driver.read_back() {
+            Ok(()) => b.verify = true,
+            Err(e) if !listed => return Err(e),
+            Err(e) => {
+                refused.get_or_insert_with(|| on_board(i, &b.port, e));
+            }
+        }
+    }
+    match refused {
+        Some(e) if !boards.iter().any(|b| b.verify) => Err(e),
+        _ => Ok(()),
+    }
 }
 
 /// A failed write of the replay's report.
@@ -390,47 +684,88 @@ fn stdout_error(source: std::io::Error) -> RelayError {
     }
 }
 
-/// The replay's first lines: where it goes, the board and its settings, then the column heads.
-fn print_header(
-    out: &mut dyn Write,
-    prep: &Prepared,
-    port: &str,
-    dry_run: bool,
-) -> std::io::Result<()> {
-    let s = &prep.schedule;
-    writeln!(
-        out,
-        "{}: {} board, {} channels, {} baud{}, {}, {}, steps {}..={}",
-        if dry_run {
-            "dry run (no port opened)".to_string()
-        } else {
-            format!("replaying on {port}")
-        },
-        prep.board,
-        prep.channels,
-        prep.baud,
-        if prep.board == BoardKind::Modbus {
-            format!(", slave {}", prep.settings.slave_address)
+fn order_name(order: SwitchOrder) -> &'static str {
+    match order {
+        SwitchOrder::MakeBeforeBreak => "make-before-break",
+        SwitchOrder::BreakBeforeMake => "break-before-make",
+    }
+}
+
+fn mode_name(mode: Mode) -> &'static str {
+    match mode {
+        Mode::Realtime => "realtime",
+        Mode::Step => "step mode",
+    }
+}
+
+/// A board's type, channels and serial settings, as the header prints them.
+fn board_line(spec: &BoardSpec) -> String {
+    format!(
+        "{} board, {} channels, {} baud{}",
+        spec.kind,
+        spec.channels,
+        spec.baud,
+        if spec.kind == BoardKind::Modbus {
+            format!(", slave {}", spec.slave_address)
         } else {
             String::new()
         },
-        match prep.settings.order {
-            SwitchOrder::MakeBeforeBreak => "make-before-break",
-            SwitchOrder::BreakBeforeMake => "break-before-make",
-        },
-        match prep.drive.mode {
-            Mode::Realtime => "realtime",
-            Mode::Step => "step mode",
-        },
+    )
+}
+
+/// The replay's first lines: where it goes, the board(s) and their settings, then the column
+/// heads (with several boards, a `board` column).
+fn print_header(
+    out: &mut dyn Write,
+    prep: &Prepared,
+    boards: &[Driven],
+    dry_run: bool,
+) -> std::io::Result<()> {
+    let steps = format!(
+        "{}, {}, steps {}..={}",
+        order_name(prep.settings.order),
+        mode_name(prep.drive.mode),
         prep.drive.from_step,
-        s.entries.last().map_or(0, |e| e.step),
-    )?;
+        prep.schedule.entries.last().map_or(0, |e| e.step),
+    );
+    if !prep.listed() {
+        let (spec, port) = (&prep.boards[0], &boards[0].port);
+        let to = if dry_run {
+            "dry run (no port opened)".to_string()
+        } else {
+            format!("replaying on {port}")
+        };
+        writeln!(out, "{to}: {}, {steps}", board_line(spec))?;
+        return writeln!(
+            out,
+            "{:>9} {:>5} {:<8} {:>5} {:>7}  bytes",
+            "t_s", "step", "action", "coil", "channel"
+        );
+    }
+    let n = boards.len();
+    if dry_run {
+        writeln!(out, "dry run (no port opened): {n} boards, {steps}")?;
+    } else {
+        writeln!(out, "replaying on {n} boards: {steps}")?;
+    }
+    for (i, (spec, b)) in prep.boards.iter().zip(boards).enumerate() {
+        let verify = match (prep.drive.verify, b.verify) {
+            (false, _) => "",
+            (true, true) => ", read back",
+            (true, false) => ", not read back (cannot report its relays)",
+        };
+        writeln!(
+            out,
+            "  board {i} ({}): {}{verify}",
+            b.port,
+            board_line(spec)
+        )?;
+    }
     writeln!(
         out,
-        "{:>9} {:>5} {:<8} {:>5} {:>7}  bytes",
-        "t_s", "step", "action", "coil", "channel"
-    )?;
-    Ok(())
+        "{:>9} {:>5} {:<8} {:>5} {:>5} {:>7}  bytes",
+        "t_s", "step", "action", "coil", "board", "channel"
+    )
 }
 
 /// Spawns a thread that forwards standard input line by line (for step mode).
@@ -451,25 +786,50 @@ pub fn stdin_lines() -> Receiver<String> {
     rx
 }
 
-/// The replay log: `t_s,step,action,coil,channel,bytes`, one row per frame, a `done` row when
-/// a step's dwell completed and a `start` row per run; flushed after every step.
+/// The replay log: `t_s,step,action,coil,channel,bytes` (with several boards
+/// `t_s,step,action,coil,board,channel,bytes`), one row per frame, a `done` row when a step's
+/// dwell completed and a `start` row per run; flushed after every step.
 struct Log {
     path: PathBuf,
     file: std::io::BufWriter<std::fs::File>,
+    /// The board column is written.
+    listed: bool,
 }
 
 /// The log's header.
 pub const LOG_HEADER: &str = "t_s,step,action,coil,channel,bytes";
+/// The log's header with several boards (`[[relay.boards]]`).
+pub const LOG_HEADER_BOARDS: &str = "t_s,step,action,coil,board,channel,bytes";
 
 impl Log {
-    fn open(path: &Path) -> Result<Log, RelayError> {
+    /// Opens (appends to) the log; refuses a log written with the other header (one board /
+    /// several), whose columns would not line up.
+    fn open(path: &Path, listed: bool) -> Result<Log, RelayError> {
         let err = |e| RelayError::Log {
             path: path.to_path_buf(),
             source: e,
         };
+        let (header, other) = if listed {
+            (LOG_HEADER_BOARDS, LOG_HEADER)
+        } else {
+            (LOG_HEADER, LOG_HEADER_BOARDS)
+        };
         let existing = std::fs::metadata(path)
             .map(|m| m.len() > 0)
             .unwrap_or(false);
+        if existing {
+            let mut first = String::new();
+            let f = std::fs::File::open(path).map_err(err)?;
+            std::io::BufReader::new(f)
+                .read_line(&mut first)
+                .map_err(err)?;
+            if first.trim_end() == other {
+                return Err(err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    format!("its columns are `{other}`, this replay writes `{header}` (one board / several): give another --log file"),
+                )));
+            }
+        }
         let file = std::fs::OpenOptions::new()
             .create(true)
             .append(true)
@@ -478,18 +838,28 @@ impl Log {
         let mut log = Log {
             path: path.to_path_buf(),
             file: std::io::BufWriter::new(file),
+            listed,
         };
         if !existing {
-            writeln!(log.file, "{LOG_HEADER}").map_err(err)?;
+            writeln!(log.file, "{header}").map_err(err)?;
         }
         Ok(log)
     }
 
-    fn row(&mut self, cols: [&str; 6]) -> Result<(), RelayError> {
+    fn row(&mut self, cols: &[&str]) -> Result<(), RelayError> {
         writeln!(self.file, "{}", cols.join(",")).map_err(|e| RelayError::Log {
             path: self.path.clone(),
             source: e,
         })
+    }
+
+    /// A `start` or `done` row: time, step, action, the other columns empty.
+    fn marker(&mut self, t: &str, step: &str, action: &str) -> Result<(), RelayError> {
+        if self.listed {
+            self.row(&[t, step, action, "", "", "", ""])
+        } else {
+            self.row(&[t, step, action, "", "", ""])
+        }
     }
 
     fn flush(&mut self) -> Result<(), RelayError> {
@@ -500,8 +870,19 @@ impl Log {
     }
 }
 
+/// One board of the replay: its driver, its port (as messages name it) and whether `--verify`
+/// reads it back.
+struct Driven {
+    driver: Box<dyn RelayBoard>,
+    port: String,
+    verify: bool,
+}
+
 struct Runner<'a> {
-    board: &'a mut dyn RelayBoard,
+    /// The boards, in order (every switch's board is one of them: checked by `execute_on`).
+    boards: Vec<Driven>,
+    /// `[[relay.boards]]`: the board column is printed and errors name their board.
+    listed: bool,
     out: &'a mut dyn Write,
     log: Option<Log>,
     start: Instant,
@@ -510,16 +891,24 @@ struct Runner<'a> {
     stop: Arc<AtomicBool>,
     input: Option<Receiver<String>>,
     mode: Mode,
-    verify: bool,
     max_on_time: Duration,
-    /// Channels on, with their coil, since when and since which step.
-    on_since: BTreeMap<Channel, (CoilId, Duration, usize)>,
+    /// Relays on, with their coil, since when and since which step.
+    on_since: BTreeMap<Slot, (CoilId, Duration, usize)>,
     next_step: usize,
     steps_done: usize,
 }
 
 /// How often waits look at the stop flag and the on-time limit.
 const POLL: Duration = Duration::from_millis(10);
+
+/// Blank for `-` (the listing's "nothing"), for the log's columns.
+fn blank(s: &str) -> &str {
+    if s == "-" {
+        ""
+    } else {
+        s
+    }
+}
 
 impl Runner<'_> {
     fn now(&self) -> Duration {
@@ -534,9 +923,19 @@ impl Runner<'_> {
         writeln!(self.out, "{line}").map_err(stdout_error)
     }
 
-    /// Prints and logs the frames the board sent since the last call.
+    /// `e` on board `board`: with several boards, wrapped to name the board and its port.
+    fn on(&self, board: usize, e: RelayError) -> RelayError {
+        if self.listed {
+            on_board(board, &self.boards[board].port, e)
+        } else {
+            e
+        }
+    }
+
+    /// Prints and logs the frames board `board` sent since the last call.
     fn emit(
         &mut self,
+        board: usize,
         step: Option<usize>,
         action: &str,
         coil: Option<CoilId>,
@@ -546,7 +945,8 @@ impl Runner<'_> {
         let step = step.map_or("-".to_string(), |s| s.to_string());
         let coil = coil.map_or("-".to_string(), |c| c.to_string());
         let channel = channel.map_or("-".to_string(), |c| c.to_string());
-        for frame in self.board.take_sent() {
+        let bd = board.to_string();
+        for frame in self.boards[board].driver.take_sent() {
             let text = if frame
                 .iter()
                 .all(|b| b.is_ascii_graphic() || *b == b' ' || *b == b'\r')
@@ -556,25 +956,21 @@ impl Runner<'_> {
                 String::new()
             };
             let bytes = hex(&frame);
-            self.say(&format!(
-                "{t:>9} {step:>5} {action:<8} {coil:>5} {channel:>7}  {bytes}{text}"
-            ))?;
+            let line = if self.listed {
+                format!(
+                    "{t:>9} {step:>5} {action:<8} {coil:>5} {bd:>5} {channel:>7}  {bytes}{text}"
+                )
+            } else {
+                format!("{t:>9} {step:>5} {action:<8} {coil:>5} {channel:>7}  {bytes}{text}")
+            };
+            self.say(&line)?;
             if let Some(log) = self.log.as_mut() {
-                let blank = |s: &str| {
-                    if s == "-" {
-                        String::new()
-                    } else {
-                        s.to_string()
-                    }
-                };
-                log.row([
-                    &t,
-                    &blank(&step),
-                    action,
-                    &blank(&coil),
-                    &blank(&channel),
-                    &bytes,
-                ])?;
+                let (s, c, ch) = (blank(&step), blank(&coil), blank(&channel));
+                if log.listed {
+                    log.row(&[&t, s, action, c, &bd, ch, &bytes])?;
+                } else {
+                    log.row(&[&t, s, action, c, ch, &bytes])?;
+                }
             }
         }
         Ok(())
@@ -583,7 +979,7 @@ impl Runner<'_> {
     fn log_start(&mut self, from: usize) -> Result<(), RelayError> {
         let t = format!("{:.3}", self.now().as_secs_f64());
         if let Some(log) = self.log.as_mut() {
-            log.row([&t, &from.to_string(), "start", "", "", ""])?;
+            log.marker(&t, &from.to_string(), "start")?;
             log.flush()?;
         }
         Ok(())
@@ -606,12 +1002,13 @@ impl Runner<'_> {
     /// Fails when a coil has been on longer than allowed (the runtime guard).
     fn check_on_time(&self) -> Result<(), RelayError> {
         let now = self.now();
-        for (&channel, &(coil, since, step)) in &self.on_since {
+        for (&slot, &(coil, since, step)) in &self.on_since {
             let on = now.saturating_sub(since);
             if on > self.max_on_time {
                 return Err(RelayError::OnTooLong {
                     coil,
-                    channel,
+                    board: self.listed.then_some(slot.board),
+                    channel: slot.channel,
                     when: format!("has been on since step {step} for"),
                     on,
                     max: self.max_on_time,
@@ -662,65 +1059,134 @@ impl Runner<'_> {
         }
     }
 
-    /// The replay proper; returns whether the user quit. The caller switches all off after.
-    /// Sends an entry's switching in order, recording what went out even when the board then
-    /// failed to answer.
+    /// Sends an entry's switching in order, each on its board, recording what went out even
+    /// when the board then failed to answer.
     fn switch(&mut self, e: &Entry) -> Result<(), RelayError> {
         for sw in &e.switches {
             self.check_stop()?;
-            let r = self.board.set(sw.channel, sw.on);
+            let r = self.boards[sw.board].driver.set(sw.channel, sw.on);
             if sw.on {
                 let t = self.now();
-                self.on_since.insert(sw.channel, (sw.coil, t, e.step));
+                self.on_since.insert(sw.slot(), (sw.coil, t, e.step));
             } else {
-                self.on_since.remove(&sw.channel);
+                self.on_since.remove(&sw.slot());
             }
             let action = match (e.hold, sw.on) {
                 (true, _) => "hold",
                 (false, true) => "on",
                 (false, false) => "off",
             };
-            self.emit(Some(e.step), action, Some(sw.coil), Some(sw.channel))?;
-            r?;
+            self.emit(
+                sw.board,
+                Some(e.step),
+                action,
+                Some(sw.coil),
+                Some(sw.channel),
+            )?;
+            r.map_err(|err| self.on(sw.board, err))?;
         }
         Ok(())
     }
 
-    /// Reads the relays back (boards that can) and compares them with what the entry leaves on.
+    /// Reads the relays back (the boards `--verify` reads) and compares them with what the
+    /// entry leaves on each.
     fn verify_entry(&mut self, e: &Entry) -> Result<(), RelayError> {
-        let states = self.board.read_states();
-        self.emit(Some(e.step), "read", None, None)?;
-        let Some(states) = states? else {
-            return Ok(());
-        };
-        let got: Vec<Channel> = states
-            .iter()
-            .enumerate()
-            .filter(|(_, on)| **on)
-            .map(|(i, _)| Channel(i as u16 + 1))
-            .collect();
-        let expected: Vec<Channel> = e.on_after.keys().copied().collect();
-        if got != expected {
-            return Err(RelayError::Mismatch {
-                step: e.step,
-                expected,
-                got,
-            });
+        for i in 0..self.boards.len() {
+            if !self.boards[i].verify {
+                continue;
+            }
+            let states = self.boards[i].driver.read_states();
+            self.emit(i, Some(e.step), "read", None, None)?;
+            let Some(states) = states.map_err(|err| self.on(i, err))? else {
+                continue;
+            };
+            let got: Vec<Channel> = states
+                .iter()
+                .enumerate()
+                .filter(|(_, on)| **on)
+                .map(|(k, _)| Channel(k as u16 + 1))
+                .collect();
+            let expected: Vec<Channel> = e
+                .on_after
+                .keys()
+                .filter(|s| s.board == i)
+                .map(|s| s.channel)
+                .collect();
+            if got != expected {
+                let step = e.step;
+                return Err(self.on(
+                    i,
+                    RelayError::Mismatch {
+                        step,
+                        expected,
+                        got,
+                    },
+                ));
+            }
         }
         Ok(())
     }
 
-    /// Ends a replay whatever happened: every channel off (tried even after an error), the
-    /// all-off recorded, and the outcome of the replay and of the all-off reported together.
+    /// Switches every board all off, each tried whatever the others did, and records what
+    /// went out (even of an all-off that failed half way). Returns the boards that failed,
+    /// and the first failure to print or log.
+    fn all_off(&mut self) -> (Vec<(usize, RelayError)>, Result<(), RelayError>) {
+        let mut failed = Vec::new();
+        let mut shown = Ok(());
+        for i in 0..self.boards.len() {
+            let r = self.boards[i].driver.all_off();
+            let s = self.emit(i, None, "all-off", None, None);
+            if shown.is_ok() {
+                shown = s;
+            }
+            if let Err(e) = r {
+                failed.push((i, e));
+            }
+        }
+        (failed, shown)
+    }
+
+    /// The error of a replay that ended (with `cause`, or finished) with an all-off that
+    /// failed on the `failed` boards.
+    fn off_failed(
+        &self,
+        cause: Option<RelayError>,
+        mut failed: Vec<(usize, RelayError)>,
+    ) -> RelayError {
+        if !self.listed && failed.len() == 1 {
+            let off = Box::new(failed.remove(0).1);
+            return match cause {
+                None => RelayError::EndOffFailed(off),
+                Some(c) => RelayError::OffFailed {
+                    cause: Box::new(c),
+                    off,
+                },
+            };
+        }
+        let switched_off = (0..self.boards.len())
+            .filter(|i| failed.iter().all(|(j, _)| j != i))
+            .map(|i| format!("board {i} ({})", self.boards[i].port))
+            .collect();
+        RelayError::BoardsOffFailed {
+            cause: cause.map(Box::new),
+            failed: failed.into_iter().map(|(i, e)| self.on(i, e)).collect(),
+            switched_off,
+        }
+    }
+
+    /// Ends a replay whatever happened: every channel of every board off (tried even after an
+    /// error), the all-off recorded, and the outcome of the replay and of the all-off reported
+    /// together.
     fn finish(&mut self, result: Result<bool, RelayError>) -> Result<Summary, RelayError> {
-        let off = self.board.all_off();
+        let (failed, shown) = self.all_off();
         self.on_since.clear();
-        // Record whatever went out of the all-off, even when it failed half way.
-        let shown = self.emit(None, "all-off", None, None);
         let flushed = self.flush_log();
         let next = self.next_step;
-        match (result, off) {
-            (Ok(quit), Ok(())) => {
+        if !failed.is_empty() {
+            return Err(self.off_failed(result.err(), failed));
+        }
+        match result {
+            Ok(quit) => {
                 shown?;
                 flushed?;
                 let msg = if quit {
@@ -737,23 +1203,22 @@ impl Runner<'_> {
                     quit,
                 })
             }
-            (Ok(_), Err(off)) => Err(RelayError::EndOffFailed(Box::new(off))),
-            (Err(e), Ok(())) => Err(RelayError::Stopped {
+            Err(e) => Err(RelayError::Stopped {
                 cause: Box::new(e),
                 resume: next,
-            }),
-            (Err(e), Err(off)) => Err(RelayError::OffFailed {
-                cause: Box::new(e),
-                off: Box::new(off),
             }),
         }
     }
 
+    /// The replay proper; returns whether the user quit. The caller switches all off after.
     fn drive(&mut self, s: &Schedule) -> Result<bool, RelayError> {
         self.check_stop()?;
-        let r = self.board.all_off();
-        self.emit(None, "all-off", None, None)?;
-        r?;
+        let (mut failed, shown) = self.all_off();
+        shown?;
+        if !failed.is_empty() {
+            let (i, e) = failed.remove(0);
+            return Err(self.on(i, e));
+        }
         for e in &s.entries {
             self.next_step = if e.hold { e.step + 1 } else { e.step };
             if self.mode == Mode::Step {
@@ -768,9 +1233,7 @@ impl Runner<'_> {
                 }
             }
             self.switch(e)?;
-            if self.verify {
-                self.verify_entry(e)?;
-            }
+            self.verify_entry(e)?;
             if self.mode == Mode::Realtime {
                 let t = format!("{:.3}", self.now().as_secs_f64());
                 self.say(&format!(
@@ -782,7 +1245,7 @@ impl Runner<'_> {
             }
             let t = format!("{:.3}", self.now().as_secs_f64());
             if let Some(log) = self.log.as_mut() {
-                log.row([&t, &e.step.to_string(), "done", "", "", ""])?;
+                log.marker(&t, &e.step.to_string(), "done")?;
                 log.flush()?;
             }
             if !e.hold {
@@ -857,11 +1320,13 @@ mod tests {
             [
                 Switch {
                     coil: CoilId(3),
+                    board: 0,
                     channel: Channel(4),
                     on: true
                 },
                 Switch {
                     coil: CoilId(0),
+                    board: 0,
                     channel: Channel(1),
                     on: false
                 },

@@ -5,11 +5,12 @@
 use serialport::{SerialPort, TTYPort};
 use spherestep::commands::replay::{self, ReplayOptions};
 use spherestep::relay::modbus::crc16;
-use spherestep::relay::replay::{execute, Summary};
+use spherestep::relay::replay::{execute, execute_on, Summary};
 use spherestep::relay::{Link, RelayError};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
+use std::sync::mpsc::Receiver;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -64,6 +65,15 @@ pub fn link(slave: &TTYPort) -> Link {
     Link::from_port(Box::new(port), "pty", Duration::from_secs(5))
 }
 
+/// The computer end as a replay link named by its device path, as an opened port is named
+/// (see `link`).
+pub fn named_link(slave: &TTYPort) -> Link {
+    let port = slave
+        .try_clone_native()
+        .expect("a second descriptor of the pty");
+    Link::from_port(Box::new(port), &path_of(slave), Duration::from_secs(5))
+}
+
 /// Options for an in-process replay with no dwell (no timing involved).
 pub fn options(plan: &Path, scenario: &Path) -> ReplayOptions {
     let mut o = ReplayOptions::new(plan);
@@ -85,6 +95,47 @@ pub fn run(opts: &ReplayOptions, link: Link) -> (Result<Summary, RelayError>, St
         )
     });
     (r, String::from_utf8_lossy(&out).into_owned())
+}
+
+/// Prepares and runs a replay over `links`, one per board in order, printing into a buffer;
+/// `input` feeds step mode.
+pub fn run_on(
+    opts: &ReplayOptions,
+    links: Vec<Link>,
+    input: Option<Receiver<String>>,
+) -> (Result<Summary, RelayError>, String) {
+    let mut out = Vec::new();
+    let r = replay::prepare(opts).and_then(|prep| {
+        execute_on(
+            &prep,
+            links,
+            Arc::new(AtomicBool::new(false)),
+            input,
+            &mut out,
+        )
+    });
+    (r, String::from_utf8_lossy(&out).into_owned())
+}
+
+/// The frames switching channels 1..=n of an LCUS board off, as one byte string (its all-off).
+pub fn lcus_all_off(n: u8) -> Vec<u8> {
+    let all = [
+        0xA0, 0x01, 0x00, 0xA1, 0xA0, 0x02, 0x00, 0xA2, 0xA0, 0x03, 0x00, 0xA3, 0xA0, 0x04, 0x00,
+        0xA4, 0xA0, 0x05, 0x00, 0xA5, 0xA0, 0x06, 0x00, 0xA6, 0xA0, 0x07, 0x00, 0xA7, 0xA0, 0x08,
+        0x00, 0xA8,
+    ];
+    all[..4 * usize::from(n)].to_vec()
+}
+
+/// The listing rows of a replay's output without their time column (the first 10 characters),
+/// from the first row after the column heads.
+pub fn rows_without_time(text: &str) -> Vec<String> {
+    text.lines()
+        .skip_while(|l| !l.trim_start().starts_with("t_s"))
+        .skip(1)
+        .filter(|l| !l.starts_with("--") && l.len() > 10 && l.as_bytes()[9] == b' ')
+        .map(|l| l[10..].to_string())
+        .collect()
 }
 
 /// Reads exactly `n` bytes from the board end (panics after `GUARD`).
