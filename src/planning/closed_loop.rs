@@ -135,146 +135,96 @@ impl Noise {
     }
 }
 
-/// Plays `open` (a plan made with `model` for `settings`) on `plant`, closing the loop as
-/// `cl` says, towards `goal` (the plan's target: ROT[axis, angle] applied to its row 0, see
-/// [`goal_of`]).
-pub fn run_closed_loop(
-    model: &Motor,
-    plant: &Motor,
-    settings: &PlanSettings,
-    open: &Plan,
-    goal: Orientation,
-    cl: &LoopSettings,
-) -> LoopRun {
-    let Some(row0) = open.rows.first() else {
-        return no_run("the plan has no initial commutation state");
-    };
-    let q0 = row0.q;
-    let mut noise = Noise {
-        state: cl.seed,
-        sigma: cl.noise.0,
-    };
-    let mut lp = Loop {
-        model,
-        settings,
-        q0,
-        goal,
-        rows: Vec::new(),
-        replans: 0,
-    };
-    // row 0: the ball at rest at the plan's start, the initial set on
-    let mut truth = q0;
-    let mut plan_rows = open.rows.clone();
-    let mut next = 0;
-    let mut message = None;
-    while lp.rows.len() <= cl.max_steps {
-        let row = plan_rows[next].clone();
-        let row = &row;
-        let res = settle(plant.torques, &row.active, &truth, plant.body, plant.settle);
-        truth = res.q;
-        let measured = noise.measure(&truth);
-        let strayed = cl.replan && angular(&measured, &row.q) > cl.replan_beyond.0;
-        let at_goal = cl.replan && angular(&measured, &goal) <= cl.goal_tolerance.0;
-        let last = next + 1 >= plan_rows.len();
-        let mut replanned = false;
-        if at_goal || (last && !cl.replan) {
-            lp.push(row, measured, &res, false);
-            break;
-        }
-        if strayed || last {
-            match lp.replan(&measured, &row.active) {
-                Ok(p) => {
-                    plan_rows = p.rows;
-                    next = 0;
-                    replanned = true;
-                }
-                Err(m) => {
-                    lp.push(row, measured, &res, false);
-                    message = Some(m);
-                    break;
-                }
-            }
-        }
-        lp.push(row, measured, &res, replanned);
-        next += 1;
-    }
-    if lp.rows.len() > cl.max_steps && message.is_none() {
-        message = Some(format!("stopped after {} steps", cl.max_steps));
-    }
-    let reached = lp
-        .rows
-        .last()
-        .is_some_and(|r| angular(&r.measured, &goal) <= cl.goal_tolerance.0);
-    lp.finish(message, reached)
+/// What the controller decided after a measurement.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Decision {
+    /// Switch [`Controller::next_row`] next: the plan in force goes on ...
+    Continue,
+    /// ... or the rest was replanned from the measurement, and the new plan goes on.
+    Replanned,
+    /// The measurement is at the goal (closed loop), or the plan is played out (open loop).
+    Done,
+    /// Nothing more can be done: why.
+    Stuck(String),
 }
 
-/// The goal of a plan made for `settings`: ROT[axis, angle] applied to its start (row 0).
-pub fn goal_of(settings: &PlanSettings, rows: &[PlanRow]) -> Option<Orientation> {
-    rows.first()
-        .map(|r| rot_q(&settings.axis, settings.angle) * r.q)
-}
-
-/// The target a plan file says it is for: the rotation from its row 0 to its last row, as the
-/// axis (`None` for no rotation) and angle of `settings`.
-pub fn target_of(rows: &[PlanRow]) -> Option<(UnitVec, Radians)> {
-    let (first, last) = (rows.first()?, rows.last()?);
-    let turn = last.q * first.q.inverse();
-    Some((rotation_axis(&turn)?, rotation_angle(&turn)))
-}
-
-fn angular(a: &Orientation, b: &Orientation) -> f64 {
-    a.angle_to(b)
-}
-
-fn no_run(message: &str) -> LoopRun {
-    LoopRun {
-        rows: Vec::new(),
-        summary: LoopSummary {
-            steps: 0,
-            final_error_deg: f64::NAN,
-            final_angle_deg: 0.0,
-            max_axis_error_deg: 0.0,
-            replans: 0,
-            reached: false,
-            message: Some(message.into()),
-        },
-    }
-}
-
-/// The loop's state while it runs.
-struct Loop<'a> {
+/// The closed loop's decisions, whatever measures the ball (a simulated plant and sensor, or
+/// the hardware's): which row to switch next, and after each measurement whether the plan in
+/// force goes on, is replanned, or is done.
+pub struct Controller<'a> {
     model: &'a Motor<'a>,
-    settings: &'a PlanSettings,
-    q0: Orientation,
+    settings: PlanSettings,
+    cl: LoopSettings,
     goal: Orientation,
-    rows: Vec<LoopRow>,
+    rows: Vec<PlanRow>,
+    next: usize,
     replans: usize,
 }
 
-impl Loop<'_> {
-    fn push(
-        &mut self,
-        row: &PlanRow,
-        measured: Orientation,
-        res: &crate::physics::dynamics::SettleResult,
-        replanned: bool,
-    ) {
-        let (angle, err) = cumulative(&self.q0, &res.q, &self.settings.axis);
-        self.rows.push(LoopRow {
-            step: self.rows.len(),
-            active: row.active.clone(),
-            planned: row.q,
-            measured,
-            truth: res.q,
-            cum_angle_deg: angle.0.to_degrees(),
-            cum_axis_error_deg: err.0.to_degrees(),
-            error_to_goal_deg: angular(&res.q, &self.goal).to_degrees(),
-            replanned,
-            settled: res.settled,
-            settle_time_s: res.settle_time_s,
-        });
-        if replanned {
-            self.replans += 1;
+impl<'a> Controller<'a> {
+    /// A controller that plays `open` (made with `model` for `settings`, row 0 its initial
+    /// state) towards `goal`; `None` for a plan without rows.
+    pub fn new(
+        model: &'a Motor<'a>,
+        settings: &PlanSettings,
+        open: &Plan,
+        goal: Orientation,
+        cl: LoopSettings,
+    ) -> Option<Self> {
+        (!open.rows.is_empty()).then(|| Controller {
+            model,
+            settings: settings.clone(),
+            cl,
+            goal,
+            rows: open.rows.clone(),
+            next: 0,
+            replans: 0,
+        })
+    }
+
+    /// The row whose set is switched next (row 0 first: the initial commutation state).
+    pub fn next_row(&self) -> &PlanRow {
+        &self.rows[self.next.min(self.rows.len() - 1)]
+    }
+
+    pub fn goal(&self) -> Orientation {
+        self.goal
+    }
+
+    pub fn replans(&self) -> usize {
+        self.replans
+    }
+
+    /// Whether `measured` is within the goal tolerance.
+    pub fn at_goal(&self, measured: &Orientation) -> bool {
+        angular(measured, &self.goal) <= self.cl.goal_tolerance.0
+    }
+
+    /// The measurement after [`Controller::next_row`]'s set was switched and the ball settled:
+    /// what to do next.
+    pub fn observe(&mut self, measured: &Orientation) -> Decision {
+        let row = self.next_row().clone();
+        let last = self.next + 1 >= self.rows.len();
+        if !self.cl.replan {
+            self.next += 1;
+            return if last { Decision::Done } else { Decision::Continue };
+        }
+        if self.at_goal(measured) {
+            return Decision::Done;
+        }
+        let strayed = angular(measured, &row.q) > self.cl.replan_beyond.0;
+        if !(strayed || last) {
+            self.next += 1;
+            return Decision::Continue;
+        }
+        match self.replan(measured, &row.active) {
+            Ok(p) => {
+                self.rows = p.rows;
+                self.next = 1;
+                self.replans += 1;
+                Decision::Replanned
+            }
+            Err(m) => Decision::Stuck(m),
         }
     }
 
@@ -315,8 +265,126 @@ impl Loop<'_> {
         }
         Ok(p)
     }
+}
 
-    fn finish(self, message: Option<String>, reached: bool) -> LoopRun {
+/// Plays `open` (a plan made with `model` for `settings`) on `plant`, closing the loop as
+/// `cl` says, towards `goal` (the plan's target: ROT[axis, angle] applied to its row 0, see
+/// [`goal_of`]): the plant settles each set from where the last left the ball, a simulated
+/// sensor measures it, the [`Controller`] decides.
+pub fn run_closed_loop(
+    model: &Motor,
+    plant: &Motor,
+    settings: &PlanSettings,
+    open: &Plan,
+    goal: Orientation,
+    cl: &LoopSettings,
+) -> LoopRun {
+    let Some(mut ctl) = Controller::new(model, settings, open, goal, *cl) else {
+        return no_run("the plan has no initial commutation state");
+    };
+    let q0 = open.rows[0].q;
+    let mut noise = Noise {
+        state: cl.seed,
+        sigma: cl.noise.0,
+    };
+    let mut lp = Loop {
+        settings,
+        q0,
+        goal,
+        rows: Vec::new(),
+    };
+    // row 0: the ball at rest at the plan's start, the initial set on
+    let mut truth = q0;
+    let mut message = None;
+    while lp.rows.len() <= cl.max_steps {
+        let row = ctl.next_row().clone();
+        let res = settle(plant.torques, &row.active, &truth, plant.body, plant.settle);
+        truth = res.q;
+        let measured = noise.measure(&truth);
+        let decision = ctl.observe(&measured);
+        lp.push(&row, measured, &res, decision == Decision::Replanned);
+        match decision {
+            Decision::Continue | Decision::Replanned => {}
+            Decision::Done => break,
+            Decision::Stuck(m) => {
+                message = Some(m);
+                break;
+            }
+        }
+    }
+    if lp.rows.len() > cl.max_steps && message.is_none() {
+        message = Some(format!("stopped after {} steps", cl.max_steps));
+    }
+    let reached = lp.rows.last().is_some_and(|r| ctl.at_goal(&r.measured));
+    lp.finish(message, reached, ctl.replans())
+}
+
+/// The goal of a plan made for `settings`: ROT[axis, angle] applied to its start (row 0).
+pub fn goal_of(settings: &PlanSettings, rows: &[PlanRow]) -> Option<Orientation> {
+    rows.first()
+        .map(|r| rot_q(&settings.axis, settings.angle) * r.q)
+}
+
+/// The target a plan file says it is for: the rotation from its row 0 to its last row, as the
+/// axis (`None` for no rotation) and angle of `settings`.
+pub fn target_of(rows: &[PlanRow]) -> Option<(UnitVec, Radians)> {
+    let (first, last) = (rows.first()?, rows.last()?);
+    let turn = last.q * first.q.inverse();
+    Some((rotation_axis(&turn)?, rotation_angle(&turn)))
+}
+
+fn angular(a: &Orientation, b: &Orientation) -> f64 {
+    a.angle_to(b)
+}
+
+fn no_run(message: &str) -> LoopRun {
+    LoopRun {
+        rows: Vec::new(),
+        summary: LoopSummary {
+            steps: 0,
+            final_error_deg: f64::NAN,
+            final_angle_deg: 0.0,
+            max_axis_error_deg: 0.0,
+            replans: 0,
+            reached: false,
+            message: Some(message.into()),
+        },
+    }
+}
+
+/// The rows of a simulated run as they come.
+struct Loop<'a> {
+    settings: &'a PlanSettings,
+    q0: Orientation,
+    goal: Orientation,
+    rows: Vec<LoopRow>,
+}
+
+impl Loop<'_> {
+    fn push(
+        &mut self,
+        row: &PlanRow,
+        measured: Orientation,
+        res: &crate::physics::dynamics::SettleResult,
+        replanned: bool,
+    ) {
+        let (angle, err) = cumulative(&self.q0, &res.q, &self.settings.axis);
+        self.rows.push(LoopRow {
+            step: self.rows.len(),
+            active: row.active.clone(),
+            planned: row.q,
+            measured,
+            truth: res.q,
+            cum_angle_deg: angle.0.to_degrees(),
+            cum_axis_error_deg: err.0.to_degrees(),
+            error_to_goal_deg: angular(&res.q, &self.goal).to_degrees(),
+            replanned,
+            settled: res.settled,
+            settle_time_s: res.settle_time_s,
+        });
+    }
+
+    fn finish(self, message: Option<String>, reached: bool, replans: usize) -> LoopRun {
         let last = self.rows.last();
         let summary = LoopSummary {
             steps: self.rows.len().saturating_sub(1),
@@ -327,7 +395,7 @@ impl Loop<'_> {
                 .iter()
                 .map(|r| r.cum_axis_error_deg)
                 .fold(0.0, f64::max),
-            replans: self.replans,
+            replans,
             reached,
             message,
         };
