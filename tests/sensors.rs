@@ -89,6 +89,9 @@ fn quat_csv_on(slave: TTYPort, timeout: Duration) -> Box<dyn OrientationSensor> 
         .expect("a quat-csv sensor")
 }
 
+/// What the far end prints (in chunks), the line expected back, and the quaternion w, x, y, z.
+type Printed = (Vec<Vec<u8>>, &'static str, [f64; 4]);
+
 #[test]
 fn quat_csv_readings_are_the_printed_quaternions_normalised() {
     let (master, slave) = pty();
@@ -97,13 +100,25 @@ fn quat_csv_readings_are_the_printed_quaternions_normalised() {
     let mut s = sensor::open(SensorFormat::QuatCsv, &path, 115_200, TIMEOUT).unwrap();
     assert_eq!(s.describe(), format!("quat-csv sensor on {path}"));
     let (tx, h) = printer(master);
-    let cases: Vec<(Vec<Vec<u8>>, &str, [f64; 4])> = vec![
+    let cases: Vec<Printed> = vec![
         (one("1,0,0,0\n"), "1,0,0,0", [1.0, 0.0, 0.0, 0.0]),
-        (one("0.5,-0.5,0.5,-0.5\r\n"), "0.5,-0.5,0.5,-0.5", [0.5, -0.5, 0.5, -0.5]),
-        (one(" 0.9, 0.3 ,-0.3,0.1\n"), " 0.9, 0.3 ,-0.3,0.1", normalised([0.9, 0.3, -0.3, 0.1])),
+        (
+            one("0.5,-0.5,0.5,-0.5\r\n"),
+            "0.5,-0.5,0.5,-0.5",
+            [0.5, -0.5, 0.5, -0.5],
+        ),
+        (
+            one(" 0.9, 0.3 ,-0.3,0.1\n"),
+            " 0.9, 0.3 ,-0.3,0.1",
+            normalised([0.9, 0.3, -0.3, 0.1]),
+        ),
         // Within 0.1 of norm 1: normalised, the sign kept.
         (one("0,0,0,-1.05\n"), "0,0,0,-1.05", [0.0, 0.0, 0.0, -1.0]),
-        (one("0.6,0,0.8,0.06\r\n"), "0.6,0,0.8,0.06", normalised([0.6, 0.0, 0.8, 0.06])),
+        (
+            one("0.6,0,0.8,0.06\r\n"),
+            "0.6,0,0.8,0.06",
+            normalised([0.6, 0.0, 0.8, 0.06]),
+        ),
         // One line in three pieces, across reads of the port.
         (
             vec![b"0.7,0".to_vec(), b".7,0.1".to_vec(), b",0.1\r\n".to_vec()],
@@ -157,11 +172,27 @@ fn quat_csv_garbage_lines_and_bad_norms_are_errors_with_the_line() {
         ("hello world\r\n".into(), "hello world", "got 1 field(s)"),
         ("1,0,0\n".into(), "1,0,0", "got 3 field(s)"),
         ("1,0,0,0,0\n".into(), "1,0,0,0,0", "got 5 field(s)"),
-        ("1,0,0,x\r\n".into(), "1,0,0,x", "field 4 ('x') is not a number"),
+        (
+            "1,0,0,x\r\n".into(),
+            "1,0,0,x",
+            "field 4 ('x') is not a number",
+        ),
         ("1,0,inf,0\n".into(), "1,0,inf,0", "not finite"),
-        ("2,0,0,0\n".into(), "2,0,0,0", "the norm 2.0000 is not within 0.1 of 1"),
-        ("0.5,0.5,0.5,0.1\n".into(), "0.5,0.5,0.5,0.1", "the norm 0.8718 is not within"),
-        (format!("{long}\n"), &long[..256], "no line end within 256 bytes"),
+        (
+            "2,0,0,0\n".into(),
+            "2,0,0,0",
+            "the norm 2.0000 is not within 0.1 of 1",
+        ),
+        (
+            "0.5,0.5,0.5,0.1\n".into(),
+            "0.5,0.5,0.5,0.1",
+            "the norm 0.8718 is not within",
+        ),
+        (
+            format!("{long}\n"),
+            &long[..256],
+            "no line end within 256 bytes",
+        ),
     ];
     for (text, line, reason_part) in &cases {
         tx.send(one(text)).unwrap();
@@ -175,7 +206,10 @@ fn quat_csv_garbage_lines_and_bad_norms_are_errors_with_the_line() {
         };
         assert_eq!(&got, line);
         assert!(reason.contains(reason_part), "{reason}");
-        assert!(msg.starts_with("sensor pty (quat-csv): garbage line '"), "{msg}");
+        assert!(
+            msg.starts_with("sensor pty (quat-csv): garbage line '"),
+            "{msg}"
+        );
     }
     // The sensor still reads afterwards.
     tx.send(one("0,0,1,0\n")).unwrap();
@@ -196,7 +230,10 @@ fn quat_csv_silence_is_a_timeout() {
         e.to_string(),
         "sensor pty (quat-csv): no reading within 300 ms (nothing received)"
     );
-    assert!(took >= TIMEOUT && took < TIMEOUT + Duration::from_secs(1), "{took:?}");
+    assert!(
+        took >= TIMEOUT && took < TIMEOUT + Duration::from_secs(1),
+        "{took:?}"
+    );
     // Only stale lines: still a timeout, which says so.
     master.write_all(b"1,0,0,0\n0,1,0,0\n").unwrap();
     std::thread::sleep(Duration::from_millis(200));
@@ -364,13 +401,20 @@ fn bno055_start_sets_configmode_then_ndof_with_the_switching_times() {
     let seen = end.join().unwrap().0;
     assert_eq!(
         requests(&seen),
-        vec![CONFIG_WRITE.to_vec(), NDOF_WRITE.to_vec(), QUAT_READ.to_vec()]
+        vec![
+            CONFIG_WRITE.to_vec(),
+            NDOF_WRITE.to_vec(),
+            QUAT_READ.to_vec()
+        ]
     );
     // 19 ms into CONFIGMODE before the next request, 7 ms out of it before the first read.
     let into_config = seen[1].at - seen[0].answered;
     let out_of_config = seen[2].at - seen[1].answered;
     assert!(into_config >= Duration::from_millis(19), "{into_config:?}");
-    assert!(out_of_config >= Duration::from_millis(7), "{out_of_config:?}");
+    assert!(
+        out_of_config >= Duration::from_millis(7),
+        "{out_of_config:?}"
+    );
 }
 
 #[test]
@@ -381,9 +425,15 @@ fn bno055_readings_are_signed_little_endian_over_2_pow_14() {
         ([16384, 0, 0, 0], [1.0, 0.0, 0.0, 0.0]),
         ([0, 0, 0, -16384], [0.0, 0.0, 0.0, -1.0]),
         // 0.9, 0.3, -0.3, 0.1 rounded to LSB: 14746 = 0x399A, -4915 = 0xECCD.
-        ([14746, 4915, -4915, 1638], normalised([14746.0, 4915.0, -4915.0, 1638.0])),
+        (
+            [14746, 4915, -4915, 1638],
+            normalised([14746.0, 4915.0, -4915.0, 1638.0]),
+        ),
         // cos 45, 0, 0, -sin 45: 11585 = 0x2D41.
-        ([11585, 0, 0, -11585], [0.5f64.sqrt(), 0.0, 0.0, -(0.5f64.sqrt())]),
+        (
+            [11585, 0, 0, -11585],
+            [0.5f64.sqrt(), 0.0, 0.0, -(0.5f64.sqrt())],
+        ),
     ];
     let mut acts = vec![Act::Reply(by_hand.clone())];
     acts.extend(cases.iter().map(|(raw, _)| Act::Reply(quat_reply(*raw))));
@@ -397,7 +447,10 @@ fn bno055_readings_are_signed_little_endian_over_2_pow_14() {
         assert_eq!(r.raw, Raw::Frame(quat_reply(*raw)));
         assert_quat(&r, *wxyz);
     }
-    assert_eq!(quat_reply([14746, -4915, 0, 0])[2..6], [0x9A, 0x39, 0xCD, 0xEC]);
+    assert_eq!(
+        quat_reply([14746, -4915, 0, 0])[2..6],
+        [0x9A, 0x39, 0xCD, 0xEC]
+    );
     let seen = end.join().unwrap().0;
     assert!(requests(&seen)[2..].iter().all(|r| r == &QUAT_READ));
     assert_eq!(seen.len(), 2 + 1 + cases.len());
@@ -414,7 +467,14 @@ fn bno055_error_statuses_are_named_and_over_runs_retried() {
 
     let e = s.read().unwrap_err();
     assert!(
-        matches!(e, SensorError::Status { status: 0x02, attempts: 1, .. }),
+        matches!(
+            e,
+            SensorError::Status {
+                status: 0x02,
+                attempts: 1,
+                ..
+            }
+        ),
         "{e:?}"
     );
     assert_eq!(
@@ -425,7 +485,14 @@ fn bno055_error_statuses_are_named_and_over_runs_retried() {
     // BUS_OVER_RUN_ERROR every time: sent ATTEMPTS times, then the error by name.
     let e = s.read().unwrap_err();
     assert!(
-        matches!(e, SensorError::Status { status: 0x07, attempts: 4, .. }),
+        matches!(
+            e,
+            SensorError::Status {
+                status: 0x07,
+                attempts: 4,
+                ..
+            }
+        ),
         "{e:?}"
     );
     let msg = e.to_string();
@@ -468,8 +535,9 @@ fn bno055_zero_quaternion_and_bad_replies_are_errors() {
     let e = s.read().unwrap_err();
     assert!(matches!(e, SensorError::NotFused { .. }), "{e:?}");
     assert!(
-        e.to_string()
-            .starts_with("sensor pty (bno055): the quaternion is all zero: sensor fusion is not running yet"),
+        e.to_string().starts_with(
+            "sensor pty (bno055): the quaternion is all zero: sensor fusion is not running yet"
+        ),
         "{e}"
     );
     let e = s.read().unwrap_err();
@@ -478,7 +546,10 @@ fn bno055_zero_quaternion_and_bad_replies_are_errors() {
         "sensor pty (bno055): unexpected reply BB 08 00 20 00 00 00 00 00 00: expected a unit quaternion, but the norm 0.5000 is not within 0.1 of 1"
     );
     let e = s.read().unwrap_err();
-    assert!(matches!(e, SensorError::BadReply { ref got, .. } if got == &ACK), "{e:?}");
+    assert!(
+        matches!(e, SensorError::BadReply { ref got, .. } if got == &ACK),
+        "{e:?}"
+    );
     assert_quat(&s.read().unwrap(), [0.0, 0.0, 1.0, 0.0]);
     assert_eq!(requests_of(end).len(), 6);
 }
@@ -502,7 +573,10 @@ fn bno055_silence_and_half_replies_are_timeouts_and_a_late_rest_is_drained() {
         e.to_string(),
         "sensor pty (bno055): no complete reply to read QUA_Data (0x20, 8 bytes) within 300 ms (nothing received)"
     );
-    assert!(took >= TIMEOUT && took < TIMEOUT + Duration::from_secs(1), "{took:?}");
+    assert!(
+        took >= TIMEOUT && took < TIMEOUT + Duration::from_secs(1),
+        "{took:?}"
+    );
 
     let e = s.read().unwrap_err();
     assert_eq!(

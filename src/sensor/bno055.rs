@@ -90,7 +90,9 @@ pub fn status_meaning(status: u8) -> &'static str {
         0x04 => "the register address is not in the register map of the selected page",
         0x05 => "the register is read-only",
         0x06 => "the request did not start with 0xAA",
-        0x07 => "the sensor could not empty its receive buffer in time, usually busy with the fusion",
+        0x07 => {
+            "the sensor could not empty its receive buffer in time, usually busy with the fusion"
+        }
         0x08 => "more than 128 bytes were asked for",
         0x09 => "a length of 0 was asked for",
         0x0A => "a byte of the request did not arrive in time",
@@ -103,8 +105,9 @@ fn is_transient(status: u8) -> bool {
     status == BUS_OVER_RUN_ERROR || status == RECEIVE_CHARACTER_TIMEOUT
 }
 
-/// A register write request.
+/// A register write request; `data` is at most 128 bytes (the sensor's limit, 4.7).
 pub fn write_request(register: u8, data: &[u8]) -> Vec<u8> {
+    debug_assert!(data.len() <= 128, "a BNO055 write takes at most 128 bytes");
     let mut r = vec![START, WRITE, register, data.len() as u8];
     r.extend_from_slice(data);
     r
@@ -352,11 +355,7 @@ impl Bno055 {
 impl super::OrientationSensor for Bno055 {
     fn read(&mut self) -> Result<Reading, SensorError> {
         let what = format!("read QUA_Data (0x{QUA_DATA_W_LSB:02X}, 8 bytes)");
-        let frame = self.exchange(
-            &read_request(QUA_DATA_W_LSB, 8),
-            &what,
-            Expect::Data(8),
-        )?;
+        let frame = self.exchange(&read_request(QUA_DATA_W_LSB, 8), &what, Expect::Data(8))?;
         self.decode(frame)
     }
 

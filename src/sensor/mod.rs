@@ -21,9 +21,10 @@ use std::io::ErrorKind;
 use std::str::FromStr;
 use std::time::Duration;
 
-/// How long one blocking read of a serial port opened by [`open`] waits at most, whatever the
-/// sensor timeout: the drivers loop on it up to their own deadline, and the quat-csv reader
-/// thread checks between reads whether it should stop.
+/// How long one blocking read of a serial port opened by [`open`] waits at most (less when the
+/// sensor timeout is shorter, but at least 5 ms, so that no thread spins): the drivers loop on
+/// it up to their own deadline, and the quat-csv reader thread checks between reads whether it
+/// should stop.
 pub const POLL_INTERVAL: Duration = Duration::from_millis(50);
 
 /// The default time to wait for a reading.
@@ -163,7 +164,10 @@ pub enum SensorError {
         reason: String,
     },
     /// A binary reply the protocol does not allow, or a quaternion that is not one.
-    #[error("sensor {port} ({sensor}): unexpected reply {}: expected {expected}", hex(got))]
+    #[error(
+        "sensor {port} ({sensor}): unexpected reply {}: expected {expected}",
+        hex(got)
+    )]
     BadReply {
         sensor: SensorFormat,
         port: String,
@@ -285,7 +289,7 @@ pub fn open(
     timeout: Duration,
 ) -> Result<Box<dyn OrientationSensor>, SensorError> {
     let port = serialport::new(path, baud)
-        .timeout(POLL_INTERVAL.min(timeout))
+        .timeout(POLL_INTERVAL.min(timeout).max(Duration::from_millis(5)))
         .data_bits(serialport::DataBits::Eight)
         .parity(serialport::Parity::None)
         .stop_bits(serialport::StopBits::One)
@@ -320,7 +324,10 @@ mod tests {
 
     #[test]
     fn sensor_formats_parse_and_name_the_choices() {
-        assert_eq!("quat-csv".parse::<SensorFormat>(), Ok(SensorFormat::QuatCsv));
+        assert_eq!(
+            "quat-csv".parse::<SensorFormat>(),
+            Ok(SensorFormat::QuatCsv)
+        );
         assert_eq!(" BNO055 ".parse::<SensorFormat>(), Ok(SensorFormat::Bno055));
         let e = "mpu6050".parse::<SensorFormat>().unwrap_err();
         assert_eq!(
@@ -359,9 +366,6 @@ mod tests {
             std::io::Error::new(ErrorKind::BrokenPipe, "gone"),
         );
         assert!(matches!(e, SensorError::Closed { .. }), "{e:?}");
-        assert_eq!(
-            Raw::Frame(vec![0xBB, 0x08, 0x0A]).to_string(),
-            "BB 08 0A"
-        );
+        assert_eq!(Raw::Frame(vec![0xBB, 0x08, 0x0A]).to_string(), "BB 08 0A");
     }
 }

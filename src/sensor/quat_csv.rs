@@ -341,7 +341,9 @@ mod tests {
         assert!((q.k - 1.0).abs() < 1e-15 && q.w == 0.0);
         assert!(parse_line("1,0,0").unwrap_err().contains("got 3 field(s)"));
         assert!(parse_line("1,0,0,0,0").unwrap_err().contains("got 5"));
-        assert!(parse_line("1,0,zero,0").unwrap_err().contains("field 3 ('zero')"));
+        assert!(parse_line("1,0,zero,0")
+            .unwrap_err()
+            .contains("field 3 ('zero')"));
         assert!(parse_line("1,0,0,nan").unwrap_err().contains("not finite"));
         assert!(parse_line("2,0,0,0").unwrap_err().contains("norm 2.0000"));
         assert!(parse_line("").is_err());
