@@ -9,6 +9,7 @@
 //! 2. [`physics`]: magnet torques, the integrator and the rotor's dynamics (the settle);
 //! 3. [`planning`]: commutation, the planners and the simulation of a plan;
 //! 4. [`relay`]: relay boards, the serial link and the timed replay of a plan;
+//!    [`sensor`] (the same level): orientation sensors read over a port (quat-csv, BNO055);
 //! 5. [`io`]: the files: scenarios (TOML), plans and results (CSV), atomic writes;
 //! 6. [`figures`]: the pictures, the 3-D page and the batch report;
 //! 7. [`commands`]: one function per command of the binary, and batches of scenarios.
@@ -52,5 +53,6 @@ pub mod model;
 pub mod physics;
 pub mod planning;
 pub mod relay;
+pub mod sensor;
 
 pub use error::{Error, Result};
