@@ -707,9 +707,6 @@ impl Checker<'_> {
                 "no physical parts unless shape = \"dipole\"",
             ));
         }
-        if shape == Shape::Dipole {
-            return self.dipole_magnets(&raw);
-        }
         let shape = match shape {
             Shape::Gaussian => {
                 let w = self.positive("magnets.width_deg", raw.width_deg, DEFAULT_WIDTH_DEG)?;
@@ -721,7 +718,7 @@ impl Checker<'_> {
             Shape::Cosine => WellShape::Cosine {
                 strength_j: strength,
             },
-            Shape::Dipole => unreachable!("returned above"),
+            Shape::Dipole => return self.dipole_magnets(&raw),
             Shape::Table => {
                 let file = raw.table.ok_or_else(|| {
                     self.err(
