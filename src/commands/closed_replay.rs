@@ -75,7 +75,10 @@ pub struct ClosedInputs {
 
 /// Reads the plan, scenario and map, checks the options and the schedule of the plan, and
 /// works out the controller's settings; opens nothing.
-pub fn prepare_closed(opts: &ReplayOptions, so: &SensorOptions) -> Result<ClosedInputs, RelayError> {
+pub fn prepare_closed(
+    opts: &ReplayOptions,
+    so: &SensorOptions,
+) -> Result<ClosedInputs, RelayError> {
     refuse_options(&opts.drive(), opts.dry_run)?;
     check_sensor_options(so)?;
     let (rows, scenario, relay) = inputs(opts)?;

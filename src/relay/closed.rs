@@ -114,7 +114,7 @@ struct Loop<'p, 's> {
     entries: Vec<Entry>,
     /// The entry switched next (the controller's next row).
     index: usize,
-    /// The last step switched.
+    /// The last step switched (or being switched).
     steps: usize,
     /// The last measurement's angle from the goal, degrees.
     last: Option<f64>,
@@ -133,6 +133,7 @@ impl Loop<'_, '_> {
                 });
             };
             r.next_step = e.step;
+            self.steps = e.step;
             r.switch(&e)?;
             r.verify_entry(&e)?;
             r.dwell(&e)?;
@@ -140,7 +141,6 @@ impl Loop<'_, '_> {
             r.check_stop()?;
             let planned = self.sensing.controller.next_row().q;
             let decision = self.sensing.controller.observe(&reading.orientation);
-            self.steps = e.step;
             self.measured(r, e.step, &reading, &planned)?;
             r.mark(e.step, "done")?;
             match decision {
@@ -191,12 +191,21 @@ impl Loop<'_, '_> {
         let Some(log) = r.log.as_mut() else {
             return Ok(());
         };
-        let (w, x, y, z) = (q.w.to_string(), q.i.to_string(), q.j.to_string(), q.k.to_string());
+        let (w, x, y, z) = (
+            q.w.to_string(),
+            q.i.to_string(),
+            q.j.to_string(),
+            q.k.to_string(),
+        );
         let goal = format!("{to_goal:.4}");
         let raw = csv_field(&raw);
         let step = step.to_string();
         let mut cols = vec![t.as_str(), step.as_str(), "sensor", ""];
-        cols.extend(if log.listed { &["", "", ""][..] } else { &["", ""][..] });
+        cols.extend(if log.listed {
+            &["", "", ""][..]
+        } else {
+            &["", ""][..]
+        });
         cols.extend([w.as_str(), x.as_str(), y.as_str(), z.as_str()]);
         cols.extend([goal.as_str(), raw.as_str()]);
         log.row(&cols)?;
@@ -306,7 +315,10 @@ mod tests {
         };
         assert!(refuse_options(&drive, false).is_ok());
         let e = refuse_options(&drive, true).unwrap_err().to_string();
-        assert!(e.starts_with("argument --dry-run: expected no --dry-run"), "{e}");
+        assert!(
+            e.starts_with("argument --dry-run: expected no --dry-run"),
+            "{e}"
+        );
         let step = Drive {
             mode: Mode::Step,
             ..drive.clone()

@@ -2,7 +2,7 @@
 //! (`RelayBoard`, in the spirit of the crelay project), the serial link they talk over, the
 //! coil-to-channel map and replay settings (`[relay]` in a scenario, or a `--map` file; one
 //! board, or several as `[[relay.boards]]`), and the hardware replay of a plan (`replay`), which
-//! drives one driver per board. Channels are numbered from 1, as printed on the boards; each
+//! drives one driver per board, open loop or closed through an orientation sensor (`closed`). Channels are numbered from 1, as printed on the boards; each
 //! driver converts to its own wire numbering. Boards are numbered from 0, in list order.
 
 pub mod boards;

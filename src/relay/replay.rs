@@ -670,49 +670,50 @@ impl<'a> Runner<'a> {
         let dry_run = links.iter().all(Link::is_dry_run);
         let listed = prep.listed();
         let mut boards = Vec::with_capacity(n);
-    for (i, (spec, link)) in prep.boards.iter().zip(links).enumerate() {
-        let port = if link.is_dry_run() {
-            configured_port(spec)
-        } else {
-            link.name().to_string()
-        };
-        let driver = connect(spec.kind, spec.channels, spec.slave_address, link).map_err(|e| {
-            if listed {
-                on_board(i, &port, e)
+        for (i, (spec, link)) in prep.boards.iter().zip(links).enumerate() {
+            let port = if link.is_dry_run() {
+                configured_port(spec)
             } else {
-                e
-            }
-        })?;
-        boards.push(Driven {
-            driver,
-            port,
-            verify: false,
-        });
-    }
-    if prep.drive.verify {
-        choose_verified(&mut boards, listed)?;
-    }
-    let log = match &prep.drive.log {
-        Some(p) => Some(Log::open(p, listed, kind)?),
-        None => None,
-    };
-    print_header(out, prep, &boards, dry_run).map_err(stdout_error)?;
-    Ok(Runner {
-        boards,
-        listed,
-        out,
-        log,
-        start: Instant::now(),
-        virtual_t: Duration::ZERO,
-        dry_run,
-        stop,
-        input,
-        mode: prep.drive.mode,
-        max_on_time: prep.settings.max_on_time,
-        on_since: BTreeMap::new(),
-        next_step: prep.drive.from_step,
-        steps_done: 0,
-    })
+                link.name().to_string()
+            };
+            let driver =
+                connect(spec.kind, spec.channels, spec.slave_address, link).map_err(|e| {
+                    if listed {
+                        on_board(i, &port, e)
+                    } else {
+                        e
+                    }
+                })?;
+            boards.push(Driven {
+                driver,
+                port,
+                verify: false,
+            });
+        }
+        if prep.drive.verify {
+            choose_verified(&mut boards, listed)?;
+        }
+        let log = match &prep.drive.log {
+            Some(p) => Some(Log::open(p, listed, kind)?),
+            None => None,
+        };
+        print_header(out, prep, &boards, dry_run).map_err(stdout_error)?;
+        Ok(Runner {
+            boards,
+            listed,
+            out,
+            log,
+            start: Instant::now(),
+            virtual_t: Duration::ZERO,
+            dry_run,
+            stop,
+            input,
+            mode: prep.drive.mode,
+            max_on_time: prep.settings.max_on_time,
+            on_since: BTreeMap::new(),
+            next_step: prep.drive.from_step,
+            steps_done: 0,
+        })
     }
 }
 
@@ -877,7 +878,11 @@ pub const LOG_SENSOR_COLUMNS: &str = "qw,qx,qy,qz,goal_deg,raw";
 
 /// The log's header for one board or several (`listed`), of a replay or a closed loop.
 pub(super) fn log_header(listed: bool, kind: LogKind) -> String {
-    let base = if listed { LOG_HEADER_BOARDS } else { LOG_HEADER };
+    let base = if listed {
+        LOG_HEADER_BOARDS
+    } else {
+        LOG_HEADER
+    };
     match kind {
         LogKind::Replay => base.to_string(),
         LogKind::ClosedLoop => format!("{base},{LOG_SENSOR_COLUMNS}"),
@@ -904,7 +909,12 @@ impl Log {
                 .map_err(err)?;
             let other = [false, true]
                 .into_iter()
-                .flat_map(|l| [log_header(l, LogKind::Replay), log_header(l, LogKind::ClosedLoop)])
+                .flat_map(|l| {
+                    [
+                        log_header(l, LogKind::Replay),
+                        log_header(l, LogKind::ClosedLoop),
+                    ]
+                })
                 .find(|h| *h != header && first.trim_end() == h);
             if let Some(other) = other {
                 let why = if kind == LogKind::Replay && other.contains(LOG_SENSOR_COLUMNS) {
@@ -940,11 +950,9 @@ impl Log {
     /// One row: `cols`, then empty columns up to the header's count.
     pub(super) fn row(&mut self, cols: &[&str]) -> Result<(), RelayError> {
         let pad = self.columns.saturating_sub(cols.len());
-        writeln!(self.file, "{}{}", cols.join(","), ",".repeat(pad)).map_err(|e| {
-            RelayError::Log {
-                path: self.path.clone(),
-                source: e,
-            }
+        writeln!(self.file, "{}{}", cols.join(","), ",".repeat(pad)).map_err(|e| RelayError::Log {
+            path: self.path.clone(),
+            source: e,
         })
     }
 
