@@ -89,10 +89,7 @@ fn without_model_error_or_noise_nothing_is_replanned() {
     assert_eq!(closed.run.replans, 0);
     // the same steps, the closed loop stopping once the sensor says the goal is reached
     assert!(closed.run.steps <= open.run.steps && closed.run.steps > 0);
-    assert!(
-        open_csv.starts_with(&closed_csv),
-        "the closed loop's rows differ"
-    );
+    assert!(open_csv.starts_with(&closed_csv), "the closed loop's rows differ");
     assert!(open.run.final_error_deg < 2.6, "{:?}", open.run);
 }
 

@@ -214,11 +214,7 @@ impl<'a> Controller<'a> {
         let last = self.next + 1 >= self.rows.len();
         if !self.cl.replan {
             self.next += 1;
-            return if last {
-                Decision::Done
-            } else {
-                Decision::Continue
-            };
+            return if last { Decision::Done } else { Decision::Continue };
         }
         if self.at_goal(measured) {
             return Decision::Done;
