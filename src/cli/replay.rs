@@ -1,9 +1,12 @@
 //! `spherestep replay`: replays a plan on a relay board (or several), every coil off at the
-//! end, on an error and on Ctrl-C.
+//! end, on an error and on Ctrl-C; with `--sensor`, closing the loop through an orientation
+//! sensor.
 
 use anyhow::{Context, Result};
+use spherestep::commands::closed_replay::{self, SensorOptions};
 use spherestep::commands::replay::{self, ReplayOptions};
 use spherestep::relay::replay::{stdin_lines, Mode};
+use spherestep::sensor::SensorFormat;
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -47,9 +50,42 @@ pub struct Args {
     /// TOML map file with the [relay] keys at the top (replaces the scenario's section).
     #[arg(long)]
     pub map: Option<PathBuf>,
+    /// Close the loop: read the ball's orientation from this serial device after each step's
+    /// dwell, and replan from it when it strays (realtime only, not with --dry-run or
+    /// --from-step).
+    #[arg(long, requires = "sensor_format")]
+    pub sensor: Option<String>,
+    /// The sensor's protocol: quat-csv (a `w,x,y,z` line per reading) or bno055 (UART).
+    #[arg(long, requires = "sensor")]
+    pub sensor_format: Option<SensorFormat>,
+    /// The sensor's baud rate (default 115200).
+    #[arg(long, requires = "sensor")]
+    pub sensor_baud: Option<u32>,
+    /// How long to wait for a reading, ms (default 500).
+    #[arg(long, requires = "sensor")]
+    pub sensor_timeout_ms: Option<u64>,
+    /// The sensor's expected noise, degrees: replan beyond max(1, 2 x noise) degrees from the
+    /// plan, done within max(1.5, 2 x noise) degrees of the goal.
+    #[arg(long, requires = "sensor", default_value_t = 0.0)]
+    pub sensor_noise_deg: f64,
+    /// With --sensor: at most this many steps (default: twice the plan's).
+    #[arg(long, requires = "sensor")]
+    pub max_steps: Option<usize>,
 }
 
 impl Args {
+    /// The closed loop's sensor, with `--sensor`.
+    fn sensor_options(&self) -> Option<SensorOptions> {
+        let (device, format) = (self.sensor.clone()?, self.sensor_format?);
+        Some(SensorOptions {
+            baud: self.sensor_baud,
+            timeout_ms: self.sensor_timeout_ms,
+            noise_deg: self.sensor_noise_deg,
+            max_steps: self.max_steps,
+            ..SensorOptions::new(device, format)
+        })
+    }
+
     fn options(self) -> ReplayOptions {
         ReplayOptions {
             plan: self.plan,
@@ -72,6 +108,10 @@ impl Args {
         let flag = stop.clone();
         ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
             .context("installing the Ctrl-C/SIGTERM handler")?;
+        if let Some(so) = self.sensor_options() {
+            closed_replay::run(&self.options(), &so, stop, out)?;
+            return Ok(());
+        }
         let input = (self.mode == Mode::Step && !self.dry_run).then(stdin_lines);
         replay::run(&self.options(), stop, input, out)?;
         Ok(())

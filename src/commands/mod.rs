@@ -3,6 +3,7 @@
 
 pub mod batch;
 pub mod closed_loop;
+pub mod closed_replay;
 pub mod replay;
 pub mod wells;
 

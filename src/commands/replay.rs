@@ -5,6 +5,7 @@
 use crate::error::Error;
 use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
+use crate::planning::plan::PlanRow;
 use crate::relay::replay::{execute_on, open_ports, Drive, Mode, Prepared, Summary};
 use crate::relay::{BoardKind, Link, RelayError, RelaySettings};
 use std::io::Write;
@@ -75,8 +76,9 @@ impl ReplayOptions {
     }
 }
 
-/// Reads the plan, scenario and map, resolves the settings and checks the schedule.
-pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
+/// What a replay reads: the plan's rows, the scenario and the relay settings (the map file's,
+/// or the scenario's section).
+pub fn inputs(opts: &ReplayOptions) -> Result<(Vec<PlanRow>, Scenario, RelaySettings), RelayError> {
     let rows = read_plan(&opts.plan)?;
     let scenario = match &opts.scenario {
         Some(p) => Scenario::load(p)?,
@@ -89,6 +91,12 @@ pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
         }
         None => scenario.relay.clone(),
     };
+    Ok((rows, scenario, settings))
+}
+
+/// Reads the plan, scenario and map, resolves the settings and checks the schedule.
+pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
+    let (rows, scenario, settings) = inputs(opts)?;
     crate::relay::replay::prepare(&rows, settings, scenario.stator.len(), opts.drive())
 }
 

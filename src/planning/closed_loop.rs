@@ -191,6 +191,13 @@ impl<'a> Controller<'a> {
         self.goal
     }
 
+    /// The plan in force: the open plan, or after a replan the new one, whose row 0 is the
+    /// state it was made from (the measurement, the coils on then) and whose row 1 is switched
+    /// next.
+    pub fn plan(&self) -> &[PlanRow] {
+        &self.rows
+    }
+
     pub fn replans(&self) -> usize {
         self.replans
     }

@@ -2,10 +2,11 @@
 //! (`RelayBoard`, in the spirit of the crelay project), the serial link they talk over, the
 //! coil-to-channel map and replay settings (`[relay]` in a scenario, or a `--map` file; one
 //! board, or several as `[[relay.boards]]`), and the hardware replay of a plan (`replay`), which
-//! drives one driver per board. Channels are numbered from 1, as printed on the boards; each
+//! drives one driver per board, open loop or closed through an orientation sensor (`closed`). Channels are numbered from 1, as printed on the boards; each
 //! driver converts to its own wire numbering. Boards are numbered from 0, in list order.
 
 pub mod boards;
+pub mod closed;
 pub mod config;
 pub mod kmtronic;
 pub mod lcus;
@@ -265,6 +266,38 @@ pub enum RelayError {
         cause: Box<RelayError>,
         off: Box<RelayError>,
     },
+    /// The orientation sensor of a closed-loop replay failed (its message names the sensor
+    /// and its port).
+    #[error(transparent)]
+    Sensor(#[from] crate::sensor::SensorError),
+    /// The closed loop cannot go on (the controller found no plan from the measurement, or the
+    /// plan in force ran out).
+    #[error("closed loop stuck after step {step}: {message}")]
+    Stuck { step: usize, message: String },
+    /// The closed loop took `--max-steps` steps without reaching the goal.
+    #[error("closed loop: {steps} step(s) without reaching the goal (--max-steps {max}); the last measurement is {distance_deg:.2} deg from it")]
+    MaxSteps {
+        steps: usize,
+        max: usize,
+        distance_deg: f64,
+    },
+    /// A replanned plan failed the checks of a schedule (coils mapped, coils on at once from
+    /// what is on now, on-time across the joint) before anything of it was switched.
+    #[error("the plan replanned after step {step} (replan {replan}) is refused before switching anything of it: {cause}")]
+    ReplanRefused {
+        step: usize,
+        replan: usize,
+        cause: Box<RelayError>,
+    },
+    /// The closed-loop replay stopped on an error; every coil was switched off afterwards.
+    #[error("{cause}; all coils switched off (closed loop: {steps} step(s), {replans} replan(s){})", last_distance(*distance_deg))]
+    LoopStopped {
+        cause: Box<RelayError>,
+        steps: usize,
+        replans: usize,
+        /// The last measurement's angle from the goal, degrees (`None` before any).
+        distance_deg: Option<f64>,
+    },
     /// Something failed on one board of several (`[[relay.boards]]`): which board, on which
     /// port (the configured one in a dry run), and what.
     #[error("board {index} ({port}): {error}")]
@@ -288,7 +321,9 @@ impl RelayError {
     /// The error that started it all (through `Stopped` and `OffFailed`).
     pub fn root(&self) -> &RelayError {
         match self {
-            RelayError::Stopped { cause, .. } | RelayError::OffFailed { cause, .. } => cause.root(),
+            RelayError::Stopped { cause, .. }
+            | RelayError::OffFailed { cause, .. }
+            | RelayError::LoopStopped { cause, .. } => cause.root(),
             RelayError::OnBoard { error, .. } => error.root(),
             RelayError::BoardsOffFailed {
                 cause: Some(cause), ..
@@ -296,6 +331,12 @@ impl RelayError {
             e => e,
         }
     }
+}
+
+/// The end of `RelayError::LoopStopped`'s message: the last measurement's distance.
+fn last_distance(d: Option<f64>) -> String {
+    d.map(|d| format!(", the last measurement {d:.2} deg from the goal"))
+        .unwrap_or_default()
 }
 
 /// Where a coil is switched, in messages: `channel 3`, or `board 1, channel 3`.

@@ -160,9 +160,47 @@ pub fn schedule_on(
         });
     }
     let first = from_step.saturating_sub(1);
+    let from = Resume {
+        on: BTreeMap::new(),
+        hold_first: from_step > 0,
+    };
+    let entries = entries_from(
+        &rows[first..],
+        settings,
+        boards,
+        stator_coils,
+        dwell_override,
+        from,
+    )?;
+    if mode == Mode::Realtime {
+        let listed = !settings.boards.is_empty();
+        check_on_time(&entries, settings.max_on_time, listed, BTreeMap::new())?;
+    }
+    Ok(Schedule { entries })
+}
+
+/// Where a run of entries starts from: what is on before it, and whether its first entry
+/// re-energises a step (a resume) rather than switches one.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Resume {
+    pub on: BTreeMap<Slot, CoilId>,
+    pub hold_first: bool,
+}
+
+/// The entries of `rows`, in order, switching from what `from` says is on: every coil on the
+/// stator and driven by a channel of a board, never more than `max_coils_on` coils on (all
+/// boards together, counting the transitions).
+pub(super) fn entries_from(
+    rows: &[PlanRow],
+    settings: &RelaySettings,
+    boards: &[BoardSpec],
+    stator_coils: usize,
+    dwell_override: Option<Duration>,
+    from: Resume,
+) -> Result<Vec<Entry>, RelayError> {
     let mut entries = Vec::new();
-    let mut prev: BTreeMap<Slot, CoilId> = BTreeMap::new();
-    for (k, row) in rows.iter().enumerate().skip(first) {
+    let mut prev = from.on;
+    for (k, row) in rows.iter().enumerate() {
         let mut target = BTreeMap::new();
         for p in &row.active {
             let slot = slot_of(p.coil, row.step, settings, boards, stator_coils)?;
@@ -174,7 +212,7 @@ pub fn schedule_on(
         }
         entries.push(Entry {
             step: row.step,
-            hold: k < from_step,
+            hold: k == 0 && from.hold_first,
             switches,
             on_after: target.clone(),
             peak,
@@ -182,11 +220,7 @@ pub fn schedule_on(
         });
         prev = target;
     }
-    if mode == Mode::Realtime {
-        let listed = !settings.boards.is_empty();
-        check_on_time(&entries, settings.max_on_time, listed)?;
-    }
-    Ok(Schedule { entries })
+    Ok(entries)
 }
 
 /// The switching from what is on (`prev`, by board and channel) to `target`, in the order it
@@ -314,10 +348,19 @@ fn single_channel(slot: Slot, board: BoardKind, channels: u16) -> Result<Slot, S
     Ok(slot)
 }
 
+/// What is on before a run of entries, for the on-time check: by board and channel, the coil,
+/// the step it went on in and how long it has been on.
+pub(super) type OnTimes = BTreeMap<Slot, (CoilId, usize, Duration)>;
+
 /// Simulates the schedule: a coil's continuous on-time is the sum of the dwells while it stays
-/// on. `listed`: name the board in the error.
-fn check_on_time(entries: &[Entry], max: Duration, listed: bool) -> Result<(), RelayError> {
-    let mut on: BTreeMap<Slot, (CoilId, usize, Duration)> = BTreeMap::new();
+/// on, after the time it has been on already (`on`, empty for a schedule switched from all
+/// off). `listed`: name the board in the error.
+pub(super) fn check_on_time(
+    entries: &[Entry],
+    max: Duration,
+    listed: bool,
+    mut on: OnTimes,
+) -> Result<(), RelayError> {
     for e in entries {
         on.retain(|slot, _| e.on_after.contains_key(slot));
         for (&slot, &coil) in &e.on_after {
@@ -598,63 +641,80 @@ pub fn execute_on(
     input: Option<Receiver<String>>,
     out: &mut dyn Write,
 ) -> Result<Summary, RelayError> {
-    let n = prep.boards.len();
-    let mut switches = prep.schedule.entries.iter().flat_map(|e| &e.switches);
-    if n == 0 || links.len() != n || switches.any(|s| s.board >= n) {
-        return Err(RelayError::Arg {
-            arg: "--port".into(),
-            expected: format!("one link per board ({n} boards), got {}", links.len()),
-        });
-    }
-    let dry_run = links.iter().all(Link::is_dry_run);
-    let listed = prep.listed();
-    let mut boards = Vec::with_capacity(n);
-    for (i, (spec, link)) in prep.boards.iter().zip(links).enumerate() {
-        let port = if link.is_dry_run() {
-            configured_port(spec)
-        } else {
-            link.name().to_string()
-        };
-        let driver = connect(spec.kind, spec.channels, spec.slave_address, link).map_err(|e| {
-            if listed {
-                on_board(i, &port, e)
-            } else {
-                e
-            }
-        })?;
-        boards.push(Driven {
-            driver,
-            port,
-            verify: false,
-        });
-    }
-    if prep.drive.verify {
-        choose_verified(&mut boards, listed)?;
-    }
-    let log = match &prep.drive.log {
-        Some(p) => Some(Log::open(p, listed)?),
-        None => None,
-    };
-    print_header(out, prep, &boards, dry_run).map_err(stdout_error)?;
-    let mut r = Runner {
-        boards,
-        listed,
-        out,
-        log,
-        start: Instant::now(),
-        virtual_t: Duration::ZERO,
-        dry_run,
-        stop,
-        input,
-        mode: prep.drive.mode,
-        max_on_time: prep.settings.max_on_time,
-        on_since: BTreeMap::new(),
-        next_step: prep.drive.from_step,
-        steps_done: 0,
-    };
+    let mut r = Runner::start(prep, links, stop, input, out, LogKind::Replay)?;
     r.log_start(prep.drive.from_step)?;
     let result = r.drive(&prep.schedule);
     r.finish(result)
+}
+
+impl<'a> Runner<'a> {
+    /// Connects a driver per board over `links` (one per board, in order), picks the boards
+    /// `--verify` reads back, opens the log (`kind` says its columns) and prints the header.
+    /// Nothing is sent to a board yet.
+    pub(super) fn start(
+        prep: &Prepared,
+        links: Vec<Link>,
+        stop: Arc<AtomicBool>,
+        input: Option<Receiver<String>>,
+        out: &'a mut dyn Write,
+        kind: LogKind,
+    ) -> Result<Runner<'a>, RelayError> {
+        let n = prep.boards.len();
+        let mut switches = prep.schedule.entries.iter().flat_map(|e| &e.switches);
+        if n == 0 || links.len() != n || switches.any(|s| s.board >= n) {
+            return Err(RelayError::Arg {
+                arg: "--port".into(),
+                expected: format!("one link per board ({n} boards), got {}", links.len()),
+            });
+        }
+        let dry_run = links.iter().all(Link::is_dry_run);
+        let listed = prep.listed();
+        let mut boards = Vec::with_capacity(n);
+        for (i, (spec, link)) in prep.boards.iter().zip(links).enumerate() {
+            let port = if link.is_dry_run() {
+                configured_port(spec)
+            } else {
+                link.name().to_string()
+            };
+            let driver =
+                connect(spec.kind, spec.channels, spec.slave_address, link).map_err(|e| {
+                    if listed {
+                        on_board(i, &port, e)
+                    } else {
+                        e
+                    }
+                })?;
+            boards.push(Driven {
+                driver,
+                port,
+                verify: false,
+            });
+        }
+        if prep.drive.verify {
+            choose_verified(&mut boards, listed)?;
+        }
+        let log = match &prep.drive.log {
+            Some(p) => Some(Log::open(p, listed, kind)?),
+            None => None,
+        };
+        print_header(out, prep, &boards, dry_run).map_err(stdout_error)?;
+        Ok(Runner {
+            boards,
+            listed,
+            out,
+            log,
+            start: Instant::now(),
+            virtual_t: Duration::ZERO,
+            dry_run,
+            stop,
+            input,
+            mode: prep.drive.mode,
+            max_on_time: prep.settings.max_on_time,
+            on_since: BTreeMap::new(),
+            next_step: prep.drive.from_step,
+            steps_done: 0,
+        })
+    }
 }
 
 /// `--verify`: a single board must be able to read back; of several, those that can are read
@@ -677,7 +737,7 @@ fn choose_verified(boards: &mut [Driven], listed: bool) -> Result<(), RelayError
 }
 
 /// A failed write of the replay's report.
-fn stdout_error(source: std::io::Error) -> RelayError {
+pub(super) fn stdout_error(source: std::io::Error) -> RelayError {
     RelayError::Log {
         path: "<stdout>".into(),
         source,
@@ -788,32 +848,56 @@ pub fn stdin_lines() -> Receiver<String> {
 
 /// The replay log: `t_s,step,action,coil,channel,bytes` (with several boards
 /// `t_s,step,action,coil,board,channel,bytes`), one row per frame, a `done` row when a step's
-/// dwell completed and a `start` row per run; flushed after every step.
-struct Log {
+/// dwell completed and a `start` row per run; flushed after every step. A closed-loop replay's
+/// log has the measurement's columns after those (`LOG_SENSOR_COLUMNS`), empty in the other
+/// rows.
+pub(super) struct Log {
     path: PathBuf,
     file: std::io::BufWriter<std::fs::File>,
     /// The board column is written.
-    listed: bool,
+    pub(super) listed: bool,
+    /// How many columns a row has (shorter rows are padded with empty ones).
+    columns: usize,
+}
+
+/// Which replay a log is of: its columns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum LogKind {
+    Replay,
+    /// With the measurement's columns (`LOG_SENSOR_COLUMNS`).
+    ClosedLoop,
 }
 
 /// The log's header.
 pub const LOG_HEADER: &str = "t_s,step,action,coil,channel,bytes";
 /// The log's header with several boards (`[[relay.boards]]`).
 pub const LOG_HEADER_BOARDS: &str = "t_s,step,action,coil,board,channel,bytes";
+/// The columns a closed-loop replay's log has after the others: the measured quaternion, its
+/// angle from the goal (degrees) and what the sensor sent (a line, or a frame in hex).
+pub const LOG_SENSOR_COLUMNS: &str = "qw,qx,qy,qz,goal_deg,raw";
+
+/// The log's header for one board or several (`listed`), of a replay or a closed loop.
+pub(super) fn log_header(listed: bool, kind: LogKind) -> String {
+    let base = if listed {
+        LOG_HEADER_BOARDS
+    } else {
+        LOG_HEADER
+    };
+    match kind {
+        LogKind::Replay => base.to_string(),
+        LogKind::ClosedLoop => format!("{base},{LOG_SENSOR_COLUMNS}"),
+    }
+}
 
 impl Log {
-    /// Opens (appends to) the log; refuses a log written with the other header (one board /
-    /// several), whose columns would not line up.
-    fn open(path: &Path, listed: bool) -> Result<Log, RelayError> {
+    /// Opens (appends to) the log; refuses a log written with another of the headers (one
+    /// board / several, replay / closed loop), whose columns would not line up.
+    fn open(path: &Path, listed: bool, kind: LogKind) -> Result<Log, RelayError> {
         let err = |e| RelayError::Log {
             path: path.to_path_buf(),
             source: e,
         };
-        let (header, other) = if listed {
-            (LOG_HEADER_BOARDS, LOG_HEADER)
-        } else {
-            (LOG_HEADER, LOG_HEADER_BOARDS)
-        };
+        let header = log_header(listed, kind);
         let existing = std::fs::metadata(path)
             .map(|m| m.len() > 0)
             .unwrap_or(false);
@@ -823,10 +907,26 @@ impl Log {
             std::io::BufReader::new(f)
                 .read_line(&mut first)
                 .map_err(err)?;
-            if first.trim_end() == other {
+            let other = [false, true]
+                .into_iter()
+                .flat_map(|l| {
+                    [
+                        log_header(l, LogKind::Replay),
+                        log_header(l, LogKind::ClosedLoop),
+                    ]
+                })
+                .find(|h| *h != header && first.trim_end() == h);
+            if let Some(other) = other {
+                let why = if kind == LogKind::Replay && other.contains(LOG_SENSOR_COLUMNS) {
+                    "a closed-loop replay's log"
+                } else if kind == LogKind::ClosedLoop && !other.contains(LOG_SENSOR_COLUMNS) {
+                    "a replay's log without the sensor's columns"
+                } else {
+                    "one board / several"
+                };
                 return Err(err(std::io::Error::new(
                     std::io::ErrorKind::InvalidData,
-                    format!("its columns are `{other}`, this replay writes `{header}` (one board / several): give another --log file"),
+                    format!("its columns are `{other}`, this replay writes `{header}` ({why}): give another --log file"),
                 )));
             }
         }
@@ -839,6 +939,7 @@ impl Log {
             path: path.to_path_buf(),
             file: std::io::BufWriter::new(file),
             listed,
+            columns: header.split(',').count(),
         };
         if !existing {
             writeln!(log.file, "{header}").map_err(err)?;
@@ -846,23 +947,22 @@ impl Log {
         Ok(log)
     }
 
-    fn row(&mut self, cols: &[&str]) -> Result<(), RelayError> {
-        writeln!(self.file, "{}", cols.join(",")).map_err(|e| RelayError::Log {
+    /// One row: `cols`, then empty columns up to the header's count.
+    pub(super) fn row(&mut self, cols: &[&str]) -> Result<(), RelayError> {
+        let pad = self.columns.saturating_sub(cols.len());
+        writeln!(self.file, "{}{}", cols.join(","), ",".repeat(pad)).map_err(|e| RelayError::Log {
             path: self.path.clone(),
             source: e,
         })
     }
 
-    /// A `start` or `done` row: time, step, action, the other columns empty.
-    fn marker(&mut self, t: &str, step: &str, action: &str) -> Result<(), RelayError> {
-        if self.listed {
-            self.row(&[t, step, action, "", "", "", ""])
-        } else {
-            self.row(&[t, step, action, "", "", ""])
-        }
+    /// A `start` or `done` row (or another marker): time, step, action, the other columns
+    /// empty.
+    pub(super) fn marker(&mut self, t: &str, step: &str, action: &str) -> Result<(), RelayError> {
+        self.row(&[t, step, action])
     }
 
-    fn flush(&mut self) -> Result<(), RelayError> {
+    pub(super) fn flush(&mut self) -> Result<(), RelayError> {
         self.file.flush().map_err(|e| RelayError::Log {
             path: self.path.clone(),
             source: e,
@@ -872,34 +972,35 @@ impl Log {
 
 /// One board of the replay: its driver, its port (as messages name it) and whether `--verify`
 /// reads it back.
-struct Driven {
+pub(super) struct Driven {
     driver: Box<dyn RelayBoard>,
     port: String,
     verify: bool,
 }
 
-struct Runner<'a> {
+/// A replay in progress: the boards' drivers, the output, the log, the clock and what is on.
+pub(super) struct Runner<'a> {
     /// The boards, in order (every switch's board is one of them: checked by `execute_on`).
-    boards: Vec<Driven>,
+    pub(super) boards: Vec<Driven>,
     /// `[[relay.boards]]`: the board column is printed and errors name their board.
-    listed: bool,
-    out: &'a mut dyn Write,
-    log: Option<Log>,
-    start: Instant,
-    virtual_t: Duration,
-    dry_run: bool,
-    stop: Arc<AtomicBool>,
-    input: Option<Receiver<String>>,
-    mode: Mode,
-    max_on_time: Duration,
+    pub(super) listed: bool,
+    pub(super) out: &'a mut dyn Write,
+    pub(super) log: Option<Log>,
+    pub(super) start: Instant,
+    pub(super) virtual_t: Duration,
+    pub(super) dry_run: bool,
+    pub(super) stop: Arc<AtomicBool>,
+    pub(super) input: Option<Receiver<String>>,
+    pub(super) mode: Mode,
+    pub(super) max_on_time: Duration,
     /// Relays on, with their coil, since when and since which step.
-    on_since: BTreeMap<Slot, (CoilId, Duration, usize)>,
-    next_step: usize,
-    steps_done: usize,
+    pub(super) on_since: BTreeMap<Slot, (CoilId, Duration, usize)>,
+    pub(super) next_step: usize,
+    pub(super) steps_done: usize,
 }
 
 /// How often waits look at the stop flag and the on-time limit.
-const POLL: Duration = Duration::from_millis(10);
+pub(super) const POLL: Duration = Duration::from_millis(10);
 
 /// Blank for `-` (the listing's "nothing"), for the log's columns.
 fn blank(s: &str) -> &str {
@@ -911,7 +1012,7 @@ fn blank(s: &str) -> &str {
 }
 
 impl Runner<'_> {
-    fn now(&self) -> Duration {
+    pub(super) fn now(&self) -> Duration {
         if self.dry_run {
             self.virtual_t
         } else {
@@ -919,7 +1020,7 @@ impl Runner<'_> {
         }
     }
 
-    fn say(&mut self, line: &str) -> Result<(), RelayError> {
+    pub(super) fn say(&mut self, line: &str) -> Result<(), RelayError> {
         writeln!(self.out, "{line}").map_err(stdout_error)
     }
 
@@ -933,7 +1034,7 @@ impl Runner<'_> {
     }
 
     /// Prints and logs the frames board `board` sent since the last call.
-    fn emit(
+    pub(super) fn emit(
         &mut self,
         board: usize,
         step: Option<usize>,
@@ -976,7 +1077,7 @@ impl Runner<'_> {
         Ok(())
     }
 
-    fn log_start(&mut self, from: usize) -> Result<(), RelayError> {
+    pub(super) fn log_start(&mut self, from: usize) -> Result<(), RelayError> {
         let t = format!("{:.3}", self.now().as_secs_f64());
         if let Some(log) = self.log.as_mut() {
             log.marker(&t, &from.to_string(), "start")?;
@@ -985,14 +1086,14 @@ impl Runner<'_> {
         Ok(())
     }
 
-    fn flush_log(&mut self) -> Result<(), RelayError> {
+    pub(super) fn flush_log(&mut self) -> Result<(), RelayError> {
         match self.log.as_mut() {
             Some(l) => l.flush(),
             None => Ok(()),
         }
     }
 
-    fn check_stop(&self) -> Result<(), RelayError> {
+    pub(super) fn check_stop(&self) -> Result<(), RelayError> {
         if self.stop.load(Ordering::SeqCst) {
             return Err(RelayError::Interrupted);
         }
@@ -1000,7 +1101,7 @@ impl Runner<'_> {
     }
 
     /// Fails when a coil has been on longer than allowed (the runtime guard).
-    fn check_on_time(&self) -> Result<(), RelayError> {
+    pub(super) fn check_on_time(&self) -> Result<(), RelayError> {
         let now = self.now();
         for (&slot, &(coil, since, step)) in &self.on_since {
             let on = now.saturating_sub(since);
@@ -1020,7 +1121,7 @@ impl Runner<'_> {
     }
 
     /// Waits `d` (simulated in a dry run), watching the stop flag and the on-time limit.
-    fn wait(&mut self, d: Duration) -> Result<(), RelayError> {
+    pub(super) fn wait(&mut self, d: Duration) -> Result<(), RelayError> {
         if self.dry_run {
             self.virtual_t += d;
             return Ok(());
@@ -1061,7 +1162,7 @@ impl Runner<'_> {
 
     /// Sends an entry's switching in order, each on its board, recording what went out even
     /// when the board then failed to answer.
-    fn switch(&mut self, e: &Entry) -> Result<(), RelayError> {
+    pub(super) fn switch(&mut self, e: &Entry) -> Result<(), RelayError> {
         for sw in &e.switches {
             self.check_stop()?;
             let r = self.boards[sw.board].driver.set(sw.channel, sw.on);
@@ -1090,7 +1191,7 @@ impl Runner<'_> {
 
     /// Reads the relays back (the boards `--verify` reads) and compares them with what the
     /// entry leaves on each.
-    fn verify_entry(&mut self, e: &Entry) -> Result<(), RelayError> {
+    pub(super) fn verify_entry(&mut self, e: &Entry) -> Result<(), RelayError> {
         for i in 0..self.boards.len() {
             if !self.boards[i].verify {
                 continue;
@@ -1130,7 +1231,7 @@ impl Runner<'_> {
     /// Switches every board all off, each tried whatever the others did, and records what
     /// went out (even of an all-off that failed half way). Returns the boards that failed,
     /// and the first failure to print or log.
-    fn all_off(&mut self) -> (Vec<(usize, RelayError)>, Result<(), RelayError>) {
+    pub(super) fn all_off(&mut self) -> (Vec<(usize, RelayError)>, Result<(), RelayError>) {
         let mut failed = Vec::new();
         let mut shown = Ok(());
         for i in 0..self.boards.len() {
@@ -1148,7 +1249,7 @@ impl Runner<'_> {
 
     /// The error of a replay that ended (with `cause`, or finished) with an all-off that
     /// failed on the `failed` boards.
-    fn off_failed(
+    pub(super) fn off_failed(
         &self,
         cause: Option<RelayError>,
         mut failed: Vec<(usize, RelayError)>,
@@ -1178,17 +1279,9 @@ impl Runner<'_> {
     /// error), the all-off recorded, and the outcome of the replay and of the all-off reported
     /// together.
     fn finish(&mut self, result: Result<bool, RelayError>) -> Result<Summary, RelayError> {
-        let (failed, shown) = self.all_off();
-        self.on_since.clear();
-        let flushed = self.flush_log();
         let next = self.next_step;
-        if !failed.is_empty() {
-            return Err(self.off_failed(result.err(), failed));
-        }
-        match result {
+        match self.close(result)? {
             Ok(quit) => {
-                shown?;
-                flushed?;
                 let msg = if quit {
                     format!(
                         "quit before step {next}; all coils off; resume with --from-step {next}"
@@ -1210,8 +1303,47 @@ impl Runner<'_> {
         }
     }
 
-    /// The replay proper; returns whether the user quit. The caller switches all off after.
-    fn drive(&mut self, s: &Schedule) -> Result<bool, RelayError> {
+    /// Says and waits an entry's dwell.
+    pub(super) fn dwell(&mut self, e: &Entry) -> Result<(), RelayError> {
+        let t = format!("{:.3}", self.now().as_secs_f64());
+        let ms = e.dwell.as_millis();
+        self.say(&format!("{t:>9} {:>5} dwell {ms} ms", e.step))?;
+        self.wait(e.dwell)
+    }
+
+    /// Logs a marker row (`done`, ...) for `step` now, and flushes the log.
+    pub(super) fn mark(&mut self, step: usize, action: &str) -> Result<(), RelayError> {
+        let t = format!("{:.3}", self.now().as_secs_f64());
+        if let Some(log) = self.log.as_mut() {
+            log.marker(&t, &step.to_string(), action)?;
+            log.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Switches every board all off (tried whatever happened) and records it, then: `Err`
+    /// when that failed on a board (the error says so, with `result`'s error as its cause) or
+    /// could not be printed or logged after a `result` that succeeded; else `Ok(result)`.
+    pub(super) fn close<T>(
+        &mut self,
+        result: Result<T, RelayError>,
+    ) -> Result<Result<T, RelayError>, RelayError> {
+        let (failed, shown) = self.all_off();
+        self.on_since.clear();
+        let flushed = self.flush_log();
+        if !failed.is_empty() {
+            return Err(self.off_failed(result.err(), failed));
+        }
+        if result.is_ok() {
+            shown?;
+            flushed?;
+        }
+        Ok(result)
+    }
+
+    /// The all-off before the first step (the boards' state is unknown), stopping at a board
+    /// that fails.
+    pub(super) fn start_off(&mut self) -> Result<(), RelayError> {
         self.check_stop()?;
         let (mut failed, shown) = self.all_off();
         shown?;
@@ -1219,6 +1351,12 @@ impl Runner<'_> {
             let (i, e) = failed.remove(0);
             return Err(self.on(i, e));
         }
+        Ok(())
+    }
+
+    /// The replay proper; returns whether the user quit. The caller switches all off after.
+    fn drive(&mut self, s: &Schedule) -> Result<bool, RelayError> {
+        self.start_off()?;
         for e in &s.entries {
             self.next_step = if e.hold { e.step + 1 } else { e.step };
             if self.mode == Mode::Step {
@@ -1235,19 +1373,9 @@ impl Runner<'_> {
             self.switch(e)?;
             self.verify_entry(e)?;
             if self.mode == Mode::Realtime {
-                let t = format!("{:.3}", self.now().as_secs_f64());
-                self.say(&format!(
-                    "{t:>9} {:>5} dwell {} ms",
-                    e.step,
-                    e.dwell.as_millis()
-                ))?;
-                self.wait(e.dwell)?;
+                self.dwell(e)?;
             }
-            let t = format!("{:.3}", self.now().as_secs_f64());
-            if let Some(log) = self.log.as_mut() {
-                log.marker(&t, &e.step.to_string(), "done")?;
-                log.flush()?;
-            }
+            self.mark(e.step, "done")?;
             if !e.hold {
                 self.steps_done += 1;
             }

@@ -1,0 +1,200 @@
+//! `spherestep replay PLAN SCENARIO --sensor DEV ...`: the closed loop on the hardware. Reads
+//! what `replay` reads and prepares the same checked schedule, builds the controller as
+//! `simulate --closed-loop` does from a plan file (the scenario's motor and plan settings with
+//! the plan file's own target, its last row the goal), opens the sensor and then the boards,
+//! and hands them to the relay layer (`crate::relay::closed`).
+
+use super::closed_loop::{loop_settings, LoopOptions};
+use super::replay::{inputs, ReplayOptions};
+use crate::error::Error;
+use crate::io::scenario::Scenario;
+use crate::model::geometry::Orientation;
+use crate::planning::closed_loop::{target_of, Controller, LoopSettings};
+use crate::planning::plan::{Plan, PlanSettings};
+use crate::relay::closed::{execute_closed, refuse_options, ClosedSummary, Sensing};
+use crate::relay::replay::{open_ports, Prepared};
+use crate::relay::{Link, RelayError};
+use crate::sensor::{self, OrientationSensor, SensorFormat};
+use std::io::Write;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// The sensor of a closed-loop replay, as the command line gives it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensorOptions {
+    /// The sensor's serial device (`--sensor`).
+    pub device: String,
+    /// `--sensor-format`.
+    pub format: SensorFormat,
+    /// `--sensor-baud` (default: the format's).
+    pub baud: Option<u32>,
+    /// `--sensor-timeout-ms`: how long to wait for a reading (default 500).
+    pub timeout_ms: Option<u64>,
+    /// `--sensor-noise-deg`: the sensor's expected noise; sets the replan and goal thresholds.
+    pub noise_deg: f64,
+    /// `--max-steps` (default: twice the plan's steps).
+    pub max_steps: Option<usize>,
+}
+
+impl SensorOptions {
+    /// A sensor on `device` speaking `format`, everything else at its default.
+    pub fn new(device: impl Into<String>, format: SensorFormat) -> SensorOptions {
+        SensorOptions {
+            device: device.into(),
+            format,
+            baud: None,
+            timeout_ms: None,
+            noise_deg: 0.0,
+            max_steps: None,
+        }
+    }
+
+    pub fn baud(&self) -> u32 {
+        self.baud.unwrap_or(self.format.default_baud())
+    }
+
+    pub fn timeout(&self) -> Duration {
+        self.timeout_ms
+            .map_or(sensor::DEFAULT_TIMEOUT, Duration::from_millis)
+    }
+}
+
+/// Everything read and checked before a port is opened.
+pub struct ClosedInputs {
+    /// The replay of the plan as it is, checked as a whole.
+    pub prep: Prepared,
+    pub scenario: Scenario,
+    /// The scenario's plan settings with the plan file's target.
+    pub settings: PlanSettings,
+    pub open: Plan,
+    /// The plan's last orientation.
+    pub goal: Orientation,
+    pub cl: LoopSettings,
+}
+
+/// Reads the plan, scenario and map, checks the options and the schedule of the plan, and
+/// works out the controller's settings; opens nothing.
+pub fn prepare_closed(
+    opts: &ReplayOptions,
+    so: &SensorOptions,
+) -> Result<ClosedInputs, RelayError> {
+    refuse_options(&opts.drive(), opts.dry_run)?;
+    check_sensor_options(so)?;
+    let (rows, scenario, relay) = inputs(opts)?;
+    for r in &rows {
+        scenario.check_active(&r.active, "active")?;
+    }
+    let (axis, angle) = target_of(&rows).ok_or_else(|| Error::Parse {
+        file: opts.plan.clone(),
+        message: "expected a plan that turns the ball (its last row is where its first is)".into(),
+    })?;
+    let settings = PlanSettings {
+        axis,
+        angle,
+        start: rows[0].q,
+        ..scenario.plan.clone()
+    };
+    let goal = rows[rows.len() - 1].q;
+    let o = LoopOptions {
+        closed: true,
+        noise_deg: so.noise_deg,
+        seed: 0,
+        max_steps: so.max_steps,
+    };
+    let cl = loop_settings(&o, rows.len() - 1)?;
+    let prep = crate::relay::replay::prepare(&rows, relay, scenario.stator.len(), opts.drive())?;
+    if let Some(i) = prep
+        .boards
+        .iter()
+        .position(|b| b.port.as_deref() == Some(so.device.as_str()))
+    {
+        return Err(RelayError::Arg {
+            arg: "--sensor".into(),
+            expected: format!(
+                "the sensor's own serial device, got {}, board {i}'s port",
+                so.device
+            ),
+        });
+    }
+    let open = Plan {
+        rows,
+        reached: true,
+        message: None,
+        settles: 0,
+    };
+    Ok(ClosedInputs {
+        prep,
+        scenario,
+        settings,
+        open,
+        goal,
+        cl,
+    })
+}
+
+fn check_sensor_options(so: &SensorOptions) -> Result<(), RelayError> {
+    if let Some(b) = so.baud.filter(|b| !(1..=4_000_000).contains(b)) {
+        return Err(RelayError::Arg {
+            arg: "--sensor-baud".into(),
+            expected: format!("a baud rate from 1 to 4000000, got {b}"),
+        });
+    }
+    if so.timeout_ms == Some(0) {
+        return Err(RelayError::Arg {
+            arg: "--sensor-timeout-ms".into(),
+            expected: "a timeout of at least 1 ms, got 0".into(),
+        });
+    }
+    if so.device.trim().is_empty() {
+        return Err(RelayError::Arg {
+            arg: "--sensor".into(),
+            expected: "a serial device such as /dev/ttyACM0, got an empty string".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Runs the closed loop of `inputs` over `links` (one per board) and `sensor` (both opened by
+/// the caller).
+pub fn execute(
+    inputs: &ClosedInputs,
+    links: Vec<Link>,
+    sensor: Box<dyn OrientationSensor>,
+    stop: Arc<AtomicBool>,
+    out: &mut dyn Write,
+) -> Result<ClosedSummary, RelayError> {
+    let motor = inputs.scenario.motor();
+    let controller = Controller::new(
+        &motor,
+        &inputs.settings,
+        &inputs.open,
+        inputs.goal,
+        inputs.cl,
+    )
+    .ok_or_else(|| Error::Parse {
+        file: inputs.scenario.path.clone(),
+        message: "the plan has no initial commutation state".into(),
+    })?;
+    let sensing = Sensing {
+        sensor,
+        controller,
+        settings: inputs.cl,
+        stator_coils: inputs.scenario.stator.len(),
+    };
+    execute_closed(&inputs.prep, links, sensing, stop, out)
+}
+
+/// `spherestep replay ... --sensor DEV`: prepares, opens the sensor (a failure there touches no
+/// board), then the boards' ports, and runs the closed loop.
+pub fn run(
+    opts: &ReplayOptions,
+    so: &SensorOptions,
+    stop: Arc<AtomicBool>,
+    out: &mut dyn Write,
+) -> Result<ClosedSummary, RelayError> {
+    let inputs = prepare_closed(opts, so)?;
+    let sensor = sensor::open(so.format, &so.device, so.baud(), so.timeout())?;
+    let links = open_ports(&inputs.prep)?;
+    execute(&inputs, links, sensor, stop, out)
+}

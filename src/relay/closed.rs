@@ -1,0 +1,335 @@
+//! Closed loop on the hardware (`spherestep replay PLAN SCENARIO --sensor DEV ...`): the
+//! replay of `replay.rs` (the same boards, switching, dwells, guards and all-off endings), and
+//! after each step's dwell the ball's orientation read from an orientation sensor and handed to
+//! the closed loop's [`Controller`]: the plan in force goes on, or is replaced by one replanned
+//! from the measurement, or the ball is at the goal, or nothing more can be done. A replanned
+//! plan is checked as `prepare` checks a schedule (every coil mapped, coils on at once counted
+//! from what is on now, on-times across the joint) before anything of it is switched. Any sensor
+//! error ends the replay with every coil of every board off. Steps are numbered as they are
+//! switched (0: the initial state), through replans.
+
+use super::replay::{
+    check_on_time, entries_from, stdout_error, Drive, Entry, LogKind, Mode, OnTimes, Prepared,
+    Resume, Runner,
+};
+use super::{Link, RelayError};
+use crate::planning::closed_loop::{Controller, Decision, LoopSettings};
+use crate::planning::plan::PlanRow;
+use crate::sensor::{OrientationSensor, Reading};
+use std::io::Write;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// What closes the loop: the sensor, the controller deciding from its readings, and what the
+/// checks of a replanned plan need besides the prepared replay.
+pub struct Sensing<'a> {
+    pub sensor: Box<dyn OrientationSensor>,
+    pub controller: Controller<'a>,
+    /// The controller's settings (its thresholds, for the header; `max_steps`).
+    pub settings: LoopSettings,
+    /// The stator's coil count (a replanned coil must be on it).
+    pub stator_coils: usize,
+}
+
+/// How a closed-loop replay that reached the goal went.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClosedSummary {
+    /// Steps switched after the initial state.
+    pub steps: usize,
+    pub replans: usize,
+    /// The last measurement's angle from the goal, degrees.
+    pub distance_deg: f64,
+}
+
+/// Refuses the replay options a closed loop cannot honour: a dry run (nothing would measure the
+/// ball), step mode and `--from-step` (see the messages).
+pub fn refuse_options(drive: &Drive, dry_run: bool) -> Result<(), RelayError> {
+    let refuse = |arg: &str, expected: &str| {
+        Err(RelayError::Arg {
+            arg: arg.into(),
+            expected: expected.into(),
+        })
+    };
+    if dry_run {
+        return refuse(
+            "--dry-run",
+            "no --dry-run with --sensor (nothing would measure the ball: dry-run the plan without --sensor, or simulate the closed loop with `spherestep simulate PLAN SCENARIO --plant PLANT --closed-loop`)",
+        );
+    }
+    if drive.mode == Mode::Step {
+        return refuse(
+            "--mode",
+            "realtime with --sensor (step mode waits for Enter instead of the dwell, so the on-time of a replanned plan could not be checked before it is switched)",
+        );
+    }
+    if drive.from_step != 0 {
+        return refuse(
+            "--from-step",
+            "0 with --sensor (the closed loop starts from the plan's initial state and replans from what it measures: to go on after a stop, plan anew from where the ball is)",
+        );
+    }
+    Ok(())
+}
+
+/// Replays `prep` over `links` (one per board, opened by the caller) closing the loop through
+/// `sensing`: all off first, then for each step switch, verify (`--verify`), dwell, read the
+/// sensor, decide. Ends with every coil off on every board, whatever happened.
+pub fn execute_closed(
+    prep: &Prepared,
+    links: Vec<Link>,
+    sensing: Sensing,
+    stop: Arc<AtomicBool>,
+    out: &mut dyn Write,
+) -> Result<ClosedSummary, RelayError> {
+    refuse_options(&prep.drive, links.iter().all(Link::is_dry_run))?;
+    let s = &sensing.settings;
+    writeln!(
+        out,
+        "closed loop: {}; replan beyond {:.2} deg from the plan, done within {:.2} deg of the goal, at most {} steps",
+        sensing.sensor.describe(),
+        s.replan_beyond.0.to_degrees(),
+        s.goal_tolerance.0.to_degrees(),
+        s.max_steps
+    )
+    .map_err(stdout_error)?;
+    let mut r = Runner::start(prep, links, stop, None, out, LogKind::ClosedLoop)?;
+    r.log_start(0)?;
+    let mut lp = Loop {
+        prep,
+        entries: prep.schedule.entries.clone(),
+        index: 0,
+        steps: 0,
+        last: None,
+        sensing,
+    };
+    let result = lp.run(&mut r);
+    lp.finish(&mut r, result)
+}
+
+/// The loop in progress.
+struct Loop<'p, 's> {
+    prep: &'p Prepared,
+    /// The checked entries of the plan in force (after a replan, from its row 1).
+    entries: Vec<Entry>,
+    /// The entry switched next (the controller's next row).
+    index: usize,
+    /// The last step switched (or being switched).
+    steps: usize,
+    /// The last measurement's angle from the goal, degrees.
+    last: Option<f64>,
+    sensing: Sensing<'s>,
+}
+
+impl Loop<'_, '_> {
+    /// Steps until the controller is done (`Ok`) or something stops the loop.
+    fn run(&mut self, r: &mut Runner) -> Result<(), RelayError> {
+        r.start_off()?;
+        loop {
+            let Some(e) = self.entries.get(self.index).cloned() else {
+                return Err(RelayError::Stuck {
+                    step: self.steps,
+                    message: "the plan in force has no step left".into(),
+                });
+            };
+            r.next_step = e.step;
+            self.steps = e.step;
+            r.switch(&e)?;
+            r.verify_entry(&e)?;
+            r.dwell(&e)?;
+            let reading = self.sensing.sensor.read()?;
+            r.check_stop()?;
+            let planned = self.sensing.controller.next_row().q;
+            let decision = self.sensing.controller.observe(&reading.orientation);
+            self.measured(r, e.step, &reading, &planned)?;
+            r.mark(e.step, "done")?;
+            match decision {
+                Decision::Continue => self.index += 1,
+                Decision::Replanned => self.replanned(r, &e)?,
+                Decision::Done => return r.mark(e.step, "goal"),
+                Decision::Stuck(message) => {
+                    return Err(RelayError::Stuck {
+                        step: e.step,
+                        message,
+                    })
+                }
+            }
+            let max = self.sensing.settings.max_steps;
+            if e.step >= max {
+                return Err(RelayError::MaxSteps {
+                    steps: e.step,
+                    max,
+                    distance_deg: self.last.unwrap_or(f64::NAN),
+                });
+            }
+        }
+    }
+
+    /// Prints and logs a reading taken after `step`, with its angles from the plan's
+    /// prediction (`planned`) and from the goal.
+    fn measured(
+        &mut self,
+        r: &mut Runner,
+        step: usize,
+        reading: &Reading,
+        planned: &crate::model::geometry::Orientation,
+    ) -> Result<(), RelayError> {
+        let q = reading.orientation;
+        let from_plan = q.angle_to(planned).to_degrees();
+        let to_goal = q.angle_to(&self.sensing.controller.goal()).to_degrees();
+        self.last = Some(to_goal);
+        let t = format!("{:.3}", r.now().as_secs_f64());
+        let raw = reading.raw.to_string();
+        r.say(&format!(
+            "{t:>9} {step:>5} sensor   [{:.4}, {:.4}, {:.4}, {:.4}] {from_plan:.2} deg from the plan, {to_goal:.2} deg from the goal  \"{}\"",
+            q.w,
+            q.i,
+            q.j,
+            q.k,
+            raw.escape_debug()
+        ))?;
+        let Some(log) = r.log.as_mut() else {
+            return Ok(());
+        };
+        let (w, x, y, z) = (
+            q.w.to_string(),
+            q.i.to_string(),
+            q.j.to_string(),
+            q.k.to_string(),
+        );
+        let goal = format!("{to_goal:.4}");
+        let raw = csv_field(&raw);
+        let step = step.to_string();
+        let mut cols = vec![t.as_str(), step.as_str(), "sensor", ""];
+        cols.extend(if log.listed {
+            &["", "", ""][..]
+        } else {
+            &["", ""][..]
+        });
+        cols.extend([w.as_str(), x.as_str(), y.as_str(), z.as_str()]);
+        cols.extend([goal.as_str(), raw.as_str()]);
+        log.row(&cols)?;
+        log.flush()
+    }
+
+    /// The controller replanned after entry `e`: checks the new plan from what is on now and
+    /// makes it the plan in force, or refuses it (nothing of it switched).
+    fn replanned(&mut self, r: &mut Runner, e: &Entry) -> Result<(), RelayError> {
+        let ctl = &self.sensing.controller;
+        let replan = ctl.replans();
+        let mut rows: Vec<PlanRow> = ctl.plan().get(1..).unwrap_or_default().to_vec();
+        for (j, row) in rows.iter_mut().enumerate() {
+            row.step = e.step + 1 + j;
+        }
+        let refused = |cause| RelayError::ReplanRefused {
+            step: e.step,
+            replan,
+            cause: Box::new(cause),
+        };
+        let prep = self.prep;
+        let from = Resume {
+            on: e.on_after.clone(),
+            hold_first: false,
+        };
+        let dwell = prep.drive.dwell_ms.map(Duration::from_millis);
+        let stator = self.sensing.stator_coils;
+        let entries = entries_from(&rows, &prep.settings, &prep.boards, stator, dwell, from)
+            .map_err(refused)?;
+        let now = r.now();
+        let on: OnTimes = r
+            .on_since
+            .iter()
+            .map(|(&slot, &(coil, since, step))| (slot, (coil, step, now.saturating_sub(since))))
+            .collect();
+        check_on_time(&entries, prep.settings.max_on_time, prep.listed(), on).map_err(refused)?;
+        let t = format!("{:.3}", now.as_secs_f64());
+        r.say(&format!(
+            "{t:>9} {:>5} replan   {} new step(s) from the measurement, checked (replan {replan})",
+            e.step,
+            entries.len()
+        ))?;
+        r.mark(e.step, "replan")?;
+        self.entries = entries;
+        self.index = 0;
+        Ok(())
+    }
+
+    /// Switches everything off and reports: the summary at the goal, else why it stopped.
+    fn finish(
+        self,
+        r: &mut Runner,
+        result: Result<(), RelayError>,
+    ) -> Result<ClosedSummary, RelayError> {
+        let replans = self.sensing.controller.replans();
+        match r.close(result)? {
+            Ok(()) => {
+                let d = self.last.unwrap_or(f64::NAN);
+                writeln!(
+                    r.out,
+                    "closed loop done: at the goal after {} step(s), {replans} replan(s); the last measurement {d:.2} deg from the goal; all coils off",
+                    self.steps
+                )
+                .map_err(stdout_error)?;
+                Ok(ClosedSummary {
+                    steps: self.steps,
+                    replans,
+                    distance_deg: d,
+                })
+            }
+            Err(cause) => Err(RelayError::LoopStopped {
+                cause: Box::new(cause),
+                steps: self.steps,
+                replans,
+                distance_deg: self.last,
+            }),
+        }
+    }
+}
+
+/// A CSV field: quoted, its quotes doubled.
+fn csv_field(s: &str) -> String {
+    format!("\"{}\"", s.replace('"', "\"\""))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closed_csv_fields_are_quoted() {
+        assert_eq!(csv_field("1,0,0,0"), "\"1,0,0,0\"");
+        assert_eq!(csv_field("a\"b"), "\"a\"\"b\"");
+    }
+
+    #[test]
+    fn closed_refuses_dry_run_step_mode_and_from_step() {
+        let drive = Drive {
+            board: None,
+            baud: None,
+            ports: Vec::new(),
+            mode: Mode::Realtime,
+            dwell_ms: None,
+            from_step: 0,
+            log: None,
+            verify: false,
+        };
+        assert!(refuse_options(&drive, false).is_ok());
+        let e = refuse_options(&drive, true).unwrap_err().to_string();
+        assert!(
+            e.starts_with("argument --dry-run: expected no --dry-run"),
+            "{e}"
+        );
+        let step = Drive {
+            mode: Mode::Step,
+            ..drive.clone()
+        };
+        let e = refuse_options(&step, false).unwrap_err().to_string();
+        assert!(e.contains("--mode") && e.contains("on-time"), "{e}");
+        let from = Drive {
+            from_step: 2,
+            ..drive
+        };
+        let e = refuse_options(&from, false).unwrap_err().to_string();
+        assert!(e.contains("--from-step: expected 0 with --sensor"), "{e}");
+    }
+}

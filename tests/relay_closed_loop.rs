@@ -1,0 +1,587 @@
+//! The closed loop on the hardware (`replay --sensor`), on pseudo-terminals: two LCUS boards
+//! and an orientation sensor played on the far ends by a plant that follows the relays (it
+//! reports, for the coils on, the orientation a script gives). A plan of the broad-well motor
+//! played as predicted (no replan), with a stray measurement (a replan, checked frame by frame
+//! against the controller run offline on the same readings), on a BNO055, and a sensor that
+//! closes or sends garbage mid-run: every coil off on both boards, the sensor named.
+
+mod relay_support;
+
+use relay_support::{lcus_all_off, path_of, pty, GUARD};
+use serialport::{SerialPort, TTYPort};
+use spherestep::commands::closed_replay::{execute, prepare_closed, ClosedInputs, SensorOptions};
+use spherestep::commands::replay::ReplayOptions;
+use spherestep::commands::{plan_settings, PlanOverrides};
+use spherestep::io::planfile::write_plan;
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::{rot_q, Orientation, Radians, UnitVec};
+use spherestep::planning::closed_loop::{Controller, Decision};
+use spherestep::planning::planner::plan;
+use spherestep::relay::closed::ClosedSummary;
+use spherestep::relay::{Link, RelayError};
+use spherestep::sensor::{self, quat_csv::parse_line, SensorFormat};
+use std::collections::BTreeSet;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+const MODEL: &str = "scenarios/broad-wells.toml";
+/// Two 8-channel LCUS boards, the coils laid onto them in order (0..=7, then 8..=15).
+const TWO_LCUS: &str =
+    "max_coils_on = 8\n[[boards]]\nboard = \"lcus\"\n[[boards]]\nboard = \"lcus\"\n";
+/// The dwell of every step: a wide margin for the far ends to have seen the switching before
+/// the reading (under load too).
+const DWELL_MS: u64 = 100;
+
+/// The coils on, the orientation the plant reports while they are on.
+type Script = Vec<(BTreeSet<usize>, Orientation)>;
+
+/// What the far ends share: the script, the coils on (both boards), how far the script went.
+struct Plant {
+    script: Script,
+    on: BTreeSet<usize>,
+    /// The script entry whose coils were switched last.
+    at: Option<usize>,
+}
+
+impl Plant {
+    /// The orientation the ball has now (at rest at the script's start before anything).
+    fn now(&self) -> Orientation {
+        self.script[self.at.unwrap_or(0)].1
+    }
+
+    /// Coil `coil` switched: advance to the next entry when its coils are the ones on.
+    fn switch(&mut self, coil: usize, on: bool) {
+        if on {
+            self.on.insert(coil);
+        } else {
+            self.on.remove(&coil);
+        }
+        let next = self.at.map_or(0, |k| k + 1);
+        if self.script.get(next).is_some_and(|(c, _)| *c == self.on) {
+            self.at = Some(next);
+        }
+    }
+}
+
+type Shared = Arc<Mutex<Plant>>;
+
+/// A broad-well plan of 30 degrees about Y, written to `dir` and read back as the replay will.
+fn plan_file(dir: &Path) -> PathBuf {
+    let sc = Scenario::load(Path::new(MODEL)).unwrap();
+    let o = PlanOverrides {
+        axis: Some("0,1,0".into()),
+        angle_deg: Some(30.0),
+        ..Default::default()
+    };
+    let p = plan(&sc.motor(), &plan_settings(&sc, &o).unwrap());
+    assert!(p.rows.len() >= 4, "{:?}", p.message);
+    let mut csv = Vec::new();
+    write_plan(&p.rows, &mut csv).unwrap();
+    let path = dir.join("plan.csv");
+    std::fs::write(&path, csv).unwrap();
+    path
+}
+
+fn options(dir: &Path, plan: &Path) -> ReplayOptions {
+    let map = dir.join("boards.toml");
+    std::fs::write(&map, TWO_LCUS).unwrap();
+    let mut o = ReplayOptions::new(plan);
+    o.scenario = Some(MODEL.into());
+    o.map = Some(map);
+    o.dwell_ms = Some(DWELL_MS);
+    o.log = Some(dir.join("log.csv"));
+    o
+}
+
+/// A reading as the quat-csv far end prints it (shortest round trip).
+fn line_of(q: &Orientation) -> String {
+    format!("{},{},{},{}", q.w, q.i, q.j, q.k)
+}
+
+/// The controller run offline on what the plant will report: after the plan's row `stray`
+/// the measurement turned 4 degrees about X (no stray: `None`). The script of what is
+/// switched and reported, and the replans.
+fn offline(inputs: &ClosedInputs, stray: Option<usize>) -> (Script, usize) {
+    let motor = inputs.scenario.motor();
+    let mut ctl = Controller::new(
+        &motor,
+        &inputs.settings,
+        &inputs.open,
+        inputs.goal,
+        inputs.cl,
+    )
+    .unwrap();
+    let x = UnitVec::new_normalize(nalgebra::Vector3::x());
+    let mut script = Script::new();
+    loop {
+        let row = ctl.next_row().clone();
+        let mut q = row.q;
+        if stray == Some(script.len()) {
+            q = rot_q(&x, Radians(4f64.to_radians())) * q;
+        }
+        // what the replay decodes from the printed line
+        let q = parse_line(&line_of(&q)).unwrap();
+        script.push((row.active.iter().map(|p| p.coil.0).collect(), q));
+        assert!(script.len() < 200, "the offline loop does not end");
+        match ctl.observe(&q) {
+            Decision::Continue | Decision::Replanned => {}
+            Decision::Done => return (script, ctl.replans()),
+            Decision::Stuck(m) => panic!("offline: {m}"),
+        }
+    }
+}
+
+/// One LCUS frame.
+fn lcus(ch: u8, on: bool) -> [u8; 4] {
+    let op = u8::from(on);
+    [0xA0, ch, op, 0xA0u8.wrapping_add(ch).wrapping_add(op)]
+}
+
+/// The bytes each board receives for `sets` switched in turn (make-before-break, coils laid
+/// 8 per board), from all off to all off.
+fn expected_frames(sets: &[BTreeSet<usize>]) -> [Vec<u8>; 2] {
+    let mut out = [lcus_all_off(8), lcus_all_off(8)];
+    let mut prev = BTreeSet::new();
+    for set in sets {
+        for (c, on) in set
+            .difference(&prev)
+            .map(|&c| (c, true))
+            .chain(prev.difference(set).map(|&c| (c, false)))
+        {
+            out[c / 8].extend(lcus((c % 8) as u8 + 1, on));
+        }
+        prev = set.clone();
+    }
+    for o in &mut out {
+        o.extend(lcus_all_off(8));
+    }
+    out
+}
+
+/// An LCUS board's far end: records every byte and tells the plant what it switched, until
+/// `done`.
+fn board(
+    mut port: TTYPort,
+    index: usize,
+    plant: Shared,
+    done: Arc<AtomicBool>,
+) -> JoinHandle<Vec<u8>> {
+    std::thread::spawn(move || {
+        port.set_timeout(Duration::from_millis(20)).unwrap();
+        let (mut got, mut buf, start) = (Vec::new(), [0u8; 64], Instant::now());
+        loop {
+            assert!(start.elapsed() < GUARD, "board {index} never told to stop");
+            match port.read(&mut buf) {
+                Ok(n) => {
+                    let old = got.len() / 4;
+                    got.extend_from_slice(&buf[..n]);
+                    let mut p = plant.lock().unwrap();
+                    for f in got.chunks_exact(4).skip(old) {
+                        assert_eq!(f[0], 0xA0, "board {index}: {got:02X?}");
+                        p.switch(index * 8 + usize::from(f[1]) - 1, f[2] == 1);
+                    }
+                }
+                Err(_) if done.load(Ordering::SeqCst) => return got,
+                Err(_) => {}
+            }
+        }
+    })
+}
+
+/// How the quat-csv far end misbehaves once the script reaches an entry.
+#[derive(Clone, Copy, PartialEq)]
+enum Fault {
+    None,
+    /// Closes its end.
+    Close(usize),
+    /// Prints this line instead of readings.
+    Garbage(usize, &'static str),
+}
+
+/// A quat-csv far end: prints the plant's orientation every 10 ms until `done`.
+fn printer(
+    mut port: TTYPort,
+    plant: Shared,
+    fault: Fault,
+    done: Arc<AtomicBool>,
+) -> JoinHandle<()> {
+    std::thread::spawn(move || {
+        let start = Instant::now();
+        while !done.load(Ordering::SeqCst) && start.elapsed() < GUARD {
+            let (at, q) = {
+                let p = plant.lock().unwrap();
+                (p.at, p.now())
+            };
+            let line = match fault {
+                Fault::Close(k) if at == Some(k) => return,
+                Fault::Garbage(k, text) if at == Some(k) => text.to_string(),
+                _ => line_of(&q),
+            };
+            if port.write_all(format!("{line}\r\n").as_bytes()).is_err() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    })
+}
+
+/// A BNO055 far end: acknowledges the mode writes, answers every quaternion read with the
+/// plant's orientation, until `done`; returns the requests.
+fn bno055(mut port: TTYPort, plant: Shared, done: Arc<AtomicBool>) -> JoinHandle<Vec<Vec<u8>>> {
+    std::thread::spawn(move || {
+        port.set_timeout(Duration::from_millis(20)).unwrap();
+        let (mut requests, mut got, start) = (Vec::new(), Vec::new(), Instant::now());
+        let mut buf = [0u8; 64];
+        loop {
+            assert!(start.elapsed() < GUARD, "the BNO055 never told to stop");
+            match port.read(&mut buf) {
+                Ok(n) => got.extend_from_slice(&buf[..n]),
+                Err(_) if done.load(Ordering::SeqCst) => return requests,
+                Err(_) => continue,
+            }
+            let need = if got.get(1) == Some(&0x00) { 5 } else { 4 };
+            if got.len() < need {
+                continue;
+            }
+            let req: Vec<u8> = got.drain(..need).collect();
+            let reply = if req[1] == 0x00 {
+                vec![0xEE, 0x01]
+            } else {
+                let q = plant.lock().unwrap().now();
+                let mut r = vec![0xBB, 0x08];
+                for c in [q.w, q.i, q.j, q.k] {
+                    r.extend(((c * 16384.0).round() as i16).to_le_bytes());
+                }
+                r
+            };
+            requests.push(req);
+            port.write_all(&reply).unwrap();
+        }
+    })
+}
+
+/// What one closed-loop replay gave.
+struct Ran {
+    result: Result<ClosedSummary, RelayError>,
+    text: String,
+    frames: [Vec<u8>; 2],
+    log: String,
+    /// The BNO055's requests (empty with quat-csv).
+    requests: Vec<Vec<u8>>,
+    sensor_path: String,
+}
+
+/// Runs the closed loop of `inputs` on two LCUS boards and a sensor of `format` whose plant
+/// follows `script`.
+fn run(inputs: &ClosedInputs, script: Script, format: SensorFormat, fault: Fault) -> Ran {
+    let plant: Shared = Arc::new(Mutex::new(Plant {
+        script,
+        on: BTreeSet::new(),
+        at: None,
+    }));
+    let done = Arc::new(AtomicBool::new(false));
+    let (b0, c0) = pty();
+    let (b1, c1) = pty();
+    let (s_far, s_near) = pty();
+    let boards = [
+        board(b0, 0, plant.clone(), done.clone()),
+        board(b1, 1, plant.clone(), done.clone()),
+    ];
+    let sensor_path = path_of(&s_near);
+    let (far_q, far_b) = match format {
+        SensorFormat::QuatCsv => (
+            Some(printer(s_far, plant.clone(), fault, done.clone())),
+            None,
+        ),
+        SensorFormat::Bno055 => (None, Some(bno055(s_far, plant.clone(), done.clone()))),
+    };
+    let near = Box::new(s_near.try_clone_native().unwrap());
+    let timeout = Duration::from_millis(500);
+    let sensor = sensor::from_port(format, near, &sensor_path, timeout).unwrap();
+    let link = |c: &TTYPort| {
+        let port = Box::new(c.try_clone_native().unwrap());
+        Link::from_port(port, &path_of(c), Duration::from_secs(5))
+    };
+    let mut out = Vec::new();
+    let stop = Arc::new(AtomicBool::new(false));
+    let result = execute(inputs, vec![link(&c0), link(&c1)], sensor, stop, &mut out);
+    done.store(true, Ordering::SeqCst);
+    let frames = boards.map(|h| h.join().unwrap());
+    if let Some(h) = far_q {
+        h.join().unwrap();
+    }
+    let requests = far_b.map(|h| h.join().unwrap()).unwrap_or_default();
+    let log = std::fs::read_to_string(inputs.prep.drive.log.as_ref().unwrap()).unwrap();
+    Ran {
+        result,
+        text: String::from_utf8_lossy(&out).into_owned(),
+        frames,
+        log,
+        requests,
+        sensor_path,
+    }
+}
+
+/// The sets of a script.
+fn sets(script: &Script) -> Vec<BTreeSet<usize>> {
+    script.iter().map(|(s, _)| s.clone()).collect()
+}
+
+/// The log's sensor rows: (step, w, x, y, z).
+fn sensor_rows(log: &str) -> Vec<(usize, [f64; 4])> {
+    log.lines()
+        .filter(|l| l.split(',').nth(2) == Some("sensor"))
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            let q = [7, 8, 9, 10].map(|i| c[i].parse::<f64>().unwrap());
+            (c[1].parse().unwrap(), q)
+        })
+        .collect()
+}
+
+fn prepared(dir: &Path, format: SensorFormat) -> ClosedInputs {
+    let plan = plan_file(dir);
+    let so = SensorOptions::new("/dev/sensor-given-by-the-test", format);
+    prepare_closed(&options(dir, &plan), &so).unwrap()
+}
+
+/// The coils of a plan's rows.
+fn coils_of(inputs: &ClosedInputs) -> BTreeSet<usize> {
+    let rows = &inputs.open.rows;
+    rows.iter()
+        .flat_map(|r| r.active.iter().map(|p| p.coil.0))
+        .collect()
+}
+
+#[test]
+fn closed_loop_as_predicted_switches_the_plan_and_replans_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = prepared(dir.path(), SensorFormat::QuatCsv);
+    let (script, replans) = offline(&inputs, None);
+    assert_eq!(replans, 0);
+    assert_eq!(script.len(), inputs.open.rows.len());
+    let ran = run(&inputs, script.clone(), SensorFormat::QuatCsv, Fault::None);
+    let s = ran.result.unwrap_or_else(|e| panic!("{e}\n{}", ran.text));
+    assert_eq!((s.steps, s.replans), (script.len() - 1, 0));
+    assert!(s.distance_deg < 1e-6, "{s:?}");
+    assert_eq!(ran.frames, expected_frames(&sets(&script)), "{}", ran.text);
+    // the log: a sensor row per step with what the plant reported, no replan
+    let header = "t_s,step,action,coil,board,channel,bytes,qw,qx,qy,qz,goal_deg,raw";
+    assert!(ran.log.starts_with(&format!("{header}\n")), "{}", ran.log);
+    let rows = sensor_rows(&ran.log);
+    assert_eq!(rows.len(), script.len());
+    for (k, (step, q)) in rows.iter().enumerate() {
+        let e = script[k].1;
+        assert_eq!(*step, k);
+        assert_eq!(*q, [e.w, e.i, e.j, e.k], "step {k}");
+    }
+    assert!(ran
+        .log
+        .contains(&format!(",\"{}\"\n", line_of(&script[0].1))));
+    assert!(!ran.log.contains(",replan,"), "{}", ran.log);
+    assert!(ran.log.contains(",goal,"), "{}", ran.log);
+    assert!(
+        ran.text.starts_with("closed loop: quat-csv sensor on "),
+        "{}",
+        ran.text
+    );
+    assert!(ran.text.contains(" 0 sensor   ["), "{}", ran.text);
+    assert!(
+        ran.text.ends_with(&format!(
+            "closed loop done: at the goal after {} step(s), 0 replan(s); the last measurement 0.00 deg from the goal; all coils off\n",
+            script.len() - 1
+        )),
+        "{}",
+        ran.text
+    );
+}
+
+#[test]
+fn closed_loop_replans_when_the_measurement_strays() {
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = prepared(dir.path(), SensorFormat::QuatCsv);
+    let (script, replans) = offline(&inputs, Some(2));
+    assert!(replans >= 1);
+    // the new plan is not the old one's rest
+    let open: Vec<BTreeSet<usize>> = inputs
+        .open
+        .rows
+        .iter()
+        .map(|r| r.active.iter().map(|p| p.coil.0).collect())
+        .collect();
+    assert_ne!(sets(&script), open);
+    let ran = run(&inputs, script.clone(), SensorFormat::QuatCsv, Fault::None);
+    let s = ran.result.unwrap_or_else(|e| panic!("{e}\n{}", ran.text));
+    assert_eq!((s.steps, s.replans), (script.len() - 1, replans));
+    assert_eq!(ran.frames, expected_frames(&sets(&script)), "{}", ran.text);
+    let rows = sensor_rows(&ran.log);
+    assert_eq!(rows.len(), script.len());
+    let strayed = script[2].1;
+    assert_eq!(rows[2].1, [strayed.w, strayed.i, strayed.j, strayed.k]);
+    let replan_rows: Vec<&str> = ran.log.lines().filter(|l| l.contains(",replan,")).collect();
+    assert_eq!(replan_rows.len(), replans);
+    assert_eq!(replan_rows[0].split(',').nth(1), Some("2"), "{}", ran.log);
+    assert!(ran.text.contains(" 2 sensor   ["), "{}", ran.text);
+    assert!(ran.text.contains("4.00 deg from the plan"), "{}", ran.text);
+    assert!(ran.text.contains("    2 replan   "), "{}", ran.text);
+}
+
+#[test]
+fn closed_loop_refuses_a_replan_that_uses_an_unmapped_coil_before_switching_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let all = prepared(dir.path(), SensorFormat::QuatCsv);
+    let (script, _) = offline(&all, Some(2));
+    // map only the open plan's coils (where the laid map puts them)
+    let used = coils_of(&all);
+    let k = (3..script.len()).find(|&k| !script[k].0.is_subset(&used));
+    let k = k.expect("the replanned plan switches a coil the open plan does not use");
+    let map: String = used
+        .iter()
+        .map(|c| format!("{c} = \"{}:{}\"\n", c / 8, c % 8 + 1))
+        .collect();
+    let mut opts = options(dir.path(), &dir.path().join("plan.csv"));
+    let partial = dir.path().join("partial.toml");
+    std::fs::write(&partial, format!("{TWO_LCUS}[map]\n{map}")).unwrap();
+    opts.map = Some(partial);
+    let so = SensorOptions::new("/dev/sensor-given-by-the-test", SensorFormat::QuatCsv);
+    let inputs = prepare_closed(&opts, &so).unwrap();
+    let ran = run(&inputs, script.clone(), SensorFormat::QuatCsv, Fault::None);
+    let e = ran.result.as_ref().map(|_| ()).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!(
+            "the plan replanned after step 2 (replan 1) is refused before switching anything of it: plan step {k} uses coil "
+        )) && e.contains(", which no relay channel drives"),
+        "{e}"
+    );
+    assert!(
+        e.contains("; all coils switched off (closed loop: 2 step(s), 1 replan(s)"),
+        "{e}"
+    );
+    // steps 0..=2 switched, nothing of the new plan, then all off on both boards
+    assert_eq!(
+        ran.frames,
+        expected_frames(&sets(&script)[..3]),
+        "{}",
+        ran.text
+    );
+    assert!(!ran.log.contains(",replan,"), "{}", ran.log);
+}
+
+#[test]
+fn closed_loop_refuses_dry_run_and_bad_sensor_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = plan_file(dir.path());
+    let mut opts = options(dir.path(), &plan);
+    let so = SensorOptions::new("/dev/ttyACM0", SensorFormat::QuatCsv);
+    let err = |opts: &ReplayOptions, so: &SensorOptions| {
+        prepare_closed(opts, so).err().expect("refused").to_string()
+    };
+    opts.dry_run = true;
+    assert!(err(&opts, &so).starts_with("argument --dry-run: expected no --dry-run with --sensor"));
+    opts.dry_run = false;
+    opts.ports = vec!["/dev/ttyUSB0".into(), "/dev/ttyACM0".into()];
+    assert_eq!(
+        err(&opts, &so),
+        "argument --sensor: expected the sensor's own serial device, got /dev/ttyACM0, board 1's port"
+    );
+    opts.ports.clear();
+    let bad = SensorOptions {
+        timeout_ms: Some(0),
+        ..so.clone()
+    };
+    assert!(err(&opts, &bad).starts_with("argument --sensor-timeout-ms"));
+    let noisy = SensorOptions {
+        noise_deg: 90.0,
+        ..so
+    };
+    assert!(err(&opts, &noisy).contains("--sensor-noise-deg"));
+}
+
+#[test]
+fn closed_loop_on_a_bno055_reads_after_every_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = prepared(dir.path(), SensorFormat::Bno055);
+    let (script, _) = offline(&inputs, None);
+    let ran = run(&inputs, script.clone(), SensorFormat::Bno055, Fault::None);
+    let s = ran.result.unwrap_or_else(|e| panic!("{e}\n{}", ran.text));
+    assert_eq!((s.steps, s.replans), (script.len() - 1, 0));
+    assert!(s.distance_deg < 0.05, "{s:?}");
+    assert_eq!(ran.frames, expected_frames(&sets(&script)), "{}", ran.text);
+    let mut want = vec![
+        vec![0xAA, 0x00, 0x3D, 0x01, 0x00],
+        vec![0xAA, 0x00, 0x3D, 0x01, 0x0C],
+    ];
+    want.extend((0..script.len()).map(|_| vec![0xAA, 0x01, 0x20, 0x08]));
+    assert_eq!(ran.requests, want);
+    // the raw frames in the log, in hex
+    let rows: Vec<&str> = ran.log.lines().filter(|l| l.contains(",sensor,")).collect();
+    assert_eq!(rows.len(), script.len());
+    assert!(
+        rows.iter()
+            .all(|l| l.ends_with('"') && l.contains(",\"BB 08 ")),
+        "{}",
+        ran.log
+    );
+    assert!(
+        ran.text
+            .starts_with("closed loop: BNO055 (UART, NDOF mode) on "),
+        "{}",
+        ran.text
+    );
+}
+
+/// A fault at script entry 2: steps 0..=2 switched, then every coil off on both boards.
+fn faulty(fault: Fault) -> (Ran, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = prepared(dir.path(), SensorFormat::QuatCsv);
+    let (script, _) = offline(&inputs, None);
+    let ran = run(&inputs, script.clone(), SensorFormat::QuatCsv, fault);
+    let e = match &ran.result {
+        Ok(s) => panic!("the replay went on: {s:?}\n{}", ran.text),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        matches!(ran.result, Err(RelayError::LoopStopped { .. })),
+        "{e}"
+    );
+    assert_eq!(
+        ran.frames,
+        expected_frames(&sets(&script)[..3]),
+        "{}",
+        ran.text
+    );
+    assert_eq!(sensor_rows(&ran.log).len(), 2, "{}", ran.log);
+    assert!(
+        e.contains("; all coils switched off (closed loop: 2 step(s), 0 replan(s)"),
+        "{e}"
+    );
+    (ran, e)
+}
+
+#[test]
+fn closed_loop_sensor_closed_mid_run_switches_everything_off() {
+    let (ran, e) = faulty(Fault::Close(2));
+    let p = &ran.sensor_path;
+    assert!(
+        e.starts_with(&format!(
+            "sensor {p} (quat-csv): the sensor end closed the connection while reading"
+        )),
+        "{e}"
+    );
+}
+
+#[test]
+fn closed_loop_sensor_garbage_switches_everything_off() {
+    let (ran, e) = faulty(Fault::Garbage(2, "hello there"));
+    let p = &ran.sensor_path;
+    assert!(
+        e.starts_with(&format!(
+            "sensor {p} (quat-csv): garbage line 'hello there': "
+        )),
+        "{e}"
+    );
+}
