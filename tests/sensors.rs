@@ -597,12 +597,20 @@ fn bno055_far_end_closed_is_an_error_not_a_hang() {
     let t = Instant::now();
     let e = s.read().unwrap_err();
     assert!(t.elapsed() < Duration::from_secs(2), "{:?}", t.elapsed());
-    assert!(matches!(e, SensorError::Closed { .. }), "{e:?}");
-    assert!(
-        e.to_string()
-            .starts_with("sensor pty (bno055): the sensor end closed the connection while "),
-        "{e}"
-    );
+    // Closed, or (when the far end goes while the request's write is being drained) an Io
+    // error: serialport reports a failed drain as a bare "flush failed" without the OS error,
+    // which cannot be told from another failure. Either way an error at once, named.
+    match &e {
+        SensorError::Closed { .. } => assert!(
+            e.to_string()
+                .starts_with("sensor pty (bno055): the sensor end closed the connection while "),
+            "{e}"
+        ),
+        SensorError::Io { .. } => {
+            assert!(e.to_string().starts_with("sensor pty (bno055): "), "{e}")
+        }
+        _ => panic!("expected Closed or Io, got {e:?}"),
+    }
     let t = Instant::now();
     let e = s.read().unwrap_err();
     assert!(t.elapsed() < Duration::from_secs(2), "{:?}", t.elapsed());
