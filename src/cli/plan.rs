@@ -8,11 +8,9 @@ use spherestep::io::scenario::Scenario;
 use std::io::Write;
 use std::path::PathBuf;
 
-/// The arguments of `spherestep plan`.
+/// What to plan: the options `plan` and `run` share, each overriding the scenario's `[plan]`.
 #[derive(clap::Args)]
-pub struct Args {
-    /// Scenario file (TOML); its [plan] section gives defaults for the options below.
-    pub scenario: PathBuf,
+pub struct PlanArgs {
     /// Desired rotation axis x,y,z (world frame).
     #[arg(long, allow_hyphen_values = true)]
     pub axis: Option<String>,
@@ -35,6 +33,29 @@ pub struct Args {
     /// Start orientation qx,qy,qz,qw (default: the scenario's, else identity).
     #[arg(long, allow_hyphen_values = true)]
     pub from: Option<String>,
+}
+
+impl PlanArgs {
+    /// The overrides of the scenario's plan settings.
+    pub fn overrides(self) -> app::PlanOverrides {
+        app::PlanOverrides {
+            axis: self.axis,
+            angle_deg: self.angle,
+            scheme: self.scheme,
+            model: self.model,
+            pairs: self.pairs,
+            from: self.from,
+        }
+    }
+}
+
+/// The arguments of `spherestep plan`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scenario file (TOML); its [plan] section gives defaults for the options below.
+    pub scenario: PathBuf,
+    #[command(flatten)]
+    pub what: PlanArgs,
     #[command(flatten)]
     pub output: CsvOutput,
 }
@@ -43,26 +64,14 @@ impl Args {
     pub fn run(self, out: &mut dyn Write) -> Result<()> {
         let Args {
             scenario,
-            axis,
-            angle,
-            scheme,
-            model,
-            pairs,
-            from,
+            what,
             output: CsvOutput {
                 out: out_file,
                 json,
             },
         } = self;
         let sc = Scenario::load(&scenario)?;
-        let o = app::PlanOverrides {
-            axis,
-            angle_deg: angle,
-            scheme,
-            model,
-            pairs,
-            from,
-        };
+        let o = what.overrides();
         let settings = app::plan_settings(&sc, &o)?;
         let p = app::plan_command(
             &sc,

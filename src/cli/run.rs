@@ -17,24 +17,8 @@ pub struct Args {
     /// The plant: the scenario whose physics the ball obeys (its packings must be the same).
     #[arg(long)]
     pub plant: PathBuf,
-    /// Desired rotation axis x,y,z (world frame).
-    #[arg(long, allow_hyphen_values = true)]
-    pub axis: Option<String>,
-    /// Target rotation angle, degrees.
-    #[arg(long)]
-    pub angle: Option<f64>,
-    /// min-axis-error, max-angle, weighted or search.
-    #[arg(long)]
-    pub scheme: Option<String>,
-    /// Step model: pivot, dynamic or coils (default: as `plan`).
-    #[arg(long)]
-    pub model: Option<String>,
-    /// Pairs (or coils) on after each step: K or 2-K.
-    #[arg(long)]
-    pub pairs: Option<String>,
-    /// Start orientation qx,qy,qz,qw.
-    #[arg(long, allow_hyphen_values = true)]
-    pub from: Option<String>,
+    #[command(flatten)]
+    pub what: super::plan::PlanArgs,
     #[command(flatten)]
     pub looping: LoopArgs,
     #[command(flatten)]
@@ -45,14 +29,7 @@ impl Args {
     pub fn run(self, out: &mut dyn Write) -> Result<()> {
         let sc = Scenario::load(&self.scenario)?;
         let plant = Scenario::load(&self.plant)?;
-        let o = app::PlanOverrides {
-            axis: self.axis,
-            angle_deg: self.angle,
-            scheme: self.scheme,
-            model: self.model,
-            pairs: self.pairs,
-            from: self.from,
-        };
+        let o = self.what.overrides();
         let settings = app::plan_settings(&sc, &o)?;
         let mut stderr = std::io::stderr();
         let s = run_command(
