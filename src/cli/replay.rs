@@ -32,7 +32,8 @@ pub struct Args {
     /// realtime (switch, wait the dwell) or step (wait for Enter; q quits).
     #[arg(long, default_value = "realtime")]
     pub mode: Mode,
-    /// Fixed dwell per step, ms (default: settle time x relay.dwell_factor, at least the floor).
+    /// Fixed dwell per step, ms, used as given (default: settle time x relay.dwell_factor, at
+    /// least relay.dwell_floor_ms).
     #[arg(long)]
     pub dwell_ms: Option<u64>,
     /// First step to replay (the step before is re-energised first to hold the ball).

@@ -31,7 +31,7 @@ pub struct ReplayOptions {
     /// Overrides `relay.baud` (single board only).
     pub baud: Option<u32>,
     pub mode: Mode,
-    /// A fixed dwell for every step instead of settle time x factor (at least the floor).
+    /// A fixed dwell for every step instead of settle time x factor (used as given: the floor is for the derived dwells).
     pub dwell_ms: Option<u64>,
     /// First step to replay; the step before is re-energised first to hold the ball.
     pub from_step: usize,

@@ -86,7 +86,7 @@ pub struct Schedule {
     pub entries: Vec<Entry>,
 }
 
-/// The dwell of a plan row: the override, or settle time x factor, at least the floor.
+/// The dwell of a plan row: the override as given, or settle time x factor, at least the floor.
 pub fn dwell(
     row: &PlanRow,
     settings: &RelaySettings,
@@ -416,7 +416,7 @@ pub struct Drive {
     /// (overriding their `port`); empty when not given.
     pub ports: Vec<String>,
     pub mode: Mode,
-    /// A fixed dwell for every step instead of settle time x factor (at least the floor).
+    /// A fixed dwell for every step instead of settle time x factor (used as given: the floor is for the derived dwells).
     pub dwell_ms: Option<u64>,
     /// First step to replay; the step before is re-energised first to hold the ball.
     pub from_step: usize,
