@@ -205,3 +205,35 @@ fn the_command_line_refuses_what_it_cannot_do() {
         .unwrap()
         .starts_with("step,active,replanned,planned_qx"));
 }
+
+#[test]
+fn a_run_csv_is_drawn_by_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("run.csv");
+    std::fs::write(&csv, play(WORN, "0,0,1", true, 1.0, 2).0).unwrap();
+    let (code, stdout, stderr) = run(&["plot", csv.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("run.svg") && stdout.contains("run.png"),
+        "{stdout}"
+    );
+    let svg = std::fs::read_to_string(dir.path().join("run.svg")).unwrap();
+    for needle in [
+        "distance to the goal by step: run",
+        "replanned after this step",
+        "deg from the goal",
+    ] {
+        assert!(svg.contains(needle), "{needle}");
+    }
+    // a damaged file names the line and the column
+    let text = std::fs::read_to_string(&csv)
+        .unwrap()
+        .replacen(",false,", ",maybe,", 1);
+    std::fs::write(&csv, text).unwrap();
+    let (code, _, stderr) = run(&["plot", csv.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains("line 2") && stderr.contains("replanned"),
+        "{stderr}"
+    );
+}

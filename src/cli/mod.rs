@@ -93,7 +93,7 @@ enum Command {
     Replay(replay::Args),
     /// Write one self-contained HTML page showing a plan in 3-D (opens from disk, no network).
     View(view::Args),
-    /// Draw an existing result CSV (plan or sweep, told by its header) as SVG and PNG.
+    /// Draw an existing result CSV (plan, sweep or run, told by its header) as SVG and PNG.
     Plot(plot::Args),
     /// Regenerate the built-in prototype's coordinate files from their generators.
     Prototype(prototype::Args),

@@ -1,4 +1,4 @@
-//! `spherestep plot`: draws a plan or sweep CSV as SVG and PNG.
+//! `spherestep plot`: draws a plan, sweep or run CSV as SVG and PNG.
 
 use anyhow::Result;
 use std::io::Write;

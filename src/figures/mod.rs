@@ -13,6 +13,8 @@
 //!   bound as a reference line;
 //! - [`sweep_map`]: a value (e.g. the worst axis error of a 90 degree move) for each axis of a
 //!   sweep, on a longitude/latitude map of the sphere of axes;
+//! - [`loop_plot`]: a run on a plant (open or closed loop): the distance to the goal by step,
+//!   the replans marked;
 //! - [`plot_csv`]: `spherestep plot`, the figure that suits an existing result CSV, with
 //!   [`sweep_csv`] reading a sweep CSV's points;
 //! - [`view`]: `spherestep view`, the interactive 3-D page of a plan;
@@ -34,6 +36,7 @@ mod chart;
 pub mod commutation_plot;
 pub mod figure;
 pub mod labels;
+pub mod loop_plot;
 pub mod plot_csv;
 pub mod style;
 pub mod sweep_csv;
@@ -46,6 +49,7 @@ pub use axis_error::{plan_series, AxisErrorPlot, ErrorSeries, ReferenceLine};
 pub use commutation_plot::CommutationPlot;
 pub use figure::{render_svg, write_figure, DrawError, Figure};
 pub use labels::{label_size, place_labels};
+pub use loop_plot::LoopPlot;
 pub use plot_csv::{plot_csv, plot_csv_with_coils};
 pub use style::{series_style, Marker, SeriesStyle, SERIES_COLORS};
 pub use sweep_csv::{

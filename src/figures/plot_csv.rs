@@ -1,22 +1,25 @@
 //! `spherestep plot` ([`plot_csv`]): the figure that suits an existing result CSV, told by its
-//! header: a plan's axis error curve, or a sweep's maps (one per scheme, and one of the pivot
-//! model's floor when the sweep has that column).
+//! header: a plan's axis error curve, a sweep's maps (one per scheme, and one of the pivot
+//! model's floor when the sweep has that column), or a run's distance to the goal by step.
 
 use crate::error::{Error, Result};
 use crate::figures::axis_error::{plan_series, AxisErrorPlot};
 use crate::figures::figure::write_figure;
+use crate::figures::loop_plot::LoopPlot;
 use crate::figures::sweep_csv::{
     parse_sweep, parse_sweep_column, parse_unreached, SweepPoints, FLOOR_COLUMN, SWEEP_COLUMNS,
 };
 use crate::figures::sweep_map::{value_range, SweepMap};
-use crate::io::planfile;
+use crate::io::{loopfile, planfile};
 use std::path::{Path, PathBuf};
 
 /// Draws an existing result CSV (for `spherestep plot`), recognised by its header:
 /// - a plan CSV (the columns of [`planfile::HEADER`]): a Figure 7-style plot of its cumulative
 ///   axis error against rotation angle, written as `STEM.svg` and `STEM.png`;
 /// - a sweep CSV (the columns [`SWEEP_COLUMNS`], optionally `scheme`): one map of the worst
-///   axis error per scheme, `STEM_SCHEME.svg/.png` (or `STEM.svg/.png` without `scheme`).
+///   axis error per scheme, `STEM_SCHEME.svg/.png` (or `STEM.svg/.png` without `scheme`);
+/// - a run CSV (`spherestep run`, `simulate --closed-loop`: the columns of
+///   [`loopfile::HEADER`]): the distance to the goal by step, `STEM.svg/.png`.
 ///
 /// STEM is the CSV's file stem; the pictures go to `out_dir` (created if missing), by default
 /// next to the CSV. Returns the files written.
@@ -48,6 +51,7 @@ pub fn plot_csv_with_coils(
     std::fs::create_dir_all(&csv.dir).map_err(|e| Error::io(&csv.dir, e))?;
     match kind {
         Kind::Plan => csv.plan_figure(title),
+        Kind::Loop => csv.loop_figure(title),
         Kind::Sweep => {
             let groups = parse_sweep(&text, csv_path)?;
             // One colour scale for all the maps, so that they can be compared.
@@ -65,6 +69,7 @@ pub fn plot_csv_with_coils(
 enum Kind {
     Plan,
     Sweep,
+    Loop,
 }
 
 /// A result CSV being drawn: where it is, its text, its file stem, where its pictures go and
@@ -118,6 +123,9 @@ fn csv_kind(header: &[String], csv_path: &Path) -> Result<Kind> {
     if SWEEP_COLUMNS.iter().all(|c| has(c)) {
         return Ok(Kind::Sweep);
     }
+    if loopfile::HEADER.iter().all(|c| has(c)) {
+        return Ok(Kind::Loop);
+    }
     let found = if header.iter().all(|h| h.is_empty()) {
         "no columns".to_string()
     } else {
@@ -126,10 +134,12 @@ fn csv_kind(header: &[String], csv_path: &Path) -> Result<Kind> {
     Err(Error::Parse {
         file: csv_path.to_path_buf(),
         message: format!(
-            "not a plan or sweep CSV (found {found}); expected a plan CSV with the columns {} \
-             or a sweep CSV with the columns {} (and optionally scheme)",
+            "not a plan, sweep or run CSV (found {found}); expected a plan CSV with the \
+             columns {}, a sweep CSV with the columns {} (and optionally scheme), or a run CSV \
+             with the columns {}",
             planfile::HEADER.join(", "),
-            SWEEP_COLUMNS.join(", ")
+            SWEEP_COLUMNS.join(", "),
+            loopfile::HEADER.join(", ")
         ),
     })
 }
@@ -150,6 +160,17 @@ impl ResultCsv<'_> {
             series: vec![plan_series(&self.stem, &rows)],
             reference: None,
             target_deg: None,
+        };
+        write_figure(&fig, &self.dir.join(&self.stem))
+    }
+
+    /// A run's distance to the goal by step, `STEM.svg/.png`.
+    fn loop_figure(&self, title: Option<&str>) -> Result<Vec<PathBuf>> {
+        let fig = LoopPlot {
+            title: title
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("distance to the goal by step: {}", self.stem)),
+            rows: loopfile::parse_loop(self.text, self.path)?,
         };
         write_figure(&fig, &self.dir.join(&self.stem))
     }

@@ -3,10 +3,11 @@
 //! and the distance to the goal, and whether the rest was replanned.
 
 use crate::error::Result;
-use crate::io::table::write_csv;
+use crate::io::table::{write_csv, Table};
 use crate::model::geometry::{pairs_text, xyzw};
 use crate::planning::closed_loop::LoopRow;
 use std::io::Write;
+use std::path::Path;
 
 /// The header of a closed-loop results file.
 pub const HEADER: [&str; 20] = [
@@ -58,4 +59,37 @@ pub fn write_loop(rows: &[LoopRow], out: &mut dyn Write) -> Result<()> {
         &HEADER,
         rows.iter().map(record),
     )
+}
+
+/// What a run file's pictures need, read back: per row the step, the true distance to the goal
+/// and cumulative angle (degrees) and whether it was replanned after.
+pub fn parse_loop(text: &str, path: &Path) -> Result<Vec<(usize, f64, f64, bool)>> {
+    let t = Table::parse(text, path)?;
+    t.require_rows("step")?;
+    let hint = " (a file written by `spherestep run` or `simulate --closed-loop`)";
+    let cols = [
+        t.require("step", hint)?,
+        t.require("error_to_goal_deg", hint)?,
+        t.require("cum_angle_deg", hint)?,
+        t.require("replanned", hint)?,
+    ];
+    t.rows()
+        .map(|r| {
+            let replanned = match r.get(cols[3]) {
+                "true" => true,
+                "false" => false,
+                other => {
+                    return Err(r.error(format!(
+                        "column `replanned`: expected true or false, got '{other}'"
+                    )))
+                }
+            };
+            Ok((
+                r.step(cols[0])?,
+                r.finite(cols[1], "error_to_goal_deg")?,
+                r.finite(cols[2], "cum_angle_deg")?,
+                replanned,
+            ))
+        })
+        .collect()
 }
