@@ -7,9 +7,9 @@ use crate::io::loopfile::write_loop;
 use crate::io::output::emit_csv;
 use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
-use crate::model::geometry::Radians;
+use crate::model::geometry::{Orientation, Radians};
 use crate::planning::closed_loop::{goal_of, run_closed_loop, target_of, LoopRun, LoopSettings};
-use crate::planning::plan::{Plan, PlanSettings};
+use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::planner::plan;
 use serde::Serialize;
 use std::io::Write;
@@ -109,28 +109,48 @@ pub fn simulate_closed_loop(
     report: Report,
 ) -> Result<RunSummary> {
     sc.check_same_packings(plant, "--plant")?;
-    let rows = read_plan(plan_path)?;
-    for r in &rows {
-        sc.check_active(&r.active, "active")?;
-    }
+    let f = plan_file_loop(sc, settings, read_plan(plan_path)?, plan_path)?;
+    play(sc, plant, &f.settings, &f.plan, f.goal, o, report)
+}
+
+/// A plan file as the closed loop plays it: its pairs checked against the scenario, the
+/// planning `settings` aimed at its own target (the rotation from its row 0 to its last row),
+/// and its last orientation the goal.
+pub struct PlanFileLoop {
+    pub settings: PlanSettings,
+    pub plan: Plan,
+    pub goal: Orientation,
+}
+
+/// The [`PlanFileLoop`] of the plan `rows` read from `plan_path`, played in `sc`.
+pub fn plan_file_loop(
+    sc: &Scenario,
+    settings: &PlanSettings,
+    rows: Vec<PlanRow>,
+    plan_path: &Path,
+) -> Result<PlanFileLoop> {
+    super::check_plan_pairs(sc, &rows, plan_path)?;
     let (axis, angle) = target_of(&rows).ok_or_else(|| Error::Parse {
         file: plan_path.to_path_buf(),
         message: "expected a plan that turns the ball (its last row is where its first is)".into(),
     })?;
-    let s = PlanSettings {
+    let settings = PlanSettings {
         axis,
         angle,
         start: rows[0].q,
         ..settings.clone()
     };
     let goal = rows[rows.len() - 1].q;
-    let p = Plan {
-        rows,
-        reached: true,
-        message: None,
-        settles: 0,
-    };
-    play(sc, plant, &s, &p, goal, o, report)
+    Ok(PlanFileLoop {
+        settings,
+        plan: Plan {
+            rows,
+            reached: true,
+            message: None,
+            settles: 0,
+        },
+        goal,
+    })
 }
 
 fn no_start(path: &Path) -> Error {
@@ -146,7 +166,7 @@ fn play(
     plant: &Scenario,
     s: &PlanSettings,
     p: &Plan,
-    goal: crate::model::geometry::Orientation,
+    goal: Orientation,
     o: &LoopOptions,
     report: Report,
 ) -> Result<RunSummary> {

@@ -4,12 +4,12 @@
 //! the plan file's own target, its last row the goal), opens the sensor and then the boards,
 //! and hands them to the relay layer (`crate::relay::closed`).
 
-use super::closed_loop::{loop_settings, LoopOptions};
+use super::closed_loop::{loop_settings, plan_file_loop, LoopOptions};
 use super::replay::{inputs, ReplayOptions};
 use crate::error::Error;
 use crate::io::scenario::Scenario;
 use crate::model::geometry::Orientation;
-use crate::planning::closed_loop::{target_of, Controller, LoopSettings};
+use crate::planning::closed_loop::{Controller, LoopSettings};
 use crate::planning::plan::{Plan, PlanSettings};
 use crate::relay::closed::{execute_closed, refuse_options, ClosedSummary, Sensing};
 use crate::relay::replay::{open_ports, Prepared};
@@ -82,28 +82,16 @@ pub fn prepare_closed(
     refuse_options(&opts.drive(), opts.dry_run)?;
     check_sensor_options(so)?;
     let (rows, scenario, relay) = inputs(opts)?;
-    for r in &rows {
-        scenario.check_active(&r.active, "active")?;
-    }
-    let (axis, angle) = target_of(&rows).ok_or_else(|| Error::Parse {
-        file: opts.plan.clone(),
-        message: "expected a plan that turns the ball (its last row is where its first is)".into(),
-    })?;
-    let settings = PlanSettings {
-        axis,
-        angle,
-        start: rows[0].q,
-        ..scenario.plan.clone()
-    };
-    let goal = rows[rows.len() - 1].q;
+    let f = plan_file_loop(&scenario, &scenario.plan, rows, &opts.plan)?;
     let o = LoopOptions {
         closed: true,
         noise_deg: so.noise_deg,
         seed: 0,
         max_steps: so.max_steps,
     };
+    let rows = &f.plan.rows;
     let cl = loop_settings(&o, rows.len() - 1)?;
-    let prep = crate::relay::replay::prepare(&rows, relay, scenario.stator.len(), opts.drive())?;
+    let prep = crate::relay::replay::prepare(rows, relay, scenario.stator.len(), opts.drive())?;
     if let Some(i) = prep
         .boards
         .iter()
@@ -117,18 +105,12 @@ pub fn prepare_closed(
             ),
         });
     }
-    let open = Plan {
-        rows,
-        reached: true,
-        message: None,
-        settles: 0,
-    };
     Ok(ClosedInputs {
         prep,
         scenario,
-        settings,
-        open,
-        goal,
+        settings: f.settings,
+        open: f.plan,
+        goal: f.goal,
         cl,
     })
 }

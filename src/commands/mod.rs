@@ -19,6 +19,7 @@ use crate::model::geometry::{parse_pairs, xyzw, Orientation, Pair};
 use crate::model::packing::{self, points_csv};
 use crate::physics::dynamics::{settle, settle_many, SettleResult};
 use crate::planning::commutation::{pair_gap, StepModel};
+use crate::planning::plan::PlanRow;
 use crate::planning::planner::{plan, target_angle, Plan, PlanSettings, Scheme};
 use crate::planning::simulate::{simulate, SimRow};
 use std::io::Write;
@@ -390,6 +391,20 @@ pub fn simulate_plan(sc: &Scenario, plan_path: &Path) -> Result<Vec<SimRow>> {
     simulate_plan_in(sc, None, plan_path)
 }
 
+/// Checks the pairs of a plan read from `plan_path` against the scenario it is played in: an
+/// error names the plan's line and the scenario.
+pub fn check_plan_pairs(sc: &Scenario, rows: &[PlanRow], plan_path: &Path) -> Result<()> {
+    for (k, r) in rows.iter().enumerate() {
+        sc.check_active(&r.active, "active")
+            .map_err(|e| Error::Row {
+                file: plan_path.to_path_buf(),
+                line: k + 2,
+                message: format!("{e} (in scenario {})", sc.path.display()),
+            })?;
+    }
+    Ok(())
+}
+
 /// Reads the plan at `plan_path` made for `sc`, checks its pairs against it and replays it in
 /// the physics of `plant` (`spherestep simulate --plant`: the model error of a plan made for
 /// one physics and run on another), or of `sc` itself. A plant with other packings than the
@@ -400,14 +415,7 @@ pub fn simulate_plan_in(
     plan_path: &Path,
 ) -> Result<Vec<SimRow>> {
     let rows = read_plan(plan_path)?;
-    for (k, r) in rows.iter().enumerate() {
-        sc.check_active(&r.active, "active")
-            .map_err(|e| Error::Row {
-                file: plan_path.to_path_buf(),
-                line: k + 2,
-                message: format!("{e} (in scenario {})", sc.path.display()),
-            })?;
-    }
+    check_plan_pairs(sc, &rows, plan_path)?;
     let physics = match plant {
         Some(p) => {
             sc.check_same_packings(p, "--plant")?;
