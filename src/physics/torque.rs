@@ -311,10 +311,30 @@ impl Well {
         }
     }
 
+    /// Torque of one coil at `s` on one magnet at `p` (both in the same frame; the torque is
+    /// in that frame). A magnet whose cosine is below `cos_cutoff` (the cosine of the maximum
+    /// attraction distance, or -2 for no early test) is rejected before any trigonometry.
+    #[inline]
+    pub(crate) fn pair_torque(
+        &self,
+        p: &Vector3<f64>,
+        s: &Vector3<f64>,
+        cos_cutoff: f64,
+    ) -> Vector3<f64> {
+        let c = p.dot(s);
+        if c < cos_cutoff {
+            return Vector3::zeros();
+        }
+        let x = p.cross(s);
+        let sin_d = x.norm();
+        let d = angle_from_sin_cos(sin_d, c);
+        x * self.g_over_sin(d, sin_d)
+    }
+
     /// The torque (N m) one energised coil exerts on one magnet `d` radians from it, about the
-    /// axis that turns the magnet towards the coil (positive: a pull), through the model's own
-    /// 3-D torque: what a bench measures as a magnet passes a coil, and what a `table` well
-    /// reads back. 0 at d = 0, where the pull has no direction.
+    /// axis that turns the magnet towards the coil (positive: a pull), through the pair torque
+    /// the model sums in every evaluation: what a bench measures as a magnet passes a coil,
+    /// and what a `table` well reads back. 0 at d = 0, where the pull has no direction.
     pub fn passing_torque(&self, d: f64) -> f64 {
         let s = Vector3::new(0.0, 0.0, -1.0);
         // the magnet d from the coil in the x-z plane; the pull turns it about p x s (+y)
@@ -324,14 +344,7 @@ impl Well {
         if n == 0.0 {
             return 0.0;
         }
-        let one = MagnetTorques {
-            rotor: vec![p],
-            stator: vec![s],
-            well: self.clone(),
-            interaction: Interaction::Pairs,
-        };
-        one.torque(&Matrix3::identity(), &[Pair::new(0, 0)])
-            .dot(&(pull / n))
+        self.pair_torque(&p, &s, -2.0).dot(&(pull / n))
     }
 
     /// Stiffness dg/dd at d = 0 (N m / rad): how hard a single aligned pair holds.
@@ -359,6 +372,16 @@ fn dipole_f_and_slope(w: &DipoleWell, d: f64, sin_d: f64) -> (f64, f64) {
         return (f0, 2.0 * (f(NEAR_ZERO) - k) / (NEAR_ZERO * NEAR_ZERO));
     }
     (f(d), (f(d + H) - f(d - H)) / (2.0 * H) / sin_d)
+}
+
+/// The cosine below which a point is more than `angle` away (-2, no point, where `angle`
+/// passes the antipode).
+fn cos_within(angle: f64) -> f64 {
+    if angle < std::f64::consts::PI {
+        angle.cos()
+    } else {
+        -2.0
+    }
 }
 
 /// The angle in [0, pi] whose sine and cosine are `sin_d` >= 0 and `cos_d`: atan(sin/cos)
@@ -391,21 +414,6 @@ impl MagnetTorques {
         let sin_d = x.norm();
         let d = angle_from_sin_cos(sin_d, p.dot(s));
         (x * self.well.g_over_sin(d, sin_d), self.well.potential(d))
-    }
-
-    /// Torque of one coil at `s` on one magnet at `p` (both in the same frame; the torque is
-    /// in that frame). A magnet whose cosine is below `cos_cutoff` (the cosine of the maximum
-    /// attraction distance, or -2 for no early test) is rejected before any trigonometry.
-    #[inline]
-    fn pair_torque(&self, p: &Vector3<f64>, s: &Vector3<f64>, cos_cutoff: f64) -> Vector3<f64> {
-        let c = p.dot(s);
-        if c < cos_cutoff {
-            return Vector3::zeros();
-        }
-        let x = p.cross(s);
-        let sin_d = x.norm();
-        let d = angle_from_sin_cos(sin_d, c);
-        x * self.well.g_over_sin(d, sin_d)
     }
 
     /// Adds one pair's body-frame torque and its derivative to `lin` (coil `s` and magnet `p`
@@ -443,12 +451,7 @@ impl MagnetTorques {
 
     /// The cosine of the cut-off plus [`MARGIN_CAP`] (-2 where that passes the antipode).
     fn cos_far(&self) -> f64 {
-        let far = self.well.max_attraction.0 + MARGIN_CAP;
-        if far < std::f64::consts::PI {
-            far.cos()
-        } else {
-            -2.0
-        }
+        cos_within(self.well.max_attraction.0 + MARGIN_CAP)
     }
 
     /// An empty linearization (the margin at its cap).
@@ -510,7 +513,7 @@ impl TorqueModel for MagnetTorques {
                 // a few pairs: the well's own cut-off test is cheaper than a cosine per call
                 for pr in active {
                     let s = r.tr_mul(&self.stator[pr.coil.0]);
-                    tau += self.pair_torque(&self.rotor[pr.magnet.0], &s, -2.0);
+                    tau += self.well.pair_torque(&self.rotor[pr.magnet.0], &s, -2.0);
                 }
             }
             Interaction::Coils => {
@@ -518,7 +521,7 @@ impl TorqueModel for MagnetTorques {
                 for c in Self::coils(active) {
                     let s = r.tr_mul(&self.stator[c]);
                     for m in &self.rotor {
-                        tau += self.pair_torque(m, &s, cos_cutoff);
+                        tau += self.well.pair_torque(m, &s, cos_cutoff);
                     }
                 }
             }
@@ -582,12 +585,7 @@ pub struct NearbyMagnets<'a> {
 
 impl<'a> NearbyMagnets<'a> {
     fn new(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &[Pair]) -> Self {
-        let reach = full.well.max_attraction.0 + NEAR_SKIN + MARGIN_CAP;
-        let cos_list = if reach < std::f64::consts::PI {
-            reach.cos()
-        } else {
-            -2.0
-        };
+        let cos_list = cos_within(full.well.max_attraction.0 + NEAR_SKIN + MARGIN_CAP);
         let (mut coils, mut magnets, mut starts) = (Vec::new(), Vec::new(), vec![0]);
         for c in MagnetTorques::coils(active) {
             let s = r0.tr_mul(&full.stator[c]);
@@ -641,7 +639,7 @@ impl TorqueModel for NearbyMagnets<'_> {
         for k in 0..self.coils.len() {
             let (s, magnets) = self.coil(k, r);
             for m in magnets {
-                tau += self.full.pair_torque(m, &s, cos_cutoff);
+                tau += self.full.well.pair_torque(m, &s, cos_cutoff);
             }
         }
         tau
@@ -793,19 +791,6 @@ mod tests {
         assert!(m.stiffness_scale().is_none());
     }
 
-    /// `n` points spread over the sphere (a Fibonacci lattice).
-    fn sphere_points(n: usize) -> Vec<Vector3<f64>> {
-        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-        (0..n)
-            .map(|k| {
-                let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
-                let rho = (1.0 - z * z).sqrt();
-                let phi = golden * k as f64;
-                Vector3::new(rho * phi.cos(), rho * phi.sin(), z)
-            })
-            .collect()
-    }
-
     #[test]
     fn nearby_magnets_give_the_whole_models_torques_to_the_bit() {
         let stator = vec![
@@ -817,7 +802,10 @@ mod tests {
         let r0 = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -0.2, 0.5));
         for w in wells() {
             let m = MagnetTorques {
-                rotor: sphere_points(200),
+                rotor: crate::io::scenario::sphere_axes(200)
+                    .iter()
+                    .map(|a| a.into_inner())
+                    .collect(),
                 stator: stator.clone(),
                 well: w,
                 interaction: Interaction::Coils,
@@ -855,7 +843,10 @@ mod tests {
         }
         // the pairs interaction has nothing to gain
         let m = MagnetTorques {
-            rotor: sphere_points(20),
+            rotor: crate::io::scenario::sphere_axes(20)
+                .iter()
+                .map(|a| a.into_inner())
+                .collect(),
             stator,
             well: wells().remove(0),
             interaction: Interaction::Pairs,
