@@ -207,9 +207,7 @@ fn attempts_suffix(attempts: u32) -> String {
 }
 
 /// Bytes as upper-case hex pairs separated by spaces: `AA 01 20 08`.
-pub fn hex(bytes: &[u8]) -> String {
-    crate::relay::hex(bytes)
-}
+pub use crate::relay::hex;
 
 /// The sensor and port a driver reports its errors with.
 #[derive(Debug, Clone)]
@@ -288,18 +286,12 @@ pub fn open(
     baud: u32,
     timeout: Duration,
 ) -> Result<Box<dyn OrientationSensor>, SensorError> {
-    let port = serialport::new(path, baud)
-        .timeout(POLL_INTERVAL.min(timeout).max(Duration::from_millis(5)))
-        .data_bits(serialport::DataBits::Eight)
-        .parity(serialport::Parity::None)
-        .stop_bits(serialport::StopBits::One)
-        .flow_control(serialport::FlowControl::None)
-        .open()
-        .map_err(|e| SensorError::Open {
-            sensor: format,
-            port: path.to_string(),
-            message: e.to_string(),
-        })?;
+    let poll = POLL_INTERVAL.min(timeout).max(Duration::from_millis(5));
+    let port = crate::relay::link::open_8n1(path, baud, poll).map_err(|e| SensorError::Open {
+        sensor: format,
+        port: path.to_string(),
+        message: e.to_string(),
+    })?;
     from_port(format, Box::new(port), path, timeout)
 }
 
