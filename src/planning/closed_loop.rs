@@ -8,10 +8,12 @@
 use crate::model::geometry::{rot_q, rotation_angle, rotation_axis, Orientation};
 use crate::model::geometry::{Pair, Radians, UnitVec};
 use crate::physics::dynamics::settle;
-use crate::planning::coilsets::label;
+use crate::planning::coilsets::{coils_of, label};
 use crate::planning::commutation::{cumulative, CommutationState, Motor};
+use crate::planning::identify::{Identifier, Observation};
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::planner::plan_from;
+use crate::planning::seek::{self, Seek};
 use nalgebra::Vector3;
 use serde::Serialize;
 
@@ -31,6 +33,9 @@ pub struct LoopSettings {
     pub goal_tolerance: Radians,
     /// Give up after this many steps.
     pub max_steps: usize,
+    /// Fit the wells to the measured steps ([`crate::planning::identify`]) and, once the
+    /// model's own predictions are off by more than `replan_beyond`, steer with the best fit.
+    pub identify: bool,
 }
 
 impl LoopSettings {
@@ -44,6 +49,7 @@ impl LoopSettings {
             replan_beyond: Radians((2.0 * noise.0).max(1f64.to_radians())),
             goal_tolerance: Radians((2.0 * noise.0).max(1.5f64.to_radians())),
             max_steps,
+            identify: true,
         }
     }
 
@@ -52,6 +58,7 @@ impl LoopSettings {
         LoopSettings {
             replan: false,
             max_steps: usize::MAX - 1,
+            identify: false,
             ..LoopSettings::for_noise(noise, seed, 0)
         }
     }
@@ -95,6 +102,12 @@ pub struct LoopSummary {
     /// Within the goal tolerance by the measurement at the end.
     pub reached: bool,
     pub message: Option<String>,
+    /// The fitted wells that steered the loop at the end (`None`: the model's own) ...
+    pub fitted: Option<String>,
+    /// ... from after this step's measurement (0: the initial commutation).
+    pub fitted_after_step: Option<usize>,
+    /// Settles spent fitting the wells.
+    pub fit_settles: usize,
 }
 
 /// A closed-loop run: the rows and its summary.
@@ -159,6 +172,15 @@ pub struct Controller<'a> {
     rows: Vec<PlanRow>,
     next: usize,
     replans: usize,
+    /// Where the ball was before the row switched next: the plan's row 0 at first, then each
+    /// measurement.
+    last: Orientation,
+    /// The fit of the wells to the measured steps (with `cl.identify`) ...
+    identifier: Option<Identifier>,
+    /// ... the candidate steering now (`None`: the model), and the step it took over.
+    fitted: Option<usize>,
+    fitted_at: Option<usize>,
+    steps: usize,
 }
 
 impl<'a> Controller<'a> {
@@ -171,7 +193,8 @@ impl<'a> Controller<'a> {
         goal: Orientation,
         cl: LoopSettings,
     ) -> Option<Self> {
-        (!open.rows.is_empty()).then(|| Controller {
+        let first = open.rows.first()?;
+        Some(Controller {
             model,
             settings: settings.clone(),
             cl,
@@ -179,6 +202,11 @@ impl<'a> Controller<'a> {
             rows: open.rows.clone(),
             next: 0,
             replans: 0,
+            last: first.q,
+            identifier: (cl.replan && cl.identify).then(|| Identifier::new(model.torques)),
+            fitted: None,
+            fitted_at: None,
+            steps: 0,
         })
     }
 
@@ -220,8 +248,15 @@ impl<'a> Controller<'a> {
                 Decision::Continue
             };
         }
+        self.learn(&row.active, measured);
         if self.at_goal(measured) {
             return Decision::Done;
+        }
+        if let Some(k) = self.fitted {
+            return match self.seek(k, measured, &row.active) {
+                Ok(p) => self.take(p),
+                Err(m) => Decision::Stuck(m),
+            };
         }
         let strayed = angular(measured, &row.q) > self.cl.replan_beyond.0;
         if !(strayed || last) {
@@ -229,14 +264,95 @@ impl<'a> Controller<'a> {
             return Decision::Continue;
         }
         match self.replan(measured, &row.active) {
-            Ok(p) => {
-                self.rows = p.rows;
-                self.next = 1;
-                self.replans += 1;
-                Decision::Replanned
-            }
+            Ok(p) => self.take(p),
             Err(m) => Decision::Stuck(m),
         }
+    }
+
+    /// The plan `p` (made from the measurement) in force from now on.
+    fn take(&mut self, p: Plan) -> Decision {
+        self.rows = p.rows;
+        self.next = 1;
+        self.replans += 1;
+        Decision::Replanned
+    }
+
+    /// One more measured step for the fit of the wells (the ball was at `self.last`, `active`
+    /// went on, it was measured at `measured`), and the candidate that steers from now on.
+    fn learn(&mut self, active: &[Pair], measured: &Orientation) {
+        let from = std::mem::replace(&mut self.last, *measured);
+        self.steps += 1;
+        let Some(id) = self.identifier.as_mut() else {
+            return;
+        };
+        let o = Observation {
+            from,
+            active: active.to_vec(),
+            to: *measured,
+        };
+        id.observe(self.model, &o);
+        let choice = id.choice(self.cl.replan_beyond);
+        if choice.is_some() && self.fitted.is_none() {
+            self.fitted_at = Some(self.steps - 1);
+        }
+        self.fitted = choice.or(self.fitted);
+    }
+
+    /// What steers the loop: `None` for the model's own wells, else the fitted candidate's
+    /// description and the step (0: the initial commutation) after which it took over.
+    pub fn fitted(&self) -> Option<(String, usize)> {
+        let id = self.identifier.as_ref()?;
+        Some((id.candidate(self.fitted?).name.clone(), self.fitted_at?))
+    }
+
+    /// Settles spent fitting the wells.
+    pub fn fit_settles(&self) -> usize {
+        self.identifier.as_ref().map_or(0, |id| id.settles())
+    }
+
+    /// One step towards the goal in fitted candidate `k`'s physics, model-predictive (a whole
+    /// plan in a fitted model is worth no more than its next steps, which the next measurement
+    /// checks): [`seek::HORIZON`] steps looked ahead from the measurement, the first step that
+    /// leads nearest the goal taken, if it leads nearer than the ball is now. Row 0 of the
+    /// plan is the measured state, row 1 that step.
+    fn seek(&self, k: usize, measured: &Orientation, active: &[Pair]) -> Result<Plan, String> {
+        let Some(id) = self.identifier.as_ref() else {
+            return Err("no fitted model".into());
+        };
+        let torques = &id.candidate(k).torques;
+        let seek = Seek {
+            motor: self.model,
+            torques,
+            per_step: self.settings.pairs,
+            max_coils_on: self.settings.limits.max_coils_on,
+            goal: self.goal,
+        };
+        let root = CommutationState {
+            q: *measured,
+            active: label(torques, &coils_of(active), measured),
+            settle_time_s: 0.0,
+        };
+        let now = angular(measured, &self.goal);
+        let ahead = seek.look_ahead(&root, seek::HORIZON, seek::BEAM);
+        let best = ahead.best(&self.goal, now).ok_or_else(|| {
+            format!(
+                "no coil set leads the ball nearer the goal than its {:.2} deg within {} steps \
+                 ({} settles in the fitted {})",
+                now.to_degrees(),
+                seek::HORIZON,
+                ahead.settles,
+                id.candidate(k).name
+            )
+        })?;
+        Ok(Plan {
+            rows: vec![
+                row_of(0, &root, measured, &root, &self.settings),
+                row_of(1, &ahead.first[best], measured, &root, &self.settings),
+            ],
+            reached: true,
+            message: None,
+            settles: ahead.settles,
+        })
     }
 
     /// The rest of the motion from the measured orientation, held by the coils now on (each
@@ -306,7 +422,7 @@ pub fn run_closed_loop(
     };
     // row 0: the ball at rest at the plan's start, the initial set on
     let mut truth = q0;
-    let mut message = None;
+    let (mut message, mut done) = (None, false);
     while lp.rows.len() <= cl.max_steps {
         let row = ctl.next_row().clone();
         let res = settle(plant.torques, &row.active, &truth, plant.body, plant.settle);
@@ -316,18 +432,56 @@ pub fn run_closed_loop(
         lp.push(&row, measured, &res, decision == Decision::Replanned);
         match decision {
             Decision::Continue | Decision::Replanned => {}
-            Decision::Done => break,
+            Decision::Done => {
+                done = true;
+                break;
+            }
             Decision::Stuck(m) => {
                 message = Some(m);
                 break;
             }
         }
     }
-    if lp.rows.len() > cl.max_steps && message.is_none() {
+    if !done && message.is_none() {
         message = Some(format!("stopped after {} steps", cl.max_steps));
     }
     let reached = lp.rows.last().is_some_and(|r| ctl.at_goal(&r.measured));
-    lp.finish(message, reached, ctl.replans())
+    let mut run = lp.finish(message, reached, ctl.replans());
+    if let Some((name, step)) = ctl.fitted() {
+        run.summary.fitted = Some(name);
+        run.summary.fitted_after_step = Some(step);
+    }
+    run.summary.fit_settles = ctl.fit_settles();
+    run
+}
+
+/// Row `step` of a one-step plan from `from` (at `q0`) to `to`.
+fn row_of(
+    step: usize,
+    to: &CommutationState,
+    q0: &Orientation,
+    from: &CommutationState,
+    s: &PlanSettings,
+) -> PlanRow {
+    let (ca, ce) = cumulative(q0, &to.q, &s.axis);
+    let (sa, se) = cumulative(&from.q, &to.q, &s.axis);
+    PlanRow {
+        step,
+        pivot: None,
+        new: to
+            .active
+            .iter()
+            .filter(|p| !from.active.iter().any(|o| o.coil == p.coil))
+            .copied()
+            .collect(),
+        active: to.active.clone(),
+        q: to.q,
+        step_angle_deg: sa.0.to_degrees(),
+        step_axis_error_deg: se.0.to_degrees(),
+        cum_angle_deg: ca.0.to_degrees(),
+        cum_axis_error_deg: ce.0.to_degrees(),
+        settle_time_s: to.settle_time_s,
+    }
 }
 
 /// The goal of a plan made for `settings`: ROT[axis, angle] applied to its start (row 0).
@@ -359,6 +513,9 @@ fn no_run(message: &str) -> LoopRun {
             replans: 0,
             reached: false,
             message: Some(message.into()),
+            fitted: None,
+            fitted_after_step: None,
+            fit_settles: 0,
         },
     }
 }
@@ -409,6 +566,9 @@ impl Loop<'_> {
             replans,
             reached,
             message,
+            fitted: None,
+            fitted_after_step: None,
+            fit_settles: 0,
         };
         LoopRun {
             rows: self.rows,

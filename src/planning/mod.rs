@@ -7,7 +7,9 @@
 pub mod closed_loop;
 pub mod coilsets;
 pub mod commutation;
+pub mod identify;
 pub mod plan;
 pub mod planner;
 pub mod search;
+pub mod seek;
 pub mod simulate;

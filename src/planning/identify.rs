@@ -1,0 +1,172 @@
+//! Identification for the closed loop: which wells the motor really has, judged by the steps it
+//! was measured to take. A fixed family of candidate models (the model's own wells first, then
+//! gaussian wells of several widths and cosine wells, each at several reaches, each with the
+//! pair interaction and with every coil pulling) predicts every measured step (the ball at rest
+//! where it was measured, the step's set switched on, settled); a candidate is scored by the
+//! root mean square of its prediction errors. Equilibria depend on the wells' shape, not their
+//! strength, so every candidate is given the model's single-pair stiffness (its damping ratio
+//! stays the model's). Everything is counted, nothing timed: the same measurements give the
+//! same choice on any machine and thread count.
+
+use crate::model::geometry::{Degrees, Orientation, Pair, Radians};
+use crate::physics::dynamics::settle;
+use crate::physics::torque::{Interaction, MagnetTorques, Well, WellShape};
+use crate::planning::commutation::Motor;
+use rayon::prelude::*;
+
+/// Widths (degrees) of the gaussian candidates.
+pub const GAUSSIAN_WIDTHS_DEG: [f64; 7] = [5.0, 7.0, 10.0, 14.0, 20.0, 28.0, 40.0];
+/// Reaches (maximum attraction distances, degrees) of the candidates; a gaussian's reach is at
+/// least its width (where its pull peaks).
+pub const REACHES_DEG: [f64; 7] = [15.0, 20.0, 25.0, 30.0, 40.0, 50.0, 60.0];
+/// Stiffnesses of the candidates, as fractions of the model's single-pair stiffness.
+pub const STIFFNESS_FRACTIONS: [f64; 5] = [0.125, 0.25, 0.5, 1.0, 2.0];
+
+/// One measured step: the ball at rest at `from`, `active` switched on, measured at `to`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observation {
+    pub from: Orientation,
+    pub active: Vec<Pair>,
+    pub to: Orientation,
+}
+
+/// A candidate model of the wells.
+#[derive(Debug, Clone)]
+pub struct Candidate {
+    pub torques: MagnetTorques,
+    /// What it is, in words ("cosine wells reaching 40 deg, every coil pulls").
+    pub name: String,
+}
+
+/// The family of candidates for `model`'s motor: its own wells (index 0), then the gaussian and
+/// cosine wells of [`GAUSSIAN_WIDTHS_DEG`] and [`REACHES_DEG`], with the pair interaction and
+/// with every coil pulling, each with the model's single-pair stiffness.
+pub fn family(model: &MagnetTorques) -> Vec<Candidate> {
+    let mut out = vec![Candidate {
+        torques: model.clone(),
+        name: "the model's own wells".into(),
+    }];
+    for fraction in STIFFNESS_FRACTIONS {
+        let k = fraction * model.well.stiffness();
+        let mut shapes: Vec<(WellShape, String, f64)> = GAUSSIAN_WIDTHS_DEG
+            .iter()
+            .map(|&w| {
+                let width = Degrees(w).to_radians();
+                let shape = WellShape::Gaussian {
+                    strength_j: k * width.0 * width.0,
+                    width,
+                };
+                (shape, format!("gaussian wells of {w} deg"), w)
+            })
+            .collect();
+        shapes.push((
+            WellShape::Cosine { strength_j: k },
+            "cosine wells".into(),
+            0.0,
+        ));
+        for interaction in [Interaction::Pairs, Interaction::Coils] {
+            for (shape, shape_name, width) in &shapes {
+                for &reach in REACHES_DEG.iter().filter(|&&r| r >= *width) {
+                    let well = Well {
+                        shape: shape.clone(),
+                        max_attraction: Degrees(reach).to_radians(),
+                    };
+                    let pulls = match interaction {
+                        Interaction::Pairs => "each coil pulls its pair's magnet",
+                        Interaction::Coils => "every coil pulls every magnet in reach",
+                    };
+                    out.push(Candidate {
+                        torques: MagnetTorques {
+                            well,
+                            interaction,
+                            ..model.clone()
+                        },
+                        name: format!(
+                            "{shape_name} reaching {reach} deg, {pulls}, stiffness {:.3} N m/rad",
+                            k
+                        ),
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The candidates and how well each has predicted the steps measured so far.
+pub struct Identifier {
+    candidates: Vec<Candidate>,
+    /// Per candidate, the sum of its squared prediction errors (rad^2).
+    squares: Vec<f64>,
+    observations: usize,
+    settles: usize,
+}
+
+impl Identifier {
+    /// The [`family`] of `model`'s wells, nothing measured yet.
+    pub fn new(model: &MagnetTorques) -> Identifier {
+        let candidates = family(model);
+        Identifier {
+            squares: vec![0.0; candidates.len()],
+            candidates,
+            observations: 0,
+            settles: 0,
+        }
+    }
+
+    /// Scores every candidate on one more measured step, settled with the model's body and
+    /// settle (`motor`'s; its torques are not used).
+    pub fn observe(&mut self, motor: &Motor, o: &Observation) {
+        let errors: Vec<f64> = self
+            .candidates
+            .par_iter()
+            .map(|c| {
+                let r = settle(&c.torques, &o.active, &o.from, motor.body, motor.weighing());
+                r.q.angle_to(&o.to)
+            })
+            .collect();
+        for (s, e) in self.squares.iter_mut().zip(errors) {
+            *s += e * e;
+        }
+        self.observations += 1;
+        self.settles += self.candidates.len();
+    }
+
+    /// Candidate `k`'s root mean square prediction error (0 before any measurement).
+    pub fn rms(&self, k: usize) -> Radians {
+        Radians((self.squares[k] / self.observations.max(1) as f64).sqrt())
+    }
+
+    /// The candidate that predicted the steps best (the first of equals).
+    pub fn best(&self) -> usize {
+        (0..self.candidates.len())
+            .min_by(|&a, &b| self.squares[a].total_cmp(&self.squares[b]))
+            .unwrap_or(0)
+    }
+
+    /// Which candidate to plan with: `None` (the model itself) while the model's own
+    /// prediction error is within `trusted` or nothing predicts better, else the best.
+    pub fn choice(&self, trusted: Radians) -> Option<usize> {
+        if self.observations == 0 || self.rms(0).0 <= trusted.0 {
+            return None;
+        }
+        Some(self.best()).filter(|&k| k != 0)
+    }
+
+    pub fn candidate(&self, k: usize) -> &Candidate {
+        &self.candidates[k]
+    }
+
+    pub fn len(&self) -> usize {
+        self.candidates.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.candidates.is_empty()
+    }
+
+    /// Settles spent so far.
+    pub fn settles(&self) -> usize {
+        self.settles
+    }
+}
