@@ -1,9 +1,9 @@
 //! How few steps does a motion need in a scenario's physics? From the initial commutation
 //! state of a plan (the scenario's own, or another model's played in this physics as the
-//! closed loop starts), looks ahead level by level with `planning::seek` (every coil set the
+//! closed loop starts), searches level by level with `planning::seek` (every coil set the
 //! supply allows, the BEAM states nearest the goal kept at each depth) and prints, per number
-//! of steps, the nearest the ball can come to the goal R_target R_0. A lower bound on what any
-//! controller steering in this physics can do within a wide beam's view.
+//! of steps, the nearest the ball can come to the goal R_target R_0: how few steps a
+//! controller that knew this physics exactly would need, as far as a beam that wide sees.
 //!
 //! ```text
 //! cargo run --release --example fewest_steps -- PLANT.toml X,Y,Z ANGLE_DEG [MODEL.toml] [DEPTH] [BEAM] [PLAYED]
@@ -82,7 +82,7 @@ fn main() -> Result<()> {
         "start {:.2} deg from the goal after {played} of the plan's steps; beam {beam}",
         root.q.angle_to(&goal).to_degrees()
     );
-    let ahead = seek.look_ahead(&root, depth, beam);
+    let ahead = seek.search(&root, depth, beam, 0.0);
     for (k, d) in ahead.nearest_by_depth.iter().enumerate() {
         println!("after {:2} steps: nearest {:.2} deg", k + 1, d.to_degrees());
     }

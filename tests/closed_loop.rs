@@ -16,7 +16,19 @@ fn load(name: &str) -> Scenario {
 
 /// One run about `axis` (90 degrees) of the broad-well model on `plant`: the CSV and summary.
 fn play(plant: &str, axis: &str, closed: bool, noise_deg: f64, seed: u64) -> (Vec<u8>, RunSummary) {
-    let sc = load("scenarios/broad-wells.toml");
+    let o = LoopOptions {
+        closed,
+        noise_deg,
+        seed,
+        max_steps: None,
+        identify: true,
+    };
+    play_with("scenarios/broad-wells.toml", plant, axis, &o)
+}
+
+/// One run about `axis` (90 degrees), planned in `model`, played on `plant` as `o` says.
+fn play_with(model: &str, plant: &str, axis: &str, o: &LoopOptions) -> (Vec<u8>, RunSummary) {
+    let sc = load(model);
     let plant = load(plant);
     let s = plan_settings(
         &sc,
@@ -28,17 +40,11 @@ fn play(plant: &str, axis: &str, closed: bool, noise_deg: f64, seed: u64) -> (Ve
     )
     .unwrap();
     let (mut csv, mut note) = (Vec::new(), Vec::new());
-    let o = LoopOptions {
-        closed,
-        noise_deg,
-        seed,
-        max_steps: None,
-    };
     let summary = run_command(
         &sc,
         &plant,
         &s,
-        &o,
+        o,
         Report {
             file: None,
             json: false,
@@ -79,6 +85,44 @@ fn closed_loop_reaches_the_goal_where_open_loop_does_not() {
     assert_eq!(replanned, r.replans);
     let last_error: f64 = rows[r.steps].split(',').nth(17).unwrap().parse().unwrap();
     assert_eq!(last_error, r.final_error_deg);
+}
+
+#[test]
+fn a_loop_planned_in_the_pair_model_fits_the_broad_wells_and_arrives() {
+    // the case: the paper's pair model with sharp wells, played on the broad-well,
+    // all-coils plant, 90 degrees about X with 1 degree of sensor noise
+    let (model, plant) = ("scenarios/prototype.toml", "scenarios/broad-wells.toml");
+    let o = |closed: bool, identify: bool| LoopOptions {
+        closed,
+        noise_deg: 1.0,
+        seed: 1,
+        max_steps: None,
+        identify,
+    };
+    let (_, open) = play_with(model, plant, "1,0,0", &o(false, false));
+    assert!(open.run.final_error_deg > 30.0, "{:?}", open.run);
+    // replanning in the pair model alone does not steer the plant
+    let (_, blind) = play_with(model, plant, "1,0,0", &o(true, false));
+    assert!(blind.run.final_error_deg > 30.0, "{:?}", blind.run);
+    assert_eq!(blind.run.fitted, None);
+    // fitting the wells to the measured steps does
+    let (csv, fit) = play_with(model, plant, "1,0,0", &o(true, true));
+    let r = &fit.run;
+    assert!(r.reached && r.final_error_deg < 3.0, "{r:?}");
+    assert!(r.steps <= 2 * fit.planned_steps, "{r:?}");
+    let name = r.fitted.as_deref().unwrap_or_default();
+    assert!(name.contains("every coil pulls"), "{name}");
+    let k = r.fitted_after_step.expect("the fit steered");
+    assert!(k <= 2, "{r:?}");
+    assert!(r.fit_settles > 0);
+    // the step after the fit took over was replanned from the measurement
+    let text = String::from_utf8(csv).unwrap();
+    let replanned: Vec<bool> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2) == Some("true"))
+        .collect();
+    assert!(replanned[k], "{replanned:?}");
 }
 
 #[test]

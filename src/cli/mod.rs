@@ -47,6 +47,11 @@ pub struct LoopArgs {
     /// At most this many steps in closed loop (default: twice the planned steps).
     #[arg(long)]
     pub max_steps: Option<usize>,
+    /// Closed loop: do not fit the wells to the measured steps (by default, once the model's
+    /// predictions are off by more than the replan threshold, the loop steers with the wells
+    /// that predict the measured steps best).
+    #[arg(long)]
+    pub no_identify: bool,
 }
 
 impl LoopArgs {
@@ -56,6 +61,7 @@ impl LoopArgs {
             noise_deg: self.sensor_noise_deg,
             seed: self.seed,
             max_steps: self.max_steps,
+            identify: !self.no_identify,
         }
     }
 }

@@ -72,6 +72,11 @@ pub struct Args {
     /// With --sensor: at most this many steps (default: twice the plan's).
     #[arg(long, requires = "sensor")]
     pub max_steps: Option<usize>,
+    /// With --sensor: do not fit the wells to the measured steps (by default, once the
+    /// scenario's predictions are off by more than the replan threshold, the loop steers with
+    /// the wells that predict the measured steps best).
+    #[arg(long, requires = "sensor")]
+    pub no_identify: bool,
 }
 
 impl Args {
@@ -83,6 +88,7 @@ impl Args {
             timeout_ms: self.sensor_timeout_ms,
             noise_deg: self.sensor_noise_deg,
             max_steps: self.max_steps,
+            identify: !self.no_identify,
             ..SensorOptions::new(device, format)
         })
     }

@@ -26,6 +26,9 @@ pub struct LoopOptions {
     pub seed: u64,
     /// At most this many steps (`--max-steps`; default twice the open-loop plan's).
     pub max_steps: Option<usize>,
+    /// Fit the wells to the measurements and steer with the fit where the model is wrong
+    /// (`--no-identify` turns it off).
+    pub identify: bool,
 }
 
 /// Where a run's CSV and summary go: the CSV to `file` (atomically), else alone to `out`; the
@@ -67,7 +70,10 @@ pub fn loop_settings(o: &LoopOptions, planned_steps: usize) -> Result<LoopSettin
     let noise = Radians(o.noise_deg.to_radians());
     Ok(if o.closed {
         let max = o.max_steps.unwrap_or(2 * planned_steps.max(1));
-        LoopSettings::for_noise(noise, o.seed, max)
+        LoopSettings {
+            identify: o.identify,
+            ..LoopSettings::for_noise(noise, o.seed, max)
+        }
     } else {
         LoopSettings::open(noise, o.seed)
     })
@@ -198,13 +204,17 @@ fn play(
         let r = &summary.run;
         writeln!(
             out,
-            "{} loop on {}: {} steps ({} planned), {} replans: {:.2} deg from the goal, turned \
-             {:.2} deg, worst axis error {:.2} deg, {}{}",
+            "{} loop on {}: {} steps ({} planned), {} replans{}: {:.2} deg from the goal, \
+             turned {:.2} deg, worst axis error {:.2} deg, {}{}",
             summary.mode,
             plant.name,
             r.steps,
             planned_steps,
             r.replans,
+            match (&r.fitted, r.fitted_after_step) {
+                (Some(name), Some(k)) => format!(", steered from step {k} with the fitted {name}"),
+                _ => String::new(),
+            },
             r.final_error_deg,
             r.final_angle_deg,
             r.max_axis_error_deg,

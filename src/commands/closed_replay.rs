@@ -35,6 +35,9 @@ pub struct SensorOptions {
     pub noise_deg: f64,
     /// `--max-steps` (default: twice the plan's steps).
     pub max_steps: Option<usize>,
+    /// Fit the wells to the measured steps and steer with the fit where the scenario's model
+    /// is wrong (`--no-identify` turns it off).
+    pub identify: bool,
 }
 
 impl SensorOptions {
@@ -47,6 +50,7 @@ impl SensorOptions {
             timeout_ms: None,
             noise_deg: 0.0,
             max_steps: None,
+            identify: true,
         }
     }
 
@@ -88,6 +92,7 @@ pub fn prepare_closed(
         noise_deg: so.noise_deg,
         seed: 0,
         max_steps: so.max_steps,
+        identify: so.identify,
     };
     let rows = &f.plan.rows;
     let cl = loop_settings(&o, rows.len() - 1)?;

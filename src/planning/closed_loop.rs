@@ -180,6 +180,8 @@ pub struct Controller<'a> {
     /// ... the candidate steering now (`None`: the model), and the step it took over.
     fitted: Option<usize>,
     fitted_at: Option<usize>,
+    /// The candidate the plan in force was made with (`None`: the model).
+    planned_with: Option<usize>,
     steps: usize,
 }
 
@@ -206,6 +208,7 @@ impl<'a> Controller<'a> {
             identifier: (cl.replan && cl.identify).then(|| Identifier::new(model.torques)),
             fitted: None,
             fitted_at: None,
+            planned_with: None,
             steps: 0,
         })
     }
@@ -252,18 +255,19 @@ impl<'a> Controller<'a> {
         if self.at_goal(measured) {
             return Decision::Done;
         }
-        if let Some(k) = self.fitted {
-            return match self.seek(k, measured, &row.active) {
-                Ok(p) => self.take(p),
-                Err(m) => Decision::Stuck(m),
-            };
-        }
         let strayed = angular(measured, &row.q) > self.cl.replan_beyond.0;
-        if !(strayed || last) {
+        // a fit taking over (or changing) replans at once: the plan in force is another model's
+        let refit = self.fitted.is_some() && self.fitted != self.planned_with;
+        if !(strayed || last || refit) {
             self.next += 1;
             return Decision::Continue;
         }
-        match self.replan(measured, &row.active) {
+        self.planned_with = self.fitted;
+        let plan = match self.fitted {
+            Some(k) => self.seek(k, measured, &row.active),
+            None => self.replan(measured, &row.active),
+        };
+        match plan {
             Ok(p) => self.take(p),
             Err(m) => Decision::Stuck(m),
         }
@@ -310,11 +314,10 @@ impl<'a> Controller<'a> {
         self.identifier.as_ref().map_or(0, |id| id.settles())
     }
 
-    /// One step towards the goal in fitted candidate `k`'s physics, model-predictive (a whole
-    /// plan in a fitted model is worth no more than its next steps, which the next measurement
-    /// checks): [`seek::HORIZON`] steps looked ahead from the measurement, the first step that
-    /// leads nearest the goal taken, if it leads nearer than the ball is now. Row 0 of the
-    /// plan is the measured state, row 1 that step.
+    /// The rest of the motion in fitted candidate `k`'s physics, from the measurement held
+    /// by the coils on now: the search of [`Seek`] straight for the goal (a fitted model
+    /// promises no axis; the steps left are counted against `max_steps`). Row 0 of the plan
+    /// is the measured state.
     fn seek(&self, k: usize, measured: &Orientation, active: &[Pair]) -> Result<Plan, String> {
         let Some(id) = self.identifier.as_ref() else {
             return Err("no fitted model".into());
@@ -332,26 +335,32 @@ impl<'a> Controller<'a> {
             active: label(torques, &coils_of(active), measured),
             settle_time_s: 0.0,
         };
-        let now = angular(measured, &self.goal);
-        let ahead = seek.look_ahead(&root, seek::HORIZON, seek::BEAM);
-        let best = ahead.best(&self.goal, now).ok_or_else(|| {
-            format!(
-                "no coil set leads the ball nearer the goal than its {:.2} deg within {} steps \
-                 ({} settles in the fitted {})",
-                now.to_degrees(),
-                seek::HORIZON,
-                ahead.settles,
+        let left = self
+            .cl
+            .max_steps
+            .saturating_sub(self.steps - 1)
+            .clamp(1, seek::DEPTH);
+        let path = seek.search(&root, left, seek::BEAM, self.cl.goal_tolerance.0);
+        if path.states.is_empty() {
+            return Err(format!(
+                "no coil set leads the ball nearer the goal than its {:.2} deg within {left} \
+                 steps ({} settles in the fitted {})",
+                angular(measured, &self.goal).to_degrees(),
+                path.settles,
                 id.candidate(k).name
-            )
-        })?;
+            ));
+        }
+        let mut rows = vec![row_of(0, &root, measured, &root, &self.settings)];
+        let mut from = &root;
+        for st in &path.states {
+            rows.push(row_of(rows.len(), st, measured, from, &self.settings));
+            from = st;
+        }
         Ok(Plan {
-            rows: vec![
-                row_of(0, &root, measured, &root, &self.settings),
-                row_of(1, &ahead.first[best], measured, &root, &self.settings),
-            ],
+            rows,
             reached: true,
             message: None,
-            settles: ahead.settles,
+            settles: path.settles,
         })
     }
 

@@ -3,7 +3,7 @@
 //! gaussian wells of several widths and cosine wells, each at several reaches, each with the
 //! pair interaction and with every coil pulling) predicts every measured step (the ball at rest
 //! where it was measured, the step's set switched on, settled); a candidate is scored by the
-//! root mean square of its prediction errors. Equilibria depend on the wells' shape, not their
+//! median of its prediction errors. Equilibria depend on the wells' shape, not their
 //! strength, so every candidate is given the model's single-pair stiffness (its damping ratio
 //! stays the model's). Everything is counted, nothing timed: the same measurements give the
 //! same choice on any machine and thread count.
@@ -96,9 +96,8 @@ pub fn family(model: &MagnetTorques) -> Vec<Candidate> {
 /// The candidates and how well each has predicted the steps measured so far.
 pub struct Identifier {
     candidates: Vec<Candidate>,
-    /// Per candidate, the sum of its squared prediction errors (rad^2).
-    squares: Vec<f64>,
-    observations: usize,
+    /// Per candidate, its prediction error (rad) of each measured step.
+    errors: Vec<Vec<f64>>,
     settles: usize,
 }
 
@@ -107,15 +106,14 @@ impl Identifier {
     pub fn new(model: &MagnetTorques) -> Identifier {
         let candidates = family(model);
         Identifier {
-            squares: vec![0.0; candidates.len()],
+            errors: vec![Vec::new(); candidates.len()],
             candidates,
-            observations: 0,
             settles: 0,
         }
     }
 
     /// Scores every candidate on one more measured step, settled with the model's body and
-    /// settle (`motor`'s; its torques are not used).
+    /// weighing settle (`motor`'s; its torques are not used).
     pub fn observe(&mut self, motor: &Motor, o: &Observation) {
         let errors: Vec<f64> = self
             .candidates
@@ -125,29 +123,44 @@ impl Identifier {
                 r.q.angle_to(&o.to)
             })
             .collect();
-        for (s, e) in self.squares.iter_mut().zip(errors) {
-            *s += e * e;
+        for (e, x) in self.errors.iter_mut().zip(errors) {
+            e.push(x);
         }
-        self.observations += 1;
         self.settles += self.candidates.len();
+    }
+
+    /// Candidate `k`'s median prediction error (the upper of the middle two; 0 before any
+    /// measurement). A median, not a mean: a step that ends in another basin than predicted
+    /// (where the dynamics, not the wells, decide) does not outweigh the steps predicted well.
+    pub fn median(&self, k: usize) -> Radians {
+        let mut e = self.errors[k].clone();
+        e.sort_by(f64::total_cmp);
+        Radians(e.get(e.len() / 2).copied().unwrap_or(0.0))
     }
 
     /// Candidate `k`'s root mean square prediction error (0 before any measurement).
     pub fn rms(&self, k: usize) -> Radians {
-        Radians((self.squares[k] / self.observations.max(1) as f64).sqrt())
+        let e = &self.errors[k];
+        Radians((e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt())
     }
 
-    /// The candidate that predicted the steps best (the first of equals).
+    /// The candidate that predicted the steps best: the smallest median error, then the
+    /// smallest root mean square, then the first.
     pub fn best(&self) -> usize {
         (0..self.candidates.len())
-            .min_by(|&a, &b| self.squares[a].total_cmp(&self.squares[b]))
+            .min_by(|&a, &b| {
+                self.median(a)
+                    .0
+                    .total_cmp(&self.median(b).0)
+                    .then(self.rms(a).0.total_cmp(&self.rms(b).0))
+            })
             .unwrap_or(0)
     }
 
-    /// Which candidate to plan with: `None` (the model itself) while the model's own
+    /// Which candidate to plan with: `None` (the model itself) while the model's median
     /// prediction error is within `trusted` or nothing predicts better, else the best.
     pub fn choice(&self, trusted: Radians) -> Option<usize> {
-        if self.observations == 0 || self.rms(0).0 <= trusted.0 {
+        if self.median(0).0 <= trusted.0 {
             return None;
         }
         Some(self.best()).filter(|&k| k != 0)

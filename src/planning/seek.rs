@@ -11,13 +11,12 @@ use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{coil_sets, coils_in_reach, coils_of, label, FOLLOWED_PER_STATE};
 use crate::planning::commutation::{CommutationState, Motor, PairsPerStep};
 
-/// How many steps ahead the closed loop looks by default ...
-pub const HORIZON: usize = 3;
-/// ... keeping this many states nearest the goal at each depth. Measured on the pair model's
-/// 90 degree plans played on `scenarios/broad-wells.toml` (1 degree of sensor noise): horizon 3
-/// and beam 8 reach the goal about Y and X within 1.2 degrees; horizon 4 and beam 24 (four
-/// times the settles) look no further about Z (about 8 degrees of progress a step either way).
-pub const BEAM: usize = 8;
+/// How many states nearest the goal a search keeps at each depth by default, and how deep it
+/// looks. Measured on the pair model's 90 degree plans played on `scenarios/broad-wells.toml`
+/// (`examples/fewest_steps.rs`, from the state after the plan's first step): beam 32 comes
+/// within 1 degree of the goal in 9 steps about Z, 10 about Y and 11 about X.
+pub const BEAM: usize = 16;
+pub const DEPTH: usize = 12;
 
 /// A physics to steer in, and the goal.
 pub struct Seek<'a> {
@@ -31,33 +30,16 @@ pub struct Seek<'a> {
     pub goal: Orientation,
 }
 
-/// What a look ahead found.
+/// What a search found.
 #[derive(Debug, Clone)]
-pub struct Lookahead {
-    /// The states one step from the root ...
-    pub first: Vec<CommutationState>,
-    /// ... and per first step the nearest (rad) it or any of its descendants in the beam came
-    /// to the goal.
-    pub reach: Vec<f64>,
+pub struct Path {
+    /// The states from the root's first step on, to the one nearest the goal (the first found
+    /// within the tolerance, else the nearest at any depth; empty if none is nearer the goal
+    /// than the root).
+    pub states: Vec<CommutationState>,
     /// Per depth (1 first), the nearest any state came to the goal (rad).
     pub nearest_by_depth: Vec<f64>,
     pub settles: usize,
-}
-
-impl Lookahead {
-    /// The first step that leads nearest the goal (the nearer first step of equals, then the
-    /// first), if it leads nearer than `now`.
-    pub fn best(&self, goal: &Orientation, now: f64) -> Option<usize> {
-        (0..self.first.len())
-            .min_by(|&a, &b| {
-                let d = |i: usize| self.first[i].q.angle_to(goal);
-                self.reach[a]
-                    .total_cmp(&self.reach[b])
-                    .then(d(a).total_cmp(&d(b)))
-                    .then(a.cmp(&b))
-            })
-            .filter(|&i| self.reach[i] < now)
-    }
 }
 
 impl Seek<'_> {
@@ -65,61 +47,81 @@ impl Seek<'_> {
         q.angle_to(&self.goal)
     }
 
-    /// Looks `horizon` steps ahead of `root`, keeping the `beam` states nearest the goal at
-    /// each depth.
-    pub fn look_ahead(&self, root: &CommutationState, horizon: usize, beam: usize) -> Lookahead {
+    /// Searches from `root` level by level, keeping the `beam` states nearest the goal at each
+    /// depth, until a state within `tolerance` of the goal or `depth` steps; the path to the
+    /// nearest state found.
+    pub fn search(
+        &self,
+        root: &CommutationState,
+        depth: usize,
+        beam: usize,
+        tolerance: f64,
+    ) -> Path {
         let mut settles = 0;
-        let first = self.successors(root, &mut settles);
-        let mut reach: Vec<f64> = first.iter().map(|s| self.distance(&s.q)).collect();
-        let mut nearest_by_depth = vec![reach.iter().copied().fold(f64::INFINITY, f64::min)];
-        let mut level = self.nearest(first.iter().cloned().enumerate().collect(), beam);
-        for _ in 1..horizon {
-            let mut next = Vec::new();
-            for (origin, st) in &level {
-                for c in self.successors(st, &mut settles) {
-                    reach[*origin] = reach[*origin].min(self.distance(&c.q));
-                    next.push((*origin, c));
+        // every kept state: its parent (None: the root's child) and itself
+        let mut kept: Vec<(Option<usize>, CommutationState)> = Vec::new();
+        let mut level: Vec<(Option<usize>, CommutationState)> = vec![];
+        let mut best: Option<(f64, usize)> = None;
+        let mut nearest_by_depth = Vec::new();
+        for d in 0..depth {
+            let parents: Vec<(Option<usize>, &CommutationState)> = if d == 0 {
+                vec![(None, root)]
+            } else {
+                level.iter().map(|(i, s)| (*i, s)).collect()
+            };
+            let mut next: Vec<(Option<usize>, CommutationState)> = Vec::new();
+            for (parent, st) in parents {
+                for c in self.successors(st, FOLLOWED_PER_STATE, &mut settles) {
+                    next.push((parent, c));
                 }
             }
-            let best = next
+            let mut keyed: Vec<(f64, usize)> = next
                 .iter()
-                .map(|(_, s)| self.distance(&s.q))
-                .fold(f64::INFINITY, f64::min);
-            nearest_by_depth.push(best);
-            level = self.nearest(next, beam);
+                .enumerate()
+                .map(|(i, (_, s))| (self.distance(&s.q), i))
+                .collect();
+            keyed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            keyed.truncate(beam);
+            nearest_by_depth.push(keyed.first().map_or(f64::INFINITY, |k| k.0));
+            level = Vec::with_capacity(keyed.len());
+            for &(dist, i) in &keyed {
+                kept.push(next[i].clone());
+                let at = kept.len() - 1;
+                if best.is_none_or(|(b, _)| dist < b) {
+                    best = Some((dist, at));
+                }
+                level.push((Some(at), next[i].1.clone()));
+            }
+            if level.is_empty() || best.is_some_and(|(b, _)| b <= tolerance) {
+                break;
+            }
         }
-        Lookahead {
-            first,
-            reach,
+        let mut states = Vec::new();
+        let mut at = best
+            .filter(|&(b, _)| b < self.distance(&root.q))
+            .map(|b| b.1);
+        while let Some(i) = at {
+            states.push(kept[i].1.clone());
+            at = kept[i].0;
+        }
+        states.reverse();
+        Path {
+            states,
             nearest_by_depth,
             settles,
         }
     }
 
-    /// The `beam` states nearest the goal (the first of equals), with their first steps.
-    fn nearest(
-        &self,
-        states: Vec<(usize, CommutationState)>,
-        beam: usize,
-    ) -> Vec<(usize, CommutationState)> {
-        let mut keyed: Vec<(f64, usize, CommutationState)> = states
-            .into_iter()
-            .map(|(origin, s)| (self.distance(&s.q), origin, s))
-            .collect();
-        // a stable sort: equals keep their order
-        keyed.sort_by(|a, b| a.0.total_cmp(&b.0));
-        keyed.truncate(beam);
-        keyed.into_iter().map(|(_, o, s)| (o, s)).collect()
-    }
-
     /// The states one step from `from`: each coil set the supply allows, weighed (a set no
-    /// strict minimum holds stops where the ball comes to rest), the [`FOLLOWED_PER_STATE`] of
-    /// those unheld sets that stop nearest the goal followed to where the ball really stops
-    /// (as the coil-set planner does); those that settle, each coil with its nearest magnet
-    /// there. Adds the settles spent to `settles`.
+    /// strict minimum holds stops where the ball comes to rest), the `follow` of those unheld
+    /// sets that stop nearest the goal followed to where the ball really stops (as the
+    /// coil-set planner does, [`FOLLOWED_PER_STATE`] of them; the steps taken follow none:
+    /// where a coast ends is no safe prediction); those that settle, each coil with its
+    /// nearest magnet there. Adds the settles spent to `settles`.
     pub fn successors(
         &self,
         from: &CommutationState,
+        follow: usize,
         settles: &mut usize,
     ) -> Vec<CommutationState> {
         let torques = self.torques;
@@ -136,7 +138,7 @@ impl Seek<'_> {
             .map(|(i, r)| (self.distance(&r.q), i))
             .collect();
         unheld.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        unheld.truncate(FOLLOWED_PER_STATE);
+        unheld.truncate(follow);
         let again: Vec<Vec<Pair>> = unheld.iter().map(|&(_, i)| pairs[i].clone()).collect();
         let followed = settle_many(torques, &again, &from.q, body, self.motor.settle);
         for ((_, i), r) in unheld.iter().zip(followed) {

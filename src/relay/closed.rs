@@ -243,8 +243,13 @@ impl Loop<'_, '_> {
             .collect();
         check_on_time(&entries, prep.settings.max_on_time, prep.listed(), on).map_err(refused)?;
         let t = format!("{:.3}", now.as_secs_f64());
+        let fitted = ctl
+            .fitted()
+            .map(|(name, _)| format!("; steering with the fitted {name}"))
+            .unwrap_or_default();
         r.say(&format!(
-            "{t:>9} {:>5} replan   {} new step(s) from the measurement, checked (replan {replan})",
+            "{t:>9} {:>5} replan   {} new step(s) from the measurement, checked (replan \
+             {replan}{fitted})",
             e.step,
             entries.len()
         ))?;

@@ -1,0 +1,86 @@
+//! The closed loop's fit of the wells (planning::identify): the candidate that made the
+//! measured steps is the one chosen, and the model is kept while it predicts them.
+
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::{CoilId, Orientation};
+use spherestep::physics::dynamics::settle;
+use spherestep::planning::coilsets::{coils_in_reach, label};
+use spherestep::planning::commutation::Motor;
+use spherestep::planning::identify::{Identifier, Observation};
+use std::path::Path;
+
+fn load(name: &str) -> Scenario {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    Scenario::load(&root.join(name)).unwrap()
+}
+
+/// Four steps the `plant` takes from `q0`, each switching on two or three of the coils in
+/// reach, as an exact sensor measures them.
+fn steps_in(plant: &Motor, q0: Orientation) -> Vec<Observation> {
+    let mut out = Vec::new();
+    let mut q = q0;
+    for k in 0..4 {
+        let reach = coils_in_reach(plant.torques, &q);
+        let coils: Vec<CoilId> = [k, k + 2, k + 5]
+            .iter()
+            .take(2 + k % 2)
+            .map(|&i| reach[i % reach.len()])
+            .collect();
+        let active = label(plant.torques, &coils, &q);
+        let r = settle(plant.torques, &active, &q, plant.body, plant.weighing());
+        out.push(Observation {
+            from: q,
+            active,
+            to: r.q,
+        });
+        q = r.q;
+    }
+    out
+}
+
+#[test]
+fn the_fit_finds_the_wells_that_made_the_steps() {
+    let model = load("scenarios/prototype.toml");
+    let plant = load("scenarios/broad-wells.toml");
+    let obs = steps_in(&plant.motor(), Orientation::identity());
+    let mut id = Identifier::new(&model.torques);
+    for o in &obs {
+        id.observe(&model.motor(), o);
+    }
+    assert_eq!(id.settles(), 4 * id.len());
+    // the pair model's sharp wells do not make these steps ...
+    assert!(
+        id.rms(0).0.to_degrees() > 5.0,
+        "{}",
+        id.rms(0).0.to_degrees()
+    );
+    // ... the plant's broad wells, every coil pulling, do (to the settle's tolerance)
+    let k = id.choice(spherestep::model::geometry::Degrees(1.0).to_radians());
+    let k = k.expect("a candidate is chosen over the model");
+    let name = &id.candidate(k).name;
+    assert!(
+        name.starts_with("cosine wells reaching 40 deg, every coil pulls"),
+        "{name}"
+    );
+    assert!(
+        id.rms(k).0.to_degrees() < 0.05,
+        "{}",
+        id.rms(k).0.to_degrees()
+    );
+}
+
+#[test]
+fn the_model_is_kept_while_it_predicts_the_steps() {
+    let model = load("scenarios/broad-wells.toml");
+    let obs = steps_in(&model.motor(), Orientation::identity());
+    let mut id = Identifier::new(&model.torques);
+    for o in &obs {
+        id.observe(&model.motor(), o);
+    }
+    // the same settles: the same orientations (to the rounding of the angle between them)
+    assert!(id.rms(0).0 < 1e-7, "{}", id.rms(0).0);
+    assert_eq!(
+        id.choice(spherestep::model::geometry::Degrees(1.0).to_radians()),
+        None
+    );
+}
