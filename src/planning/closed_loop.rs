@@ -34,13 +34,17 @@ pub struct LoopSettings {
     /// Give up after this many steps.
     pub max_steps: usize,
     /// Fit the wells to the measured steps ([`crate::planning::identify`]) and, once the
-    /// model's own predictions are off by more than `replan_beyond`, steer with the best fit.
+    /// model's own predictions are off by more than `fit_beyond` (their median), steer with
+    /// the best fit.
     pub identify: bool,
+    pub fit_beyond: Radians,
 }
 
 impl LoopSettings {
     /// Settings for a sensor noise of `noise`: replan beyond twice the noise (at least 1
-    /// degree), done within twice the noise (at least 1.5 degrees), at most `max_steps` steps.
+    /// degree), done within twice the noise (at least 1.5 degrees), at most `max_steps` steps;
+    /// the wells fitted once the model predicts the steps no better than three times the noise
+    /// (at least 1.5 degrees: a prediction from one noisy measurement compared with another).
     pub fn for_noise(noise: Radians, seed: u64, max_steps: usize) -> LoopSettings {
         LoopSettings {
             replan: true,
@@ -50,6 +54,7 @@ impl LoopSettings {
             goal_tolerance: Radians((2.0 * noise.0).max(1.5f64.to_radians())),
             max_steps,
             identify: true,
+            fit_beyond: Radians((3.0 * noise.0).max(1.5f64.to_radians())),
         }
     }
 
@@ -295,7 +300,7 @@ impl<'a> Controller<'a> {
             to: *measured,
         };
         id.observe(self.model, &o);
-        let choice = id.choice(self.cl.replan_beyond);
+        let choice = id.choice(self.cl.fit_beyond);
         if choice.is_some() && self.fitted.is_none() {
             self.fitted_at = Some(self.steps - 1);
         }

@@ -158,12 +158,15 @@ impl Identifier {
     }
 
     /// Which candidate to plan with: `None` (the model itself) while the model's median
-    /// prediction error is within `trusted` or nothing predicts better, else the best.
+    /// prediction error is within `trusted`, or no candidate's is under half the model's;
+    /// else the best.
     pub fn choice(&self, trusted: Radians) -> Option<usize> {
-        if self.median(0).0 <= trusted.0 {
+        let model = self.median(0).0;
+        if model <= trusted.0 {
             return None;
         }
-        Some(self.best()).filter(|&k| k != 0)
+        let k = self.best();
+        (k != 0 && self.median(k).0 < 0.5 * model).then_some(k)
     }
 
     pub fn candidate(&self, k: usize) -> &Candidate {
