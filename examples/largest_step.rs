@@ -21,7 +21,9 @@ fn sets_of(reach: &[CoilId], max: usize) -> Vec<Vec<CoilId>> {
     for _ in 0..max {
         let mut next = Vec::new();
         for s in &out {
-            let from = s.last().map_or(0, |c| reach.iter().position(|r| r == c).unwrap() + 1);
+            let from = s
+                .last()
+                .map_or(0, |c| reach.iter().position(|r| r == c).unwrap() + 1);
             for c in &reach[from..] {
                 let mut t = s.clone();
                 t.push(*c);
@@ -36,7 +38,9 @@ fn sets_of(reach: &[CoilId], max: usize) -> Vec<Vec<CoilId>> {
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().collect();
-    let path = args.get(1).context("usage: largest_step SCENARIO.toml [STATES]")?;
+    let path = args
+        .get(1)
+        .context("usage: largest_step SCENARIO.toml [STATES]")?;
     let states: usize = args.get(2).map_or(Ok(12), |s| s.parse())?;
     let sc = Scenario::load(Path::new(path))?;
     let m = sc.motor();
