@@ -317,6 +317,15 @@ fn settle_from<M: TorqueModel>(
 const LINEAR_RADIUS: f64 = 1e-2;
 /// Newton iterations allowed to find the minimum from the switch point.
 const NEWTON_ITERATIONS: u32 = 8;
+/// Early exits from the end phase's Newton search: after its first and second steps, the
+/// amplitude test below is estimated from the steps so far and the stiffness there, and a
+/// switch point whose estimate exceeds [`LINEAR_RADIUS`] by these factors is refused at once
+/// instead of after the 4 linearizations a converged search takes. On 7,000 sets of
+/// examples/basins.rs (16,637 searches), the estimates of the searches that succeeded were at
+/// most 1.24 (first) and 1.02 (second) times the radius; these exits refuse 24% and then 30% of
+/// the 9,869 that failed. On its 28,000 sets every settle is the same to the bit as without them
+/// (1.1 for the second changed one light-damping set: it was refused there, then switched later).
+const EARLY_EXIT: [f64; 2] = [2.0, 1.3];
 /// Samples per unit of the fastest mode's natural period over 2 pi (1/omega_0): the end phase
 /// looks for the first instant of the settle test on a grid of step 0.1 / omega_0, as fine as
 /// the reference's own steps there.
@@ -574,7 +583,9 @@ impl EndPhase {
         let mut q = q_sw;
         let mut converged = None;
         let mut margin = f64::INFINITY;
-        for _ in 0..NEWTON_ITERATIONS {
+        // minus the sum of the Newton steps so far: about delta0
+        let mut moved = Vector3::zeros();
+        for it in 0..NEWTON_ITERATIONS as usize {
             let lin = sys
                 .model
                 .linearize(&rotation_matrix(q[0], q[1], q[2], q[3]), sys.active)?;
@@ -589,6 +600,17 @@ impl EndPhase {
             let step = chol.solve(&lin.torque);
             if step.norm() > 4.0 * LINEAR_RADIUS {
                 return None;
+            }
+            moved -= step;
+            if let Some(&factor) = EARLY_EXIT.get(it) {
+                // the amplitude test below, estimated: the least diagonal element of K bounds
+                // its least eigenvalue from above
+                let k_diag = k[(0, 0)].min(k[(1, 1)]).min(k[(2, 2)]);
+                let estimate =
+                    (moved.norm_squared() + sys.body.inertia.x * w.norm_squared() / k_diag).sqrt();
+                if estimate > factor * LINEAR_RADIUS {
+                    return None;
+                }
             }
             q = normalized(quat_mul(q, quat_exp(&step)));
         }
