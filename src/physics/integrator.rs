@@ -1,7 +1,9 @@
 //! An allocation-free explicit Runge-Kutta integrator for small fixed-size systems: the
 //! Bogacki-Shampine 3(2) pair with first-same-as-last and an error-controlled step size, run
 //! until a stop test on each accepted step passes. It is the settle engine's fast path; the
-//! reference path integrates the same equations with ode_solvers' Dopri5 (see `dynamics`).
+//! reference path integrates the same equations with ode_solvers' Dopri5 (see `dynamics`), and
+//! the fast path's tight fallback with `dopri5_until`, the same Dopri5 steps without
+//! ode_solvers' allocations.
 //!
 //! Why a third-order pair: a settle only needs the trajectory to stay in the right basin and the
 //! stop test (evaluated exactly on the accepted state) to decide where it ends, so loose
@@ -168,6 +170,187 @@ where
         stopped: false,
         end,
     }
+}
+
+/// Dormand-Prince 5(4) with Hairer's PI controller (safety 0.9, beta 0.04, step factors 0.2 to
+/// 10, the step at most `t_max`) and starting step, step for step and bit for bit the
+/// integration ode_solvers' `Dopri5` does with those parameters (no stiffness test, sparse
+/// output), without its allocations and generic vector arithmetic: the settle's tight fallback
+/// (3,400 to 4,000 evaluations a settle) ran at 225 ns an evaluation through ode_solvers, of
+/// which the torques took 125. Stops as [`integrate_until`] does; more than `max_steps` steps
+/// (accepted or rejected) end with [`End::StepLimit`].
+pub fn dopri5_until<const N: usize, S, F>(
+    sys: &S,
+    y0: [f64; N],
+    t_max: f64,
+    tol: Tolerances,
+    max_steps: u32,
+    mut stop: F,
+) -> Outcome<N>
+where
+    S: OdeSystem<N>,
+    F: FnMut(f64, &[f64; N], &[f64; N]) -> bool,
+{
+    // Dormand and Prince's coefficients, as ode_solvers writes them
+    const A2: [f64; 1] = [1.0 / 5.0];
+    const A3: [f64; 2] = [3.0 / 40.0, 9.0 / 40.0];
+    const A4: [f64; 3] = [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0];
+    const A5: [f64; 4] = [
+        19372.0 / 6561.0,
+        -25360.0 / 2187.0,
+        64448.0 / 6561.0,
+        -212.0 / 729.0,
+    ];
+    const A6: [f64; 5] = [
+        9017.0 / 3168.0,
+        -355.0 / 33.0,
+        46732.0 / 5247.0,
+        49.0 / 176.0,
+        -5103.0 / 18656.0,
+    ];
+    // the seventh row (its second weight is 0)
+    const A7: [f64; 6] = [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+    ];
+    const E: [f64; 7] = [
+        71.0 / 57600.0,
+        0.0,
+        -71.0 / 16695.0,
+        71.0 / 1920.0,
+        -17253.0 / 339200.0,
+        22.0 / 525.0,
+        -1.0 / 40.0,
+    ];
+    const BETA5: f64 = 0.04;
+    const SAFETY5: f64 = 0.9;
+    let alpha = 0.2f64 - BETA5 * 0.75;
+    let (facc1, facc2) = (1.0f64 / 0.2, 1.0f64 / 10.0);
+    let h_max = t_max.abs();
+    let scale = |y: f64| tol.atol + y.abs() * tol.rtol;
+
+    // the starting step (ode_solvers' hinit, order 5)
+    let mut f0 = [0.0; N];
+    sys.rhs(&y0, &mut f0);
+    let (mut d0, mut d1) = (0.0, 0.0);
+    for i in 0..N {
+        let sc = scale(y0[i]);
+        d0 += (y0[i] / sc) * (y0[i] / sc);
+        d1 += (f0[i] / sc) * (f0[i] / sc);
+    }
+    let h0 = if d0 < 1e-10 || d1 < 1e-10 {
+        1e-6
+    } else {
+        0.01 * (d0 / d1).sqrt()
+    }
+    .min(h_max);
+    let mut y1 = [0.0; N];
+    for i in 0..N {
+        y1[i] = y0[i] + f0[i] * h0;
+    }
+    let mut f1 = [0.0; N];
+    sys.rhs(&y1, &mut f1);
+    let mut d2 = 0.0;
+    for i in 0..N {
+        let sc = scale(y0[i]);
+        d2 += ((f1[i] - f0[i]) / sc) * ((f1[i] - f0[i]) / sc);
+    }
+    let d2 = d2.sqrt() / h0;
+    let h1 = if d1.sqrt().max(d2.abs()) <= 1e-15 {
+        1e-6f64.max(h0.abs() * 1e-3)
+    } else {
+        (0.01 / d1.sqrt().max(d2)).powf(1.0 / 5.0)
+    };
+    let mut h = (100.0 * h0.abs()).min(h1.min(h_max));
+
+    let mut y = y0;
+    let mut k = [[0.0; N]; 7];
+    sys.rhs(&y, &mut k[0]);
+    let mut evaluations = 3u32;
+    let (mut t, mut steps, mut attempts) = (0.0f64, 0u32, 0u32);
+    let (mut fac_old, mut reject, mut last) = (1.0e-4f64, false, false);
+    let mut y_next = [0.0; N];
+    let outcome = |t, y, evaluations, steps, end| Outcome {
+        t,
+        y,
+        evaluations,
+        steps,
+        stopped: end == End::Stopped,
+        end,
+    };
+    while !last {
+        if attempts > max_steps {
+            return outcome(t, y, evaluations, steps, End::StepLimit);
+        }
+        if 0.1 * h.abs() <= f64::EPSILON * t.abs() {
+            return outcome(t, y, evaluations, steps, End::StepSizeUnderflow);
+        }
+        if t + 1.01 * h - t_max > 0.0 {
+            h = t_max - t;
+            last = true;
+        }
+        attempts += 1;
+        for (s, row) in [&A2[..], &A3, &A4, &A5, &A6, &A7].into_iter().enumerate() {
+            for i in 0..N {
+                let mut acc = y[i];
+                for (j, &a) in row.iter().enumerate() {
+                    if a != 0.0 {
+                        acc += k[j][i] * h * a;
+                    }
+                }
+                y_next[i] = acc;
+            }
+            sys.rhs(&y_next, &mut k[s + 1]);
+        }
+        evaluations += 6;
+        let mut err = 0.0;
+        for i in 0..N {
+            let e = (k[0][i] * E[0]
+                + k[2][i] * E[2]
+                + k[3][i] * E[3]
+                + k[4][i] * E[4]
+                + k[5][i] * E[5]
+                + k[6][i] * E[6])
+                * h;
+            let sc = tol.atol + y[i].abs().max(y_next[i].abs()) * tol.rtol;
+            err += (e / sc) * (e / sc);
+        }
+        let err = (err / N as f64).sqrt();
+        // the PI controller, as ode_solvers' Controller::accept
+        let fac11 = err.powf(alpha);
+        let fac = facc2.max(facc1.min(fac11 * fac_old.powf(-BETA5) / SAFETY5));
+        let mut h_new = h / fac;
+        if err <= 1.0 {
+            fac_old = err.max(1.0e-4);
+            if h_new.abs() > h_max {
+                h_new = h_max;
+            }
+            if reject {
+                h_new = h_new.abs().min(h.abs());
+            }
+            reject = false;
+            steps += 1;
+            k[0] = k[6];
+            y = y_next;
+            t += h;
+            if stop(t, &y, &k[0]) {
+                return outcome(t, y, evaluations, steps, End::Stopped);
+            }
+            if last {
+                return outcome(t, y, evaluations, steps, End::TimeLimit);
+            }
+        } else {
+            h_new = h / facc1.min(fac11 / SAFETY5);
+            reject = true;
+            last = false;
+        }
+        h = h_new;
+    }
+    outcome(t, y, evaluations, steps, End::TimeLimit)
 }
 
 /// The starting step of Hairer, Norsett and Wanner (Solving ODEs I, II.4), for order 3.
