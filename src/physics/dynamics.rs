@@ -5,15 +5,12 @@
 //! Two paths reach the same equilibria: the fast path (the default, `settle_fast`), an
 //! allocation-free Bogacki-Shampine 3(2) stepper from `integrator` while the motion is
 //! nonlinear and a closed-form linear end phase about the strict minimum it comes to (with a
-//! tight fallback where it cannot be sure: `integrator`'s Dopri5, ode_solvers' steps to the
-//! bit without its allocations), and the reference path, ode_solvers' Dopri5 at
+//! tight fallback where it cannot be sure), and the reference path, ode_solvers' Dopri5 at
 //! whatever tolerances are asked (`SettleParams::reference()` is tight). tests/basins.rs and
 //! examples/basins.rs check the one against the other on random sets; tests/settle.rs pins 54.
 
 use crate::model::geometry::{Orientation, Pair};
-use crate::physics::integrator::{
-    dopri5_until, integrate_until, End, OdeSystem, Outcome, Tolerances,
-};
+use crate::physics::integrator::{integrate_until, End, OdeSystem, Outcome, Tolerances};
 use crate::physics::torque::{rotation_matrix, TorqueModel};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use ode_solvers::dop_shared::IntegrationError;
@@ -411,7 +408,7 @@ fn conclude<M: TorqueModel>(
             atol: FALLBACK_ATOL,
             ..params
         };
-        let mut r = settle_tight(sys, y0, tight);
+        let mut r = settle_dopri5(sys, y0, tight, None);
         r.evaluations = r.evaluations.saturating_add(evaluations);
         return r;
     }
@@ -825,37 +822,6 @@ fn propagate(
     (x, v)
 }
 
-/// The fast path's tight fallback: Dopri5 at `params`' tolerances through
-/// `integrator::dopri5_until`, the same steps and results to the bit as [`settle_dopri5`]
-/// (ode_solvers) at the same tolerances, at 60% of its cost.
-fn settle_tight<M: TorqueModel>(
-    sys: &RotorDynamics<'_, M>,
-    y0: [f64; 7],
-    params: SettleParams,
-) -> SettleResult {
-    let tol = Tolerances {
-        rtol: params.rtol,
-        atol: params.atol,
-    };
-    let out = dopri5_until(
-        sys,
-        y0,
-        params.t_max,
-        tol,
-        REFERENCE_MAX_STEPS,
-        |_, y, dy| sys.settled(&params, y, dy),
-    );
-    finish(
-        sys.model,
-        sys.active,
-        &out.y,
-        out.t,
-        out.evaluations,
-        out.steps,
-        out.end.into(),
-    )
-}
-
 fn settle_dopri5<M: TorqueModel>(
     sys: &RotorDynamics<'_, M>,
     y0: [f64; 7],
@@ -961,51 +927,4 @@ pub fn settle_many<M: TorqueModel>(
     sets.par_iter()
         .map(|s| settle(model, s, q0, body, params))
         .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::io::scenario::Scenario;
-    use crate::model::geometry::{rot_q, unit, Radians};
-
-    #[test]
-    fn the_tight_fallback_takes_ode_solvers_steps_to_the_bit() {
-        let sc = Scenario::prototype();
-        let axis = unit(Vector3::new(0.2, 1.0, 0.4)).expect("an axis");
-        let q0 = rot_q(&axis, Radians(0.08));
-        let y0 = [q0.i, q0.j, q0.k, q0.w, 0.0, 0.0, 0.0];
-        // two sets the fast path falls back on (a minimum near a cut-off; a free direction
-        // still turning at t_max), one it does not, and one that settles at once
-        let sets = [
-            vec![Pair::new(0, 14), Pair::new(4, 66), Pair::new(15, 46)],
-            vec![Pair::new(0, 14), Pair::new(9, 5), Pair::new(10, 4)],
-            vec![Pair::new(0, 14), Pair::new(9, 5)],
-            vec![Pair::new(3, 0)],
-        ];
-        for (rtol, atol) in [(1e-9, 1e-11), (1e-6, 1e-8), (1e-2, 1e-5)] {
-            let params = SettleParams {
-                rtol,
-                atol,
-                method: Method::Dopri5,
-                ..sc.settle
-            };
-            for set in &sets {
-                let sys = RotorDynamics::new(&sc.torques, set, sc.body);
-                let ours = settle_tight(&sys, y0, params);
-                let theirs = settle_dopri5(&sys, y0, params, None);
-                assert_eq!(
-                    (ours.q, ours.settle_time_s.to_bits(), ours.steps, ours.stop),
-                    (
-                        theirs.q,
-                        theirs.settle_time_s.to_bits(),
-                        theirs.steps,
-                        theirs.stop
-                    ),
-                    "{set:?} at rtol {rtol}"
-                );
-                assert_eq!(ours.evaluations, theirs.evaluations);
-            }
-        }
-    }
 }
