@@ -314,7 +314,9 @@ impl Well {
     /// Torque of one coil at `s` on one magnet at `p` (both in the same frame; the torque is
     /// in that frame). A magnet whose cosine is below `cos_cutoff` (the cosine of the maximum
     /// attraction distance, or -2 for no early test) is rejected before any trigonometry.
-    #[inline]
+    /// Always inlined: where the compiler's partition left it a call, settle/pairs/4 took 30
+    /// instead of 21 us.
+    #[inline(always)]
     pub(crate) fn pair_torque(
         &self,
         p: &Vector3<f64>,
