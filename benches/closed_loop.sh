@@ -13,8 +13,8 @@ noises=("$@")
 [ ${#noises[@]} -gt 0 ] || noises=(0.5 1 2)
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-echo "| about | loop | sensor noise | steps (planned) | replans | final error to the goal | worst axis error |"
-echo "|---|---|---|---|---|---|---|"
+echo "| about | loop | sensor noise | steps (planned) | replans | final error to the goal | worst axis error | steered by |"
+echo "|---|---|---|---|---|---|---|---|"
 for axis in 0,0,1 0,1,0 1,0,0; do
   runs=("open 0")
   for n in "${noises[@]}"; do runs+=("closed $n"); done
@@ -29,8 +29,10 @@ import json, sys
 axis, path = sys.argv[1:]
 s = json.load(open(path))
 name = {"0,0,1": "Z", "0,1,0": "Y", "1,0,0": "X"}[axis]
+fit = s.get("fitted")
+by = f"fitted after step {s['fitted_after_step']}: {fit}" if fit else "the model"
 print(f"| {name} | {s['mode']} | {s['sensor_noise_deg']:g} deg | {s['steps']} ({s['planned_steps']}) "
-      f"| {s['replans']} | **{s['final_error_deg']:.2f}** | {s['max_axis_error_deg']:.2f} |")
+      f"| {s['replans']} | **{s['final_error_deg']:.2f}** | {s['max_axis_error_deg']:.2f} | {by} |")
 PY
   done
 done

@@ -7,7 +7,7 @@
 //!
 //! 1. [`model`]: geometry, symmetry groups and the packings of magnets and coils;
 //! 2. [`physics`]: magnet torques, the integrator and the rotor's dynamics (the settle);
-//! 3. [`planning`]: commutation, the planners and the simulation of a plan;
+//! 3. [`planning`]: commutation, the planners, the simulation of a plan and the closed loop;
 //! 4. [`relay`]: relay boards, the serial link and the timed replay of a plan;
 //!    [`sensor`] (the same level): orientation sensors read over a port (quat-csv, BNO055);
 //! 5. [`io`]: the files: scenarios (TOML), plans and results (CSV), atomic writes;
