@@ -9,10 +9,11 @@ use crate::model::geometry::{rot_q, rotation_angle, rotation_axis, Orientation};
 use crate::model::geometry::{Pair, Radians, UnitVec};
 use crate::physics::dynamics::settle;
 use crate::planning::coilsets::{coils_of, label};
-use crate::planning::commutation::{cumulative, CommutationState, Motor};
-use crate::planning::identify::{Identifier, Observation};
+use crate::planning::commutation::{cumulative, CommutationState, Motor, Step};
+use crate::planning::identify::{Candidate, Identifier, Observation};
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::planner::plan_from;
+use crate::planning::search::{first_row, step_row};
 use crate::planning::seek::{self, Seek};
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -268,8 +269,9 @@ impl<'a> Controller<'a> {
             return Decision::Continue;
         }
         self.planned_with = self.fitted;
-        let plan = match self.fitted {
-            Some(k) => self.seek(k, measured, &row.active),
+        let fit = (self.fitted.zip(self.identifier.as_ref())).map(|(k, id)| id.candidate(k));
+        let plan = match fit {
+            Some(c) => self.seek(c, measured, &row.active),
             None => self.replan(measured, &row.active),
         };
         match plan {
@@ -319,15 +321,17 @@ impl<'a> Controller<'a> {
         self.identifier.as_ref().map_or(0, |id| id.settles())
     }
 
-    /// The rest of the motion in fitted candidate `k`'s physics, from the measurement held
-    /// by the coils on now: the search of [`Seek`] straight for the goal (a fitted model
+    /// The rest of the motion in the fitted candidate `fit`'s physics, from the measurement
+    /// held by the coils on now: the search of [`Seek`] straight for the goal (a fitted model
     /// promises no axis; the steps left are counted against `max_steps`). Row 0 of the plan
     /// is the measured state.
-    fn seek(&self, k: usize, measured: &Orientation, active: &[Pair]) -> Result<Plan, String> {
-        let Some(id) = self.identifier.as_ref() else {
-            return Err("no fitted model".into());
-        };
-        let torques = &id.candidate(k).torques;
+    fn seek(
+        &self,
+        fit: &Candidate,
+        measured: &Orientation,
+        active: &[Pair],
+    ) -> Result<Plan, String> {
+        let torques = &fit.torques;
         let seek = Seek {
             motor: self.model,
             torques,
@@ -352,14 +356,32 @@ impl<'a> Controller<'a> {
                  steps ({} settles in the fitted {})",
                 angular(measured, &self.goal).to_degrees(),
                 path.settles,
-                id.candidate(k).name
+                fit.name
             ));
         }
-        let mut rows = vec![row_of(0, &root, measured, &root, &self.settings)];
+        let axis = &self.settings.axis;
+        let mut rows = vec![first_row(&root)];
         let mut from = &root;
-        for st in &path.states {
-            rows.push(row_of(rows.len(), st, measured, from, &self.settings));
-            from = st;
+        for to in &path.states {
+            let (angle, axis_error) = cumulative(&from.q, &to.q, axis);
+            let step = Step {
+                pivot: None,
+                new: to
+                    .active
+                    .iter()
+                    .filter(|p| !from.active.iter().any(|o| o.coil == p.coil))
+                    .copied()
+                    .collect(),
+                to: to.clone(),
+                angle,
+                axis_error,
+            };
+            rows.push(step_row(
+                rows.len(),
+                &step,
+                cumulative(measured, &to.q, axis),
+            ));
+            from = to;
         }
         Ok(Plan {
             rows,
@@ -467,35 +489,6 @@ pub fn run_closed_loop(
     }
     run.summary.fit_settles = ctl.fit_settles();
     run
-}
-
-/// Row `step` of a one-step plan from `from` (at `q0`) to `to`.
-fn row_of(
-    step: usize,
-    to: &CommutationState,
-    q0: &Orientation,
-    from: &CommutationState,
-    s: &PlanSettings,
-) -> PlanRow {
-    let (ca, ce) = cumulative(q0, &to.q, &s.axis);
-    let (sa, se) = cumulative(&from.q, &to.q, &s.axis);
-    PlanRow {
-        step,
-        pivot: None,
-        new: to
-            .active
-            .iter()
-            .filter(|p| !from.active.iter().any(|o| o.coil == p.coil))
-            .copied()
-            .collect(),
-        active: to.active.clone(),
-        q: to.q,
-        step_angle_deg: sa.0.to_degrees(),
-        step_axis_error_deg: se.0.to_degrees(),
-        cum_angle_deg: ca.0.to_degrees(),
-        cum_axis_error_deg: ce.0.to_degrees(),
-        settle_time_s: to.settle_time_s,
-    }
 }
 
 /// The goal of a plan made for `settings`: ROT[axis, angle] applied to its start (row 0).

@@ -7,7 +7,7 @@
 //! the searches of `search`, which it shares with the pair models.
 
 use crate::model::geometry::{angular_distance, CoilId, Orientation, Pair, Radians, UnitVec};
-use crate::physics::dynamics::{settle_many, Stop};
+use crate::physics::dynamics::{settle_many, SettleResult, Stop};
 use crate::physics::torque::{Interaction, MagnetTorques};
 use crate::planning::commutation::{
     admissible, bottom_coil, combinations, holds, nearest_magnet, pivot_error,
@@ -57,24 +57,15 @@ impl<'a> CoilSets<'a> {
         sets: &[Vec<CoilId>],
         at: Option<&Frontier>,
     ) -> (usize, Vec<Option<CommutationState>>) {
-        let (torques, motor) = (self.motor.torques, self.motor);
+        let torques = self.motor.torques;
         let pairs: Vec<Vec<Pair>> = sets.iter().map(|c| label(torques, c, q)).collect();
-        let mut results = settle_many(torques, &pairs, q, motor.body, motor.weighing());
-        let mut unheld: Vec<(f64, usize)> = results
-            .iter()
-            .enumerate()
-            .filter(|(_, r)| r.stop == Stop::Unheld)
-            .map(|(k, r)| (at.map_or(0.0, |at| self.rank_at(at, &r.q)), k))
-            .collect();
-        unheld.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        if at.is_some() {
-            unheld.truncate(FOLLOWED_PER_STATE);
-        }
-        let again: Vec<Vec<Pair>> = unheld.iter().map(|&(_, k)| pairs[k].clone()).collect();
-        let followed = settle_many(torques, &again, q, motor.body, motor.settle);
-        for ((_, k), r) in unheld.iter().zip(followed) {
-            results[*k] = r;
-        }
+        let follow = if at.is_some() {
+            FOLLOWED_PER_STATE
+        } else {
+            usize::MAX
+        };
+        let rank = |r: &Orientation| at.map_or(0.0, |at| self.rank_at(at, r));
+        let (results, spent) = settle_following(torques, &pairs, q, self.motor, follow, rank);
         let states = results
             .into_iter()
             .zip(sets)
@@ -95,7 +86,7 @@ impl<'a> CoilSets<'a> {
                 holds(torques, &to, self.capture).then_some(to)
             })
             .collect();
-        (sets.len() + again.len(), states)
+        (spent, states)
     }
 
     /// The rank a partial plan at `at` would have after a step to `q` (unranked last).
@@ -215,6 +206,35 @@ impl StepSource for CoilSets<'_> {
     fn expand(&self, at: &Frontier) -> (usize, Vec<Step>) {
         self.weigh(at, &self.ranked_sets(at))
     }
+}
+
+/// Settles each of `pairs` from `q` in `torques` with `motor`'s body and weighing settle, then
+/// follows again with its settle (to where the ball really stops) the `follow` sets left unheld
+/// whose weighing left the ball lowest by `rank` (the first of equals): the results, each in
+/// its set's place, and the settles spent.
+pub fn settle_following(
+    torques: &MagnetTorques,
+    pairs: &[Vec<Pair>],
+    q: &Orientation,
+    motor: &Motor,
+    follow: usize,
+    rank: impl Fn(&Orientation) -> f64,
+) -> (Vec<SettleResult>, usize) {
+    let mut results = settle_many(torques, pairs, q, motor.body, motor.weighing());
+    let mut unheld: Vec<(f64, usize)> = results
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.stop == Stop::Unheld)
+        .map(|(k, r)| (rank(&r.q), k))
+        .collect();
+    unheld.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    unheld.truncate(follow);
+    let again: Vec<Vec<Pair>> = unheld.iter().map(|&(_, k)| pairs[k].clone()).collect();
+    let followed = settle_many(torques, &again, q, motor.body, motor.settle);
+    for ((_, k), r) in unheld.iter().zip(followed) {
+        results[*k] = r;
+    }
+    (results, pairs.len() + again.len())
 }
 
 /// The coils of an active set, sorted.

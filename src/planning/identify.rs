@@ -4,8 +4,9 @@
 //! pair interaction and with every coil pulling) predicts every measured step (the ball at rest
 //! where it was measured, the step's set switched on, settled); a candidate is scored by the
 //! median of its prediction errors. Equilibria depend on the wells' shape, not their
-//! strength, so every candidate is given the model's single-pair stiffness (its damping ratio
-//! stays the model's). Everything is counted, nothing timed: the same measurements give the
+//! strength; the strength (against the model's body: its inertia and damping) decides only
+//! which basin a step ends in, so each shape is tried at a few fractions of the model's
+//! single-pair stiffness. Everything is counted, nothing timed: the same measurements give the
 //! same choice on any machine and thread count.
 
 use crate::model::geometry::{Degrees, Orientation, Pair, Radians};
@@ -40,7 +41,8 @@ pub struct Candidate {
 
 /// The family of candidates for `model`'s motor: its own wells (index 0), then the gaussian and
 /// cosine wells of [`GAUSSIAN_WIDTHS_DEG`] and [`REACHES_DEG`], with the pair interaction and
-/// with every coil pulling, each with the model's single-pair stiffness.
+/// with every coil pulling, each at [`STIFFNESS_FRACTIONS`] of the model's single-pair
+/// stiffness.
 pub fn family(model: &MagnetTorques) -> Vec<Candidate> {
     let mut out = vec![Candidate {
         torques: model.clone(),
@@ -147,12 +149,13 @@ impl Identifier {
     /// The candidate that predicted the steps best: the smallest median error, then the
     /// smallest root mean square, then the first.
     pub fn best(&self) -> usize {
-        (0..self.candidates.len())
+        let scores: Vec<(f64, f64)> = (0..self.candidates.len())
+            .map(|k| (self.median(k).0, self.rms(k).0))
+            .collect();
+        (0..scores.len())
             .min_by(|&a, &b| {
-                self.median(a)
-                    .0
-                    .total_cmp(&self.median(b).0)
-                    .then(self.rms(a).0.total_cmp(&self.rms(b).0))
+                let (sa, sb) = (scores[a], scores[b]);
+                sa.0.total_cmp(&sb.0).then(sa.1.total_cmp(&sb.1))
             })
             .unwrap_or(0)
     }

@@ -56,19 +56,8 @@ pub(crate) struct Node {
 impl Node {
     fn extend(&self, step: &Step, q0: &Orientation, s: &PlanSettings) -> Node {
         let (ca, ce) = cumulative(q0, &step.to.q, &s.axis);
-        let row = PlanRow {
-            step: self.rows.len(),
-            pivot: step.pivot,
-            new: step.new.clone(),
-            active: step.to.active.clone(),
-            q: step.to.q,
-            step_angle_deg: step.angle.0.to_degrees(),
-            step_axis_error_deg: step.axis_error.0.to_degrees(),
-            cum_angle_deg: ca.0.to_degrees(),
-            cum_axis_error_deg: ce.0.to_degrees(),
-            settle_time_s: step.to.settle_time_s,
-        };
         let mut rows = self.rows.clone();
+        let row = step_row(rows.len(), step, (ca, ce));
         rows.push(row);
         Node {
             rows,
@@ -111,9 +100,26 @@ pub fn run(src: &dyn StepSource, s: &PlanSettings) -> Plan {
     }
 }
 
-/// A plan's start: row 0, the initial commutation state.
-fn root_node(init: &CommutationState) -> Node {
-    let row0 = PlanRow {
+/// Row `index` of a plan: `step` to its state, whose cumulative rotation from the plan's row
+/// 0 has angle and axis error `cum`.
+pub(crate) fn step_row(index: usize, step: &Step, cum: (Radians, Radians)) -> PlanRow {
+    PlanRow {
+        step: index,
+        pivot: step.pivot,
+        new: step.new.clone(),
+        active: step.to.active.clone(),
+        q: step.to.q,
+        step_angle_deg: step.angle.0.to_degrees(),
+        step_axis_error_deg: step.axis_error.0.to_degrees(),
+        cum_angle_deg: cum.0 .0.to_degrees(),
+        cum_axis_error_deg: cum.1 .0.to_degrees(),
+        settle_time_s: step.to.settle_time_s,
+    }
+}
+
+/// Row 0 of a plan: the initial commutation state (or, replanned, the state it starts from).
+pub(crate) fn first_row(init: &CommutationState) -> PlanRow {
+    PlanRow {
         step: 0,
         pivot: None,
         new: init.active.clone(),
@@ -124,9 +130,13 @@ fn root_node(init: &CommutationState) -> Node {
         cum_angle_deg: 0.0,
         cum_axis_error_deg: 0.0,
         settle_time_s: init.settle_time_s,
-    };
+    }
+}
+
+/// A plan's start: row 0, the initial commutation state.
+fn root_node(init: &CommutationState) -> Node {
     Node {
-        rows: vec![row0],
+        rows: vec![first_row(init)],
         state: init.clone(),
         worst: 0.0,
         cum: 0.0,

@@ -1,20 +1,22 @@
-//! Steering towards a goal orientation in a given physics, a few steps ahead: from a
-//! commutation state, every coil set the supply allows is settled; the states nearest the goal
-//! are expanded again, level by level, and each first step is judged by the nearest any of its
-//! descendants comes to the goal. The closed loop steers so with a fitted model (one step taken,
-//! then measured, then looked ahead again); `examples/fewest_steps.rs` uses the same search to
+//! Steering towards a goal orientation in a given physics: from a commutation state, every
+//! coil set the supply allows is settled; the states nearest the goal are expanded again, level
+//! by level (a beam search), until one is near enough or the depth is spent, and the path to the
+//! nearest state found is the plan. The closed loop plans so in fitted wells (and follows the
+//! path until a measurement strays from it); `examples/fewest_steps.rs` uses the same search to
 //! tell how few steps a physics needs for a motion. Budgets are counted in settles.
 
 use crate::model::geometry::{Orientation, Pair};
-use crate::physics::dynamics::{settle_many, Stop};
 use crate::physics::torque::MagnetTorques;
-use crate::planning::coilsets::{coil_sets, coils_in_reach, coils_of, label, FOLLOWED_PER_STATE};
+use crate::planning::coilsets::{
+    coil_sets, coils_in_reach, coils_of, label, settle_following, FOLLOWED_PER_STATE,
+};
 use crate::planning::commutation::{CommutationState, Motor, PairsPerStep};
 
-/// How many states nearest the goal a search keeps at each depth by default, and how deep it
-/// looks. Measured on the pair model's 90 degree plans played on `scenarios/broad-wells.toml`
-/// (`examples/fewest_steps.rs`, from the state after the plan's first step): beam 32 comes
-/// within 1 degree of the goal in 9 steps about Z, 10 about Y and 11 about X.
+/// How many states nearest the goal the closed loop's search keeps at each depth, and how deep
+/// it looks at most. For scale (`examples/fewest_steps.rs` on `scenarios/broad-wells.toml`,
+/// from the state after the pair model's first step of 90 degrees): a beam of 32 comes within
+/// 1 degree of the goal in 9 steps about Z and 10 about Y, and 3.3 degrees after 10 about X;
+/// 16 costs half the settles (about 5,000 to 80,000 a search) and gives the README's tables.
 pub const BEAM: usize = 16;
 pub const DEPTH: usize = 12;
 
@@ -71,7 +73,7 @@ impl Seek<'_> {
             };
             let mut next: Vec<(Option<usize>, CommutationState)> = Vec::new();
             for (parent, st) in parents {
-                for c in self.successors(st, FOLLOWED_PER_STATE, &mut settles) {
+                for c in self.successors(st, &mut settles) {
                     next.push((parent, c));
                 }
             }
@@ -113,15 +115,13 @@ impl Seek<'_> {
     }
 
     /// The states one step from `from`: each coil set the supply allows, weighed (a set no
-    /// strict minimum holds stops where the ball comes to rest), the `follow` of those unheld
-    /// sets that stop nearest the goal followed to where the ball really stops (as the
-    /// coil-set planner does, [`FOLLOWED_PER_STATE`] of them; the steps taken follow none:
-    /// where a coast ends is no safe prediction); those that settle, each coil with its
-    /// nearest magnet there. Adds the settles spent to `settles`.
+    /// strict minimum holds stops where the ball comes to rest), the [`FOLLOWED_PER_STATE`] of
+    /// those unheld sets that stop nearest the goal followed to where the ball really stops (as
+    /// the coil-set planner does); those that settle, each coil with its nearest magnet there.
+    /// Adds the settles spent to `settles`.
     pub fn successors(
         &self,
         from: &CommutationState,
-        follow: usize,
         settles: &mut usize,
     ) -> Vec<CommutationState> {
         let torques = self.torques;
@@ -129,22 +129,10 @@ impl Seek<'_> {
         let reach = coils_in_reach(torques, &from.q);
         let sets = coil_sets(&held, &reach, self.per_step, self.max_coils_on);
         let pairs: Vec<Vec<Pair>> = sets.iter().map(|c| label(torques, c, &from.q)).collect();
-        let (body, weighing) = (self.motor.body, self.motor.weighing());
-        let mut results = settle_many(torques, &pairs, &from.q, body, weighing);
-        let mut unheld: Vec<(f64, usize)> = results
-            .iter()
-            .enumerate()
-            .filter(|(_, r)| r.stop == Stop::Unheld)
-            .map(|(i, r)| (self.distance(&r.q), i))
-            .collect();
-        unheld.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        unheld.truncate(follow);
-        let again: Vec<Vec<Pair>> = unheld.iter().map(|&(_, i)| pairs[i].clone()).collect();
-        let followed = settle_many(torques, &again, &from.q, body, self.motor.settle);
-        for ((_, i), r) in unheld.iter().zip(followed) {
-            results[*i] = r;
-        }
-        *settles += sets.len() + again.len();
+        let rank = |q: &Orientation| self.distance(q);
+        let follow = FOLLOWED_PER_STATE;
+        let (results, spent) = settle_following(torques, &pairs, &from.q, self.motor, follow, rank);
+        *settles += spent;
         results
             .into_iter()
             .zip(&sets)
