@@ -28,13 +28,13 @@ fn the_dipole_well_is_the_3d_magnetics_of_every_energised_coil() {
     // sum of x x F + m x B from the loop field, at orientations where several magnets are in
     // reach of several coils
     let sc = physical();
-    let WellShape::Dipole(w) = &sc.torques.well.shape else {
+    let WellShape::Dipole(w) = &sc.torques.well.shape() else {
         panic!("a dipole well");
     };
     let parts = *w.parts();
     let active = [Pair::new(0, 0), Pair::new(3, 0), Pair::new(9, 0)];
     let mut rng = Rng::new(16);
-    let reach = sc.torques.well.max_attraction.0;
+    let reach = sc.torques.well.max_attraction().0;
     for _ in 0..20 {
         let q = rng.orientation();
         let r = q.to_rotation_matrix();
@@ -109,7 +109,7 @@ fn the_physical_wells_read_back_as_a_table_settle_the_same() {
     let dir = tempfile::tempdir().unwrap();
     let sc = physical();
     let curve = well_curve(&sc.torques.well, DEFAULT_STEP_DEG).unwrap();
-    let WellShape::Dipole(w) = &sc.torques.well.shape else {
+    let WellShape::Dipole(w) = &sc.torques.well.shape() else {
         panic!("a dipole well");
     };
     for &(deg, g) in curve.iter().step_by(50) {

@@ -25,7 +25,7 @@ fn one_pair_settles_with_the_magnet_on_its_coil() {
     let q0 = rot_q(&unit(Vector3::new(1.0, 0.3, 0.0)).unwrap(), Radians(0.2));
     for coil in [0usize, 3, 12] {
         let (m, d0) = nearest_magnet(&sc, coil, &q0);
-        assert!(d0 > 0.01 && d0 < sc.torques.well.max_attraction.0);
+        assert!(d0 > 0.01 && d0 < sc.torques.well.max_attraction().0);
         let pair = Pair {
             coil: spherestep::model::geometry::CoilId(coil),
             magnet: m,
@@ -152,10 +152,11 @@ fn the_fast_path_lands_where_the_reference_integration_does() {
     );
     let (mut worst, mut settled) = (0.0f64, 0);
     for shape in [
-        sc.torques.well.shape.clone(),
+        sc.torques.well.shape().clone(),
         WellShape::Cosine { strength_j: 4.0 },
     ] {
-        sc.torques.well.shape = shape;
+        sc.torques.well =
+            spherestep::physics::torque::Well::new(shape, sc.torques.well.max_attraction());
         for (q0, set) in &sets {
             let fast = settle(&sc.torques, set, q0, sc.body, sc.settle);
             let reference = settle(&sc.torques, set, q0, sc.body, sc.settle.reference());
@@ -281,7 +282,7 @@ fn coils_interaction_attracts_every_magnet_in_range() {
         }];
         sc.torques.interaction = Interaction::Pairs;
         let (t, _) = sc.torques.torque_energy(r.matrix(), &one);
-        if dist(&sc, &q0, one[0]) < sc.torques.well.max_attraction.0 {
+        if dist(&sc, &q0, one[0]) < sc.torques.well.max_attraction().0 {
             in_range += 1;
         }
         expect_t += t;

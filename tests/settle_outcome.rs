@@ -24,7 +24,7 @@ fn gap(sc: &Scenario, q: &spherestep::model::geometry::Orientation, p: Pair) -> 
 fn a_pair_out_of_reach_holds_nothing() {
     let sc = proto();
     let far = Pair::new(0, 15);
-    let reach = sc.torques.well.max_attraction.0;
+    let reach = sc.torques.well.max_attraction().0;
     assert!(
         gap(&sc, &identity(), far) > reach,
         "the test needs 0:15 out of reach"
@@ -50,7 +50,7 @@ fn a_pair_out_of_reach_holds_nothing() {
 #[test]
 fn a_half_held_set_is_its_own_outcome() {
     let sc = proto();
-    let reach = sc.torques.well.max_attraction.0;
+    let reach = sc.torques.well.max_attraction().0;
     let held = sc.check_active(&[Pair::new(0, 14), Pair::new(12, 26)], "t");
     assert!(held.is_ok());
     // 0:14 and 12:26 hold the ball together.

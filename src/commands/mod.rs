@@ -120,7 +120,7 @@ pub struct Holding {
 impl Holding {
     /// The pairs of `active` that hold the ball at `q` in `sc`.
     pub fn of(sc: &Scenario, active: &[Pair], q: &Orientation) -> Holding {
-        let reach = sc.torques.well.max_attraction.0;
+        let reach = sc.torques.well.max_attraction().0;
         let r = q.to_rotation_matrix();
         let (held, not_held) = active
             .iter()

@@ -27,7 +27,7 @@ pub fn well_curve(well: &Well, step_deg: f64) -> Result<Vec<(f64, f64)>> {
         });
     }
     // the cut-off in the degrees it was given in (radians and back lose the last bit)
-    let end = (well.max_attraction.0.to_degrees() * 1e9).round() / 1e9;
+    let end = (well.max_attraction().0.to_degrees() * 1e9).round() / 1e9;
     let n = (end / step_deg).ceil().max(1.0) as usize;
     Ok((0..=n)
         .map(|i| {

@@ -736,10 +736,7 @@ impl Checker<'_> {
             }
         };
         Ok((
-            Well {
-                shape,
-                max_attraction: Degrees(max_deg).to_radians(),
-            },
+            Well::new(shape, Degrees(max_deg).to_radians()),
             raw.interaction.unwrap_or_default(),
         ))
     }
@@ -764,10 +761,7 @@ impl Checker<'_> {
             Some(d) => Degrees(d).to_radians(),
         };
         Ok((
-            Well {
-                shape: WellShape::Dipole(well),
-                max_attraction: max,
-            },
+            Well::new(WellShape::Dipole(well), max),
             raw.interaction.unwrap_or(Interaction::Coils),
         ))
     }

@@ -1,4 +1,5 @@
-//! The physics of the ball: torques of the magnet wells (`torque`), the adaptive stepper
+//! The physics of the ball: torques of the magnet wells (`torque`, evaluated through each
+//! well's fitted `profile` where it has one), the adaptive stepper
 //! (`integrator`), the rotor's quaternion equations of motion and settle (`dynamics`), and the
 //! physical magnets (`magnetics`: coil-loop and dipole fields, the torque of a coil on a
 //! magnet and its reduction to a well).
@@ -6,4 +7,5 @@
 pub mod dynamics;
 pub mod integrator;
 pub mod magnetics;
+pub mod profile;
 pub mod torque;

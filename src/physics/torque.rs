@@ -5,6 +5,7 @@
 
 use crate::model::geometry::{Pair, Radians};
 use crate::physics::magnetics::DipoleWell;
+use crate::physics::profile::Profile;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -200,14 +201,61 @@ pub enum Interaction {
     Coils,
 }
 
-/// A pair potential: its shape and the maximum distance of attraction (g = 0 beyond it).
-#[derive(Debug, Clone, PartialEq)]
+/// A pair potential: its shape and the maximum distance of attraction (g = 0 beyond it), with
+/// the [`Profile`] its torques are evaluated through where its shape has one.
+#[derive(Debug, Clone)]
 pub struct Well {
-    pub shape: WellShape,
-    pub max_attraction: Radians,
+    shape: WellShape,
+    max_attraction: Radians,
+    profile: Option<Profile>,
+}
+
+/// Two wells are the same physics when their shapes and cut-offs are (the profile follows).
+impl PartialEq for Well {
+    fn eq(&self, other: &Well) -> bool {
+        self.shape == other.shape && self.max_attraction == other.max_attraction
+    }
 }
 
 impl Well {
+    /// The well of `shape` cut off at `max_attraction`, its profile fitted (a fraction of a
+    /// millisecond for the smooth shapes).
+    pub fn new(shape: WellShape, max_attraction: Radians) -> Well {
+        let mut well = Well {
+            shape,
+            max_attraction,
+            profile: None,
+        };
+        let u_max = if max_attraction.0 >= std::f64::consts::PI {
+            2.0
+        } else {
+            1.0 - max_attraction.0.cos()
+        };
+        well.profile = Profile::fit(
+            |u: f64| {
+                let d = 2.0 * (0.5 * u).sqrt().min(1.0).asin();
+                well.f_within(d, (u * (2.0 - u)).max(0.0).sqrt())
+            },
+            u_max,
+        );
+        well
+    }
+
+    /// The shape of the potential.
+    pub fn shape(&self) -> &WellShape {
+        &self.shape
+    }
+
+    /// The maximum distance of attraction (g = 0 beyond it).
+    pub fn max_attraction(&self) -> Radians {
+        self.max_attraction
+    }
+
+    /// Whether the torques are evaluated through a fitted [`Profile`] (else by the formula).
+    pub fn has_profile(&self) -> bool {
+        self.profile.is_some()
+    }
+
     /// Potential U(d) in J, continuous, constant beyond the cut-off.
     pub fn potential(&self, d: f64) -> f64 {
         let d = d.min(self.max_attraction.0);
@@ -227,6 +275,11 @@ impl Well {
         if d > self.max_attraction.0 {
             return 0.0;
         }
+        self.g_uncut(d)
+    }
+
+    /// g(d) by the shape's formula, whatever the cut-off.
+    fn g_uncut(&self, d: f64) -> f64 {
         match &self.shape {
             WellShape::Gaussian { strength_j, width } => {
                 let s2 = width.0 * width.0;
@@ -245,6 +298,12 @@ impl Well {
         if d > self.max_attraction.0 {
             return 0.0;
         }
+        self.f_within(d, sin_d)
+    }
+
+    /// g(d) / sin d by the shape's formula, whatever the cut-off (see [`Well::g_over_sin`]).
+    #[inline]
+    fn f_within(&self, d: f64, sin_d: f64) -> f64 {
         const SMALL: f64 = 1e-7;
         match &self.shape {
             WellShape::Gaussian { strength_j, width } => {
@@ -274,7 +333,7 @@ impl Well {
                         self.stiffness()
                     }
                 } else {
-                    self.g(d) / sin_d
+                    self.g_uncut(d) / sin_d
                 }
             }
         }
@@ -328,6 +387,9 @@ impl Well {
             return Vector3::zeros();
         }
         let x = p.cross(s);
+        if let Some(profile) = &self.profile {
+            return x * profile.value(1.0 - c);
+        }
         let sin_d = x.norm();
         let d = angle_from_sin_cos(sin_d, c);
         x * self.g_over_sin(d, sin_d)
@@ -413,9 +475,8 @@ impl MagnetTorques {
     #[inline]
     fn pair(&self, p: &Vector3<f64>, s: &Vector3<f64>) -> (Vector3<f64>, f64) {
         let x = p.cross(s);
-        let sin_d = x.norm();
-        let d = angle_from_sin_cos(sin_d, p.dot(s));
-        (x * self.well.g_over_sin(d, sin_d), self.well.potential(d))
+        let d = angle_from_sin_cos(x.norm(), p.dot(s));
+        (self.well.pair_torque(p, s, -2.0), self.well.potential(d))
     }
 
     /// Adds one pair's body-frame torque and its derivative to `lin` (coil `s` and magnet `p`
@@ -444,7 +505,10 @@ impl MagnetTorques {
         if d > self.well.max_attraction.0 {
             return Some(());
         }
-        let (f, slope) = self.well.f_and_slope(d, sin_d)?;
+        let (f, slope) = match &self.well.profile {
+            Some(profile) => profile.value_and_slope(1.0 - c),
+            None => self.well.f_and_slope(d, sin_d)?,
+        };
         lin.torque += u * f;
         lin.jacobian +=
             (s * p.transpose() - Matrix3::identity() * c) * f - u * u.transpose() * slope;
@@ -681,21 +745,15 @@ mod tests {
         ])
         .unwrap();
         vec![
-            Well {
-                shape: WellShape::Gaussian {
+            Well::new(
+                WellShape::Gaussian {
                     strength_j: 0.2,
                     width: Radians(0.17),
                 },
-                max_attraction: Radians(0.5),
-            },
-            Well {
-                shape: WellShape::Cosine { strength_j: 0.3 },
-                max_attraction: Radians(0.5),
-            },
-            Well {
-                shape: WellShape::Table(table),
-                max_attraction: Radians(0.5),
-            },
+                Radians(0.5),
+            ),
+            Well::new(WellShape::Cosine { strength_j: 0.3 }, Radians(0.5)),
+            Well::new(WellShape::Table(table), Radians(0.5)),
         ]
     }
 
@@ -738,6 +796,35 @@ mod tests {
         let p = m.rotor[0];
         let moved = p + t.cross(&p) * 1e-3;
         assert!(moved.normalize().dot(&m.stator[0]) > p.dot(&m.stator[0]));
+    }
+
+    #[test]
+    fn the_profiled_torques_are_the_formulas_and_end_at_the_cut_off() {
+        let s = Vector3::new(0.0, 0.0, -1.0);
+        let (mut smooth, mut kinked) = (0, 0);
+        for w in wells() {
+            // the table's kinks (and only they) leave it to its formula
+            match w.shape() {
+                WellShape::Table(_) => kinked += (!w.has_profile()) as usize,
+                _ => smooth += w.has_profile() as usize,
+            }
+            for i in 0..=600 {
+                let d = w.max_attraction().0 * (i as f64 / 500.0);
+                let p = Vector3::new(d.sin(), 0.0, -d.cos());
+                let formula = p.cross(&s) * w.g_over_sin(d, d.sin());
+                let torque = w.pair_torque(&p, &s, -2.0);
+                let scale = w.g(d).abs().max(1e-3 * w.stiffness() * 0.1);
+                assert!(
+                    (torque - formula).norm() <= 1e-12 * scale,
+                    "{:?} at {d}: {torque} against {formula}",
+                    w.shape()
+                );
+                if d > w.max_attraction().0 * (1.0 + 1e-9) {
+                    assert_eq!(torque, Vector3::zeros());
+                }
+            }
+        }
+        assert_eq!((smooth, kinked), (2, 1));
     }
 
     #[test]

@@ -260,7 +260,7 @@ pub fn label(torques: &MagnetTorques, coils: &[CoilId], q: &Orientation) -> Vec<
 /// index order.
 pub fn coils_in_reach(torques: &MagnetTorques, q: &Orientation) -> Vec<CoilId> {
     let r = q.to_rotation_matrix();
-    let reach = torques.well.max_attraction.0;
+    let reach = torques.well.max_attraction().0;
     (0..torques.stator.len())
         .filter(|&i| {
             let s = UnitVec::new_normalize(torques.stator[i]);

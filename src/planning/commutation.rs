@@ -220,7 +220,7 @@ pub const ERROR_BOUND_START: Radians = Radians(std::f64::consts::PI / 24.0);
 /// (world z < 0) and within the maximum attraction distance, in (coil, magnet) order.
 pub fn distance_array(torques: &MagnetTorques, q: &Orientation) -> Vec<(Pair, Radians)> {
     let r = q.to_rotation_matrix();
-    let dmax = torques.well.max_attraction.0;
+    let dmax = torques.well.max_attraction().0;
     let mut out = Vec::new();
     let world: Vec<Vector3<f64>> = torques.rotor.iter().map(|m| r * m).collect();
     for (i, s) in torques.stator.iter().enumerate() {
@@ -380,7 +380,7 @@ impl StepLimits {
             (Some(c), _) => c,
             (None, StepModel::Pivot) => PIVOT_CAPTURE,
             (None, StepModel::Dynamic) => peak_pull_distance(well),
-            (None, StepModel::Coils) => well.max_attraction,
+            (None, StepModel::Coils) => well.max_attraction(),
         }
     }
 }
@@ -390,7 +390,7 @@ impl StepLimits {
 /// sigma for a gaussian well, the cut-off for a cosine well of less than 90 degrees.
 pub fn peak_pull_distance(well: &Well) -> Radians {
     let step = 0.01f64.to_radians();
-    let n = (well.max_attraction.0 / step).floor() as usize;
+    let n = (well.max_attraction().0 / step).floor() as usize;
     let (mut best_d, mut best_g) = (0.0, well.g(0.0));
     for k in 1..=n {
         let d = k as f64 * step;
@@ -809,10 +809,7 @@ mod tests {
     use crate::model::geometry::{rotation_angle, unit};
 
     fn well(shape: crate::physics::torque::WellShape, max_deg: f64) -> Well {
-        Well {
-            shape,
-            max_attraction: Radians(max_deg.to_radians()),
-        }
+        Well::new(shape, Radians(max_deg.to_radians()))
     }
 
     #[test]

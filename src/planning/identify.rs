@@ -69,10 +69,7 @@ pub fn family(model: &MagnetTorques) -> Vec<Candidate> {
         for interaction in [Interaction::Pairs, Interaction::Coils] {
             for (shape, shape_name, width) in &shapes {
                 for &reach in REACHES_DEG.iter().filter(|&&r| r >= *width) {
-                    let well = Well {
-                        shape: shape.clone(),
-                        max_attraction: Degrees(reach).to_radians(),
-                    };
+                    let well = Well::new(shape.clone(), Degrees(reach).to_radians());
                     let pulls = match interaction {
                         Interaction::Pairs => "each coil pulls its pair's magnet",
                         Interaction::Coils => "every coil pulls every magnet in reach",

@@ -84,10 +84,7 @@ pub fn setup(shape: Shape, damping_ratio: f64) -> (MagnetTorques, Body, SettlePa
         },
     };
     let torques = MagnetTorques {
-        well: Well {
-            shape,
-            max_attraction: Radians(25f64.to_radians()),
-        },
+        well: Well::new(shape, Radians(25f64.to_radians())),
         ..sc.torques.clone()
     };
     let inertia = 0.023;
@@ -114,7 +111,7 @@ pub fn random_sets(
     rng: &mut Rng,
 ) -> Vec<Vec<Pair>> {
     let r = q0.to_rotation_matrix();
-    let reach = torques.well.max_attraction.0.cos();
+    let reach = torques.well.max_attraction().0.cos();
     let in_reach: Vec<Vec<usize>> = torques
         .stator
         .iter()
