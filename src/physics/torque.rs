@@ -208,6 +208,11 @@ pub struct Well {
     shape: WellShape,
     max_attraction: Radians,
     profile: Option<Profile>,
+    /// The cosines of the cut-off, of the cut-off less [`MARGIN_CAP`] (2: none) and of the
+    /// cut-off plus it (-2 where an angle passes the antipode): the evaluations' early tests.
+    cos_cutoff: f64,
+    cos_near: f64,
+    cos_far: f64,
 }
 
 /// Two wells are the same physics when their shapes and cut-offs are (the profile follows).
@@ -225,6 +230,13 @@ impl Well {
             shape,
             max_attraction,
             profile: None,
+            cos_cutoff: cos_within(max_attraction.0),
+            cos_near: if max_attraction.0 > MARGIN_CAP {
+                (max_attraction.0 - MARGIN_CAP).cos()
+            } else {
+                2.0
+            },
+            cos_far: cos_within(max_attraction.0 + MARGIN_CAP),
         };
         let u_max = if max_attraction.0 >= std::f64::consts::PI {
             2.0
@@ -497,27 +509,34 @@ impl MagnetTorques {
             return Some(());
         }
         let u = p.cross(s);
-        let sin_d = u.norm();
-        let d = angle_from_sin_cos(sin_d, c);
-        lin.cutoff_margin = lin
-            .cutoff_margin
-            .min((d - self.well.max_attraction.0).abs());
-        if d > self.well.max_attraction.0 {
-            return Some(());
-        }
         let (f, slope) = match &self.well.profile {
-            Some(profile) => profile.value_and_slope(1.0 - c),
-            None => self.well.f_and_slope(d, sin_d)?,
+            Some(profile) => {
+                if c < self.well.cos_near {
+                    // within the margin's cap of the cut-off: the angle matters
+                    let d = angle_from_sin_cos(u.norm(), c);
+                    lin.cutoff_margin = lin
+                        .cutoff_margin
+                        .min((d - self.well.max_attraction.0).abs());
+                }
+                // 0 beyond the cut-off, as the torque
+                profile.value_and_slope(1.0 - c)
+            }
+            None => {
+                let sin_d = u.norm();
+                let d = angle_from_sin_cos(sin_d, c);
+                lin.cutoff_margin = lin
+                    .cutoff_margin
+                    .min((d - self.well.max_attraction.0).abs());
+                if d > self.well.max_attraction.0 {
+                    return Some(());
+                }
+                self.well.f_and_slope(d, sin_d)?
+            }
         };
         lin.torque += u * f;
         lin.jacobian +=
             (s * p.transpose() - Matrix3::identity() * c) * f - u * u.transpose() * slope;
         Some(())
-    }
-
-    /// The cosine of the cut-off plus [`MARGIN_CAP`] (-2 where that passes the antipode).
-    fn cos_far(&self) -> f64 {
-        cos_within(self.well.max_attraction.0 + MARGIN_CAP)
     }
 
     /// An empty linearization (the margin at its cap).
@@ -583,7 +602,7 @@ impl TorqueModel for MagnetTorques {
                 }
             }
             Interaction::Coils => {
-                let cos_cutoff = self.well.max_attraction.0.cos();
+                let cos_cutoff = self.well.cos_cutoff;
                 for c in Self::coils(active) {
                     let s = r.tr_mul(&self.stator[c]);
                     for m in &self.rotor {
@@ -597,7 +616,7 @@ impl TorqueModel for MagnetTorques {
 
     fn linearize(&self, r: &Matrix3<f64>, active: &[Pair]) -> Option<Linearization> {
         let mut lin = Self::no_linearization();
-        let cos_far = self.cos_far();
+        let cos_far = self.well.cos_far;
         match self.interaction {
             Interaction::Pairs => {
                 for pr in active {
@@ -700,7 +719,7 @@ impl TorqueModel for NearbyMagnets<'_> {
         if !self.covers(r, active) {
             return self.full.body_torque(r, active);
         }
-        let cos_cutoff = self.full.well.max_attraction.0.cos();
+        let cos_cutoff = self.full.well.cos_cutoff;
         let mut tau = Vector3::zeros();
         for k in 0..self.coils.len() {
             let (s, magnets) = self.coil(k, r);
@@ -716,7 +735,7 @@ impl TorqueModel for NearbyMagnets<'_> {
             return self.full.linearize(r, active);
         }
         let mut lin = MagnetTorques::no_linearization();
-        let cos_far = self.full.cos_far();
+        let cos_far = self.full.well.cos_far;
         for k in 0..self.coils.len() {
             let (s, magnets) = self.coil(k, r);
             for m in magnets {
