@@ -491,7 +491,11 @@ fn settle_fast<M: TorqueModel>(
         atol: params.atol,
     };
     let mut search = scale.map(EndSearch::new);
-    let out = integrate_until(sys, y0, params.t_max, tol, |t, y, dy| {
+    // a tenth of the time scale sqrt(I / K) of the active pairs together
+    let first_step = scale.map_or(0.0, |k1| {
+        FIRST_STEP * (sys.body.inertia.x / (k1 * sys.active.len().max(1) as f64)).sqrt()
+    });
+    let out = integrate_until(sys, y0, params.t_max, tol, first_step, |t, y, dy| {
         if let Some(tr) = trace.as_deref_mut() {
             tr.push((t, State::from_column_slice(y)));
         }
@@ -523,6 +527,14 @@ fn settle_fast<M: TorqueModel>(
     }
     conclude(sys, y0, params, &out, evaluations, scale.is_some())
 }
+
+/// The fast path's least first step, in units of the time scale sqrt(I / (n K)) of its n
+/// active pairs: from rest Hairer's estimate starts 50 to 100 times shorter, and the step took
+/// 6 or 7 steps to grow out of it. On the 200 sets of examples/settle_sets.rs the median settle
+/// takes 70.5 evaluations instead of 81; on the 28,000 of examples/basins.rs none lands in
+/// another equilibrium, and 297 settle times are outside the reference's bounds (307 without).
+/// 0.2 saves 2 evaluations more but leaves 319 outside.
+const FIRST_STEP: f64 = 0.1;
 
 /// The loosest relative tolerance of the fast path's nonlinear phase (a looser scenario rtol is
 /// tightened to it) ...

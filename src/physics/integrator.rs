@@ -67,12 +67,16 @@ const ALPHA: f64 = 1.0 / 3.0 - 0.75 * BETA;
 const BETA: f64 = 0.08;
 
 /// Integrates from `y0` at t = 0 until `stop(t, y, dy)` returns true on an accepted step (dy is
-/// the exact right-hand side at y) or until `t_max`.
+/// the exact right-hand side at y) or until `t_max`. The first step is Hairer's estimate, or
+/// `first_step` where that is longer (a caller that knows the system's time scale: from rest
+/// the estimate sees only the acceleration, and the controller takes several steps to grow
+/// out of it).
 pub fn integrate_until<const N: usize, S, F>(
     sys: &S,
     y0: [f64; N],
     t_max: f64,
     tol: Tolerances,
+    first_step: f64,
     mut stop: F,
 ) -> Outcome<N>
 where
@@ -85,7 +89,9 @@ where
     let mut evaluations = 1u32;
     let mut steps = 0u32;
     let mut t = 0.0;
-    let mut h = initial_step(sys, &y, &k1, t_max, tol, &mut evaluations);
+    let mut h = initial_step(sys, &y, &k1, t_max, tol, &mut evaluations)
+        .max(first_step)
+        .min(t_max);
     let (mut k2, mut k3, mut k4) = ([0.0; N], [0.0; N], [0.0; N]);
     let (mut tmp, mut y_new) = ([0.0; N], [0.0; N]);
     // ln of the error of the last accepted step, and whether the step before this was rejected
@@ -238,7 +244,7 @@ mod tests {
                 rtol,
                 atol: rtol * 1e-2,
             };
-            let out = integrate_until(&osc, [1.0, 0.0], 2.0, tol, |_, _, _| false);
+            let out = integrate_until(&osc, [1.0, 0.0], 2.0, tol, 0.0, |_, _, _| false);
             assert!(!out.stopped);
             assert_eq!(out.t, 2.0);
             errs.push((out.y[0] - exact(2.0)).abs());
@@ -256,7 +262,7 @@ mod tests {
             atol: 1e-6,
         };
         let mut seen = 0;
-        let out = integrate_until(&osc, [1.0, 0.0], 50.0, tol, |_, y, dy| {
+        let out = integrate_until(&osc, [1.0, 0.0], 50.0, tol, 0.0, |_, y, dy| {
             seen += 1;
             let mut f = [0.0; 2];
             osc.rhs(y, &mut f);
