@@ -35,14 +35,13 @@ fn check(shape: Shape, damping_ratio: f64, seed: u64) {
     let label = format!("{shape:?}, damping {damping_ratio} of critical");
     assert!(settled > SETS / 2, "{label}: only {settled} settled");
     assert_eq!(other, 0, "{label}: {other} sets in another equilibrium");
-    // The reference decides "settled" on its own steps: where the test passes only in a brief
-    // dip of a lightly damped oscillation, a finer sampling (the reference at rtol 1e-12, or the
-    // fast path's end phase) may see the dip the reference stepped over, half a period apart.
-    // Some such sets are allowed (light damping dips most: at 0.2 of critical, 7 to 10% of sets in
-    // examples/basins.rs, and half of those agree with the reference at rtol 1e-12 to 5 ms),
-    // never a different equilibrium or flag.
+    // The settle test can pass first in a brief dip of a lightly damped oscillation, and which
+    // dip a run sees hangs on its errors: some such sets are allowed (the reference applies the
+    // test within its steps; on examples/basins.rs 2 to 2.5% of light-damping sets and about 1%
+    // of the others are outside the bounds), never a different equilibrium or flag. Before the
+    // reference looked within its steps, light damping put 6 to 7% outside.
     let allowed = if damping_ratio < 0.5 {
-        SETS / 8
+        SETS / 16
     } else {
         SETS / 30
     };
