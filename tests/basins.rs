@@ -88,3 +88,22 @@ fn cosine_wells_medium_damping() {
 fn cosine_wells_heavy_damping() {
     check(Shape::Cosine, 2.0, 6);
 }
+
+/// A set whose magnet grazes its well's cut-off on the way (comes within 0.01 degrees of it
+/// and turns back, at 3 rad/s): at the fast path's tolerance it ended 0.32 rad from the
+/// reference's equilibrium (examples/basins.rs, seed 19, the cosine light-damping kind); the
+/// graze sends it to the tight fallback.
+#[test]
+fn a_set_that_grazes_a_cut_off_lands_where_the_reference_does() {
+    let (torques, body, params) = setup(Shape::Cosine, 0.2);
+    let q0 = Rng::new(19 + 4).orientation();
+    let set = [
+        spherestep::model::geometry::Pair::new(7, 45),
+        spherestep::model::geometry::Pair::new(3, 72),
+        spherestep::model::geometry::Pair::new(5, 24),
+    ];
+    let (fast, reference) = both(&torques, &set, &q0, body, params);
+    let c = compare(&fast, &reference);
+    assert!(fast.settled && reference.settled);
+    assert!(c.angle < 1e-4, "{} rad from the reference", c.angle);
+}
