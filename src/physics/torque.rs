@@ -46,21 +46,16 @@ pub trait TorqueModel: Sync {
         None
     }
 
-    /// Whether, over a step of `h` seconds from (r0, w0) to (r1, w1) (body-to-world rotations,
-    /// body rates), some active pair's magnet grazes its well's cut-off: comes within `eps` of
-    /// it (in cosine) on the cubic Hermite interpolant of the step, or dips across and back,
-    /// without ending on the other side. `false` where the model has no such test (the "coils"
-    /// interaction, where magnets enter and leave reach all the time).
-    #[allow(clippy::too_many_arguments)]
-    fn grazes(
+    /// Each active pair's cut-off margin m = p . s - cos(d_max) (positive within reach) and its
+    /// rate dm/dt at orientation `r` (body to world) and body rate `w`, appended to `out`, for
+    /// the settle's graze test; `false` where the model offers none (the "coils" interaction,
+    /// where magnets enter and leave reach all the time).
+    fn cutoff_margins(
         &self,
-        _r0: &Matrix3<f64>,
-        _w0: &Vector3<f64>,
-        _r1: &Matrix3<f64>,
-        _w1: &Vector3<f64>,
-        _h: f64,
+        _r: &Matrix3<f64>,
+        _w: &Vector3<f64>,
         _active: &[Pair],
-        _eps: f64,
+        _out: &mut Vec<(f64, f64)>,
     ) -> bool {
         false
     }
@@ -78,9 +73,6 @@ pub struct Linearization {
     /// only a small margin matters.
     pub cutoff_margin: f64,
 }
-
-/// Points of a step's interpolant at which [`TorqueModel::grazes`] looks.
-const GRAZE_SAMPLES: u32 = 16;
 
 /// The cap of [`Linearization::cutoff_margin`], rad: magnets farther than this beyond the
 /// cut-off are passed over without trigonometry.
@@ -676,46 +668,23 @@ impl TorqueModel for MagnetTorques {
         (self.interaction == Interaction::Coils).then(|| NearbyMagnets::new(self, r0, active))
     }
 
-    fn grazes(
+    fn cutoff_margins(
         &self,
-        r0: &Matrix3<f64>,
-        w0: &Vector3<f64>,
-        r1: &Matrix3<f64>,
-        w1: &Vector3<f64>,
-        h: f64,
+        r: &Matrix3<f64>,
+        w: &Vector3<f64>,
         active: &[Pair],
-        eps: f64,
+        out: &mut Vec<(f64, f64)>,
     ) -> bool {
         if self.interaction != Interaction::Pairs {
             return false;
         }
-        let cut = self.well.cos_cutoff;
-        active.iter().any(|pr| {
+        for pr in active {
             let p = &self.rotor[pr.magnet.0];
-            let sw = &self.stator[pr.coil.0];
-            let (s0, s1) = (r0.tr_mul(sw), r1.tr_mul(sw));
-            let (m0, m1) = (p.dot(&s0) - cut, p.dot(&s1) - cut);
-            if m0.signum() != m1.signum() {
-                // a crossing, not a graze
-                return false;
-            }
-            let (d0, d1) = (w0.cross(p).dot(&s0) * h, w1.cross(p).dot(&s1) * h);
-            // the cubic Hermite interpolant of m over the step departs from the chord by at
-            // most a quarter of (|d0 - dm| + |d1 - dm|): most steps are ruled out here
-            let dm = m1 - m0;
-            if m0.abs().min(m1.abs()) > eps + 0.25 * ((d0 - dm).abs() + (d1 - dm).abs()) {
-                return false;
-            }
-            (0..=GRAZE_SAMPLES).any(|j| {
-                let t = j as f64 / GRAZE_SAMPLES as f64;
-                let (t2, t3) = (t * t, t * t * t);
-                let m = (2.0 * t3 - 3.0 * t2 + 1.0) * m0
-                    + (t3 - 2.0 * t2 + t) * d0
-                    + (3.0 * t2 - 2.0 * t3) * m1
-                    + (t3 - t2) * d1;
-                m.abs() < eps || m.signum() != m0.signum()
-            })
-        })
+            let s = r.tr_mul(&self.stator[pr.coil.0]);
+            // d(p . R^T s)/dt = (w x p) . R^T s
+            out.push((p.dot(&s) - self.well.cos_cutoff, w.cross(p).dot(&s)));
+        }
+        true
     }
 }
 
