@@ -488,14 +488,20 @@ fn settle_fast<M: TorqueModel>(
     let first_step = scale.map_or(0.0, |k1| {
         FIRST_STEP * (sys.body.inertia.x / (k1 * sys.active.len().max(1) as f64)).sqrt()
     });
-    // each pair's cut-off margin and its rate at the last accepted step, and now
+    // The graze watch: each pair's cut-off margin and its rate at the last accepted step, and
+    // now. A margin changes no faster than |w| (|d(p . s)/dt| <= |w|), so while the ball has
+    // turned less since the margins were last looked at than the least of them (less
+    // GRAZE_EPS, with |w| taken at twice the larger of a step's ends), no pair can have come
+    // near its cut-off and the margins are not computed.
     let (mut before, mut now) = (Vec::new(), Vec::new());
-    let mut t_before = 0.0;
     let r0 = rotation_matrix(y0[0], y0[1], y0[2], y0[3]);
     let watch = scale.is_some()
         && sys
             .model
             .cutoff_margins(&r0, &Vector3::zeros(), sys.active, &mut before);
+    let least = |m: &[(f64, f64)]| m.iter().fold(f64::INFINITY, |a, &(x, _)| a.min(x.abs()));
+    let mut slack = least(&before) - GRAZE_EPS;
+    let (mut y_before, mut t_before, mut w_before, mut turned) = (y0, 0.0, 0.0f64, 0.0);
     let mut grazed = false;
     let out = integrate_until(sys, y0, params.t_max, tol, first_step, |t, y, dy| {
         if let Some(tr) = trace.as_deref_mut() {
@@ -505,17 +511,26 @@ fn settle_fast<M: TorqueModel>(
             return true;
         }
         if watch {
-            let r = rotation_matrix(y[0], y[1], y[2], y[3]);
-            let w = Vector3::new(y[4], y[5], y[6]);
-            now.clear();
-            sys.model.cutoff_margins(&r, &w, sys.active, &mut now);
+            let w_now = Vector3::new(y[4], y[5], y[6]).norm();
             let h = t - t_before;
-            if before.iter().zip(&now).any(|(&a, &b)| grazes(a, b, h)) {
-                grazed = true;
-                return true;
+            turned += 2.0 * w_now.max(w_before) * h;
+            if turned >= slack {
+                let margins = |y: &[f64; 7], out: &mut Vec<(f64, f64)>| {
+                    out.clear();
+                    let r = rotation_matrix(y[0], y[1], y[2], y[3]);
+                    let w = Vector3::new(y[4], y[5], y[6]);
+                    sys.model.cutoff_margins(&r, &w, sys.active, out);
+                };
+                margins(&y_before, &mut before);
+                margins(y, &mut now);
+                if before.iter().zip(&now).any(|(&a, &b)| grazes(a, b, h)) {
+                    grazed = true;
+                    return true;
+                }
+                slack = least(&now) - GRAZE_EPS;
+                turned = 0.0;
             }
-            std::mem::swap(&mut before, &mut now);
-            t_before = t;
+            (y_before, t_before, w_before) = (*y, t, w_now);
         }
         search.as_mut().is_some_and(|s| s.stops(sys, t, y, dy))
     });
