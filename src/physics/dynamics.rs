@@ -267,9 +267,8 @@ impl<M: TorqueModel> ReferenceRun<'_, '_, M> {
         let h = t1 - t0;
         for j in 1..SUBSTEPS {
             let s = j as f64 / SUBSTEPS as f64;
-            let (s2, s3) = (s * s, s * s * s);
-            let (a0, b0) = (2.0 * s3 - 3.0 * s2 + 1.0, (s3 - 2.0 * s2 + s) * h);
-            let (a1, b1) = (3.0 * s2 - 2.0 * s3, (s3 - s2) * h);
+            let [a0, b0, a1, b1] = hermite_weights(s);
+            let (b0, b1) = (b0 * h, b1 * h);
             let y: [f64; 7] =
                 std::array::from_fn(|k| a0 * y0[k] + b0 * dy0[k] + a1 * y1[k] + b1 * dy1[k]);
             // |w| first: the torque is evaluated only where the ball is slow enough
@@ -502,6 +501,8 @@ fn settle_fast<M: TorqueModel>(
     let least = |m: &[(f64, f64)]| m.iter().fold(f64::INFINITY, |a, &(x, _)| a.min(x.abs()));
     let mut slack = least(&before) - GRAZE_EPS;
     let (mut y_before, mut t_before, mut w_before, mut turned) = (y0, 0.0, 0.0f64, 0.0);
+    // whether `now` holds the margins at y_before (the last step looked at them)
+    let mut looked = false;
     let mut grazed = false;
     let out = integrate_until(sys, y0, params.t_max, tol, first_step, |t, y, dy| {
         if let Some(tr) = trace.as_deref_mut() {
@@ -521,7 +522,11 @@ fn settle_fast<M: TorqueModel>(
                     let w = Vector3::new(y[4], y[5], y[6]);
                     sys.model.cutoff_margins(&r, &w, sys.active, out);
                 };
-                margins(&y_before, &mut before);
+                if looked {
+                    std::mem::swap(&mut before, &mut now);
+                } else {
+                    margins(&y_before, &mut before);
+                }
                 margins(y, &mut now);
                 if before.iter().zip(&now).any(|(&a, &b)| grazes(a, b, h)) {
                     grazed = true;
@@ -529,6 +534,9 @@ fn settle_fast<M: TorqueModel>(
                 }
                 slack = least(&now) - GRAZE_EPS;
                 turned = 0.0;
+                looked = true;
+            } else {
+                looked = false;
             }
             (y_before, t_before, w_before) = (*y, t, w_now);
         }
@@ -635,14 +643,22 @@ fn grazes((m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f64) -> bool {
         return false;
     }
     (0..=GRAZE_SAMPLES).any(|j| {
-        let t = j as f64 / GRAZE_SAMPLES as f64;
-        let (t2, t3) = (t * t, t * t * t);
-        let m = (2.0 * t3 - 3.0 * t2 + 1.0) * m0
-            + (t3 - 2.0 * t2 + t) * d0
-            + (3.0 * t2 - 2.0 * t3) * m1
-            + (t3 - t2) * d1;
+        let [a0, b0, a1, b1] = hermite_weights(j as f64 / GRAZE_SAMPLES as f64);
+        let m = a0 * m0 + b0 * d0 + a1 * m1 + b1 * d1;
         m.abs() < GRAZE_EPS || m.signum() != m0.signum()
     })
+}
+
+/// The cubic Hermite basis at s in [0, 1] of a step: the weights of the value at its start, of
+/// the step times the rate there, of the value at its end and of the step times the rate there.
+fn hermite_weights(s: f64) -> [f64; 4] {
+    let (s2, s3) = (s * s, s * s * s);
+    [
+        2.0 * s3 - 3.0 * s2 + 1.0,
+        s3 - 2.0 * s2 + s,
+        3.0 * s2 - 2.0 * s3,
+        s3 - s2,
+    ]
 }
 
 /// At t_max without a strict minimum, the fast path falls back to the tight integration only

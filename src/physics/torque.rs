@@ -252,11 +252,8 @@ impl Well {
             },
             cos_far: cos_within(max_attraction.0 + MARGIN_CAP),
         };
-        let u_max = if max_attraction.0 >= std::f64::consts::PI {
-            2.0
-        } else {
-            1.0 - max_attraction.0.cos()
-        };
+        // 1 - cos(d_max), and the whole sphere (u = 2) where the cut-off passes the antipode
+        let u_max = (1.0 - well.cos_cutoff).min(2.0);
         well.profile = Profile::fit(
             |u: f64| {
                 let d = 2.0 * (0.5 * u).sqrt().min(1.0).asin();
