@@ -494,7 +494,7 @@ fn settle_fast<M: TorqueModel>(
     // near its cut-off and the margins are not computed.
     let (mut before, mut now) = (Vec::new(), Vec::new());
     let r0 = rotation_matrix(y0[0], y0[1], y0[2], y0[3]);
-    let watch = scale.is_some()
+    let mut watch = scale.is_some()
         && sys
             .model
             .cutoff_margins(&r0, &Vector3::zeros(), sys.active, &mut before);
@@ -520,15 +520,18 @@ fn settle_fast<M: TorqueModel>(
                     out.clear();
                     let r = rotation_matrix(y[0], y[1], y[2], y[3]);
                     let w = Vector3::new(y[4], y[5], y[6]);
-                    sys.model.cutoff_margins(&r, &w, sys.active, out);
+                    sys.model.cutoff_margins(&r, &w, sys.active, out)
                 };
                 if looked {
                     std::mem::swap(&mut before, &mut now);
-                } else {
-                    margins(&y_before, &mut before);
+                } else if !margins(&y_before, &mut before) {
+                    watch = false;
                 }
-                margins(y, &mut now);
-                if before.iter().zip(&now).any(|(&a, &b)| grazes(a, b, h)) {
+                if !margins(y, &mut now) {
+                    // the model offers no margins here (a "coils" model beyond its skin)
+                    watch = false;
+                }
+                if watch && before.iter().zip(&now).any(|(&a, &b)| grazes(a, b, h)) {
                     grazed = true;
                     return true;
                 }

@@ -46,10 +46,12 @@ pub trait TorqueModel: Sync {
         None
     }
 
-    /// Each active pair's cut-off margin m = p . s - cos(d_max) (positive within reach) and its
+    /// Each pulling pair's cut-off margin m = p . s - cos(d_max) (positive within reach) and its
     /// rate dm/dt at orientation `r` (body to world) and body rate `w`, appended to `out`, for
-    /// the settle's graze test; `false` where the model offers none (the "coils" interaction,
-    /// where magnets enter and leave reach all the time).
+    /// the settle's graze test: the active pairs ("pairs" interaction), or every energised
+    /// coil with each magnet that may come within its reach ([`NearbyMagnets`], "coils"), always
+    /// in the same order; `false` where the model offers none (a well whose torque does not
+    /// jump at its cut-off, the whole "coils" model, a [`NearbyMagnets`] beyond its skin).
     fn cutoff_margins(
         &self,
         _r: &Matrix3<f64>,
@@ -227,7 +229,13 @@ pub struct Well {
     cos_cutoff: f64,
     cos_near: f64,
     cos_far: f64,
+    /// Whether the torque jumps at the cut-off (see [`Well::jumps_at_cutoff`]).
+    cutoff_jump: bool,
 }
+
+/// A cut-off where g is below this fraction of its peak within the cut-off is continuous (a
+/// dipole's ends where its pull does: 1e-14 of the peak).
+const JUMP_FLOOR: f64 = 1e-6;
 
 /// Two wells are the same physics when their shapes and cut-offs are (the profile follows).
 impl PartialEq for Well {
@@ -251,7 +259,13 @@ impl Well {
                 2.0
             },
             cos_far: cos_within(max_attraction.0 + MARGIN_CAP),
+            cutoff_jump: false,
         };
+        let d_max = max_attraction.0.min(std::f64::consts::PI);
+        let peak = (0..=64)
+            .map(|i| well.g_uncut(d_max * i as f64 / 64.0).abs())
+            .fold(0.0, f64::max);
+        well.cutoff_jump = well.g_uncut(d_max).abs() > JUMP_FLOOR * peak;
         // 1 - cos(d_max), and the whole sphere (u = 2) where the cut-off passes the antipode
         let u_max = (1.0 - well.cos_cutoff).min(2.0);
         well.profile = Profile::fit(
@@ -277,6 +291,13 @@ impl Well {
     /// Whether the torques are evaluated through a fitted [`Profile`] (else by the formula).
     pub fn has_profile(&self) -> bool {
         self.profile.is_some()
+    }
+
+    /// Whether the torque jumps at the cut-off (g there above [`JUMP_FLOOR`] of its peak): only
+    /// then can a magnet grazing it send the ball elsewhere than a small error would (the
+    /// settle's graze test).
+    pub fn jumps_at_cutoff(&self) -> bool {
+        self.cutoff_jump
     }
 
     /// Potential U(d) in J, continuous, constant beyond the cut-off.
@@ -672,7 +693,7 @@ impl TorqueModel for MagnetTorques {
         active: &[Pair],
         out: &mut Vec<(f64, f64)>,
     ) -> bool {
-        if self.interaction != Interaction::Pairs {
+        if self.interaction != Interaction::Pairs || !self.well.cutoff_jump {
             return false;
         }
         for pr in active {
@@ -784,6 +805,30 @@ impl TorqueModel for NearbyMagnets<'_> {
 
     fn stiffness_scale(&self) -> Option<f64> {
         self.full.stiffness_scale()
+    }
+
+    /// Every energised coil's nearby magnets, in the lists' order; none beyond the skin (where
+    /// other magnets may come within reach).
+    fn cutoff_margins(
+        &self,
+        r: &Matrix3<f64>,
+        w: &Vector3<f64>,
+        active: &[Pair],
+        out: &mut Vec<(f64, f64)>,
+    ) -> bool {
+        if !self.covers(r, active) || !self.full.well.cutoff_jump {
+            return false;
+        }
+        let cos_cutoff = self.full.well.cos_cutoff;
+        for k in 0..self.coils.len() {
+            let (s, magnets) = self.coil(k, r);
+            out.extend(
+                magnets
+                    .iter()
+                    .map(|m| (m.dot(&s) - cos_cutoff, w.cross(m).dot(&s))),
+            );
+        }
+        true
     }
 }
 
