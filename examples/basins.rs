@@ -6,12 +6,14 @@
 //! outside the agreement bounds (1e-4 rad, settle time within 2% + 0.05 s, same settled flag).
 //!
 //! ```text
-//! cargo run --release --example basins -- [--sets N] [--seed S] [--kind K]
+//! cargo run --release --example basins -- [--sets N] [--seed S] [--kind K] [--coils]
 //! ```
 //!
 //! Kinds: gaussian and cosine wells, each with light (0.2), the issue's (0.7) and heavy (2.0)
 //! damping (fraction of critical for one aligned pair), pairs 2, 3, 4, 5 in turn; plus the
 //! issue's own kind, gaussian, 0.7, 3 pairs. `--kind K` runs only kind K (0-based, as listed).
+//! `--coils`: the same sets in the "coils" interaction (each set's coils energised, every magnet
+//! within reach of one pulls), where a settle costs about 20 times more.
 
 #[path = "../tests/basins_common/mod.rs"]
 mod basins_common;
@@ -20,6 +22,7 @@ use anyhow::{bail, Context, Result};
 use basins_common::{compare, random_sets, setup, Kind, Rng, Shape};
 use rayon::prelude::*;
 use spherestep::physics::dynamics::settle;
+use spherestep::physics::torque::Interaction;
 use std::time::Instant;
 
 fn kinds() -> Vec<(Kind, bool)> {
@@ -66,6 +69,7 @@ fn run() -> Result<()> {
     let n: usize = arg_value(&args, "--sets")?.unwrap_or(4000);
     let seed: u64 = arg_value(&args, "--seed")?.unwrap_or(17);
     let only: Option<usize> = arg_value(&args, "--kind")?;
+    let coils = args.iter().any(|a| a == "--coils");
     println!(
         "kind | shape | damping | pairs | sets | settled (ref) | other basin | outside bounds | flag differs | \
          worst angle rad | worst dt s | evals fast / ref | ms fast / ref"
@@ -75,7 +79,10 @@ fn run() -> Result<()> {
         if only.is_some_and(|o| o != k) {
             continue;
         }
-        let (torques, body, params) = setup(kind.shape, kind.damping_ratio);
+        let (mut torques, body, params) = setup(kind.shape, kind.damping_ratio);
+        if coils {
+            torques.interaction = Interaction::Coils;
+        }
         let mut rng = Rng::new(seed.wrapping_add(k as u64));
         let q0 = rng.orientation();
         let sets: Vec<_> = if mixed {
