@@ -900,6 +900,42 @@ mod tests {
     }
 
     #[test]
+    fn only_a_well_whose_pull_jumps_at_its_cut_off_is_watched_for_grazes() {
+        // the gaussian, cosine and table wells of `wells()` still pull at their cut-offs
+        for w in wells() {
+            assert!(w.jumps_at_cutoff(), "{:?}", w.shape());
+        }
+        // a table that ends at zero there does not: a graze changes nothing
+        let table = TorqueTable::from_rows(&[(0.0, 0.0), (10.0, 0.5), (20.0, 0.0)]).unwrap();
+        let w = Well::new(WellShape::Table(table), Radians(20f64.to_radians()));
+        assert!(!w.jumps_at_cutoff());
+        let m = MagnetTorques {
+            rotor: vec![Vector3::new(0.0, 0.1f64.sin(), -0.1f64.cos())],
+            stator: vec![Vector3::new(0.0, 0.0, -1.0)],
+            well: w,
+            interaction: Interaction::Pairs,
+        };
+        let mut out = Vec::new();
+        let (r, w0) = (Matrix3::identity(), Vector3::zeros());
+        assert!(!m.cutoff_margins(&r, &w0, &[Pair::new(0, 0)], &mut out));
+        // the same pair in a well that jumps: its margin p . s - cos(d_max) and its rate
+        let m = MagnetTorques {
+            well: wells().remove(1),
+            ..m
+        };
+        assert!(m.cutoff_margins(
+            &r,
+            &Vector3::new(1.0, 0.0, 0.0),
+            &[Pair::new(0, 0)],
+            &mut out
+        ));
+        assert_eq!(out.len(), 1);
+        assert!((out[0].0 - (0.1f64.cos() - 0.5f64.cos())).abs() < 1e-15);
+        // turning about +x moves the magnet away from the coil at -z: the margin falls
+        assert!(out[0].1 < 0.0);
+    }
+
+    #[test]
     fn the_profiled_torques_are_the_formulas_and_end_at_the_cut_off() {
         let s = Vector3::new(0.0, 0.0, -1.0);
         let (mut smooth, mut kinked) = (0, 0);
