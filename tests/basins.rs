@@ -89,6 +89,20 @@ fn cosine_wells_heavy_damping() {
     check(Shape::Cosine, 2.0, 6);
 }
 
+/// Both paths settle `set` from `q0`, within 1e-4 rad of each other.
+fn settles_where_the_reference_does(
+    torques: &spherestep::physics::torque::MagnetTorques,
+    set: &[spherestep::model::geometry::Pair],
+    q0: &spherestep::model::geometry::Orientation,
+    body: spherestep::physics::dynamics::Body,
+    params: spherestep::physics::dynamics::SettleParams,
+) {
+    let (fast, reference) = both(torques, set, q0, body, params);
+    let c = compare(&fast, &reference);
+    assert!(fast.settled && reference.settled);
+    assert!(c.angle < 1e-4, "{} rad from the reference", c.angle);
+}
+
 /// A set whose magnet grazes its well's cut-off on the way (comes within 0.01 degrees of it
 /// and turns back, at 3 rad/s): at the fast path's tolerance it ended 0.32 rad from the
 /// reference's equilibrium (examples/basins.rs, seed 19, the cosine light-damping kind); the
@@ -102,10 +116,7 @@ fn a_set_that_grazes_a_cut_off_lands_where_the_reference_does() {
         spherestep::model::geometry::Pair::new(3, 72),
         spherestep::model::geometry::Pair::new(5, 24),
     ];
-    let (fast, reference) = both(&torques, &set, &q0, body, params);
-    let c = compare(&fast, &reference);
-    assert!(fast.settled && reference.settled);
-    assert!(c.angle < 1e-4, "{} rad from the reference", c.angle);
+    settles_where_the_reference_does(&torques, &set, &q0, body, params);
 }
 
 /// The "coils" interaction (every magnet within reach of an energised coil pulls): without the
@@ -122,8 +133,5 @@ fn a_coils_set_that_grazes_a_cut_off_lands_where_the_reference_does() {
         spherestep::model::geometry::Pair::new(0, 78),
         spherestep::model::geometry::Pair::new(9, 55),
     ];
-    let (fast, reference) = both(&torques, &set, &q0, body, params);
-    let c = compare(&fast, &reference);
-    assert!(fast.settled && reference.settled);
-    assert!(c.angle < 1e-4, "{} rad from the reference", c.angle);
+    settles_where_the_reference_does(&torques, &set, &q0, body, params);
 }

@@ -524,13 +524,10 @@ fn settle_fast<M: TorqueModel>(
                 };
                 if looked {
                     std::mem::swap(&mut before, &mut now);
-                } else if !margins(&y_before, &mut before) {
-                    watch = false;
                 }
-                if !margins(y, &mut now) {
-                    // the model offers no margins here (a "coils" model beyond its skin)
-                    watch = false;
-                }
+                // the watch ends where the model offers no margins (a "coils" model beyond its
+                // skin)
+                watch = (looked || margins(&y_before, &mut before)) && margins(y, &mut now);
                 if watch && before.iter().zip(&now).any(|(&a, &b)| grazes(a, b, h)) {
                     grazed = true;
                     return true;

@@ -300,6 +300,12 @@ impl Well {
         self.cutoff_jump
     }
 
+    /// The cut-off margin m = p . s - cos(d_max) of a magnet `p` and a coil `s` (both in the
+    /// body frame; positive within reach) and its rate dm/dt = (w x p) . s at body rate `w`.
+    fn cutoff_margin(&self, p: &Vector3<f64>, s: &Vector3<f64>, w: &Vector3<f64>) -> (f64, f64) {
+        (p.dot(s) - self.cos_cutoff, w.cross(p).dot(s))
+    }
+
     /// Potential U(d) in J, continuous, constant beyond the cut-off.
     pub fn potential(&self, d: f64) -> f64 {
         let d = d.min(self.max_attraction.0);
@@ -697,10 +703,8 @@ impl TorqueModel for MagnetTorques {
             return false;
         }
         for pr in active {
-            let p = &self.rotor[pr.magnet.0];
             let s = r.tr_mul(&self.stator[pr.coil.0]);
-            // d(p . R^T s)/dt = (w x p) . R^T s
-            out.push((p.dot(&s) - self.well.cos_cutoff, w.cross(p).dot(&s)));
+            out.push(self.well.cutoff_margin(&self.rotor[pr.magnet.0], &s, w));
         }
         true
     }
@@ -819,13 +823,12 @@ impl TorqueModel for NearbyMagnets<'_> {
         if !self.covers(r, active) || !self.full.well.cutoff_jump {
             return false;
         }
-        let cos_cutoff = self.full.well.cos_cutoff;
         for k in 0..self.coils.len() {
             let (s, magnets) = self.coil(k, r);
             out.extend(
                 magnets
                     .iter()
-                    .map(|m| (m.dot(&s) - cos_cutoff, w.cross(m).dot(&s))),
+                    .map(|m| self.full.well.cutoff_margin(m, &s, w)),
             );
         }
         true
