@@ -61,6 +61,13 @@ pub trait TorqueModel: Sync {
     ) -> bool {
         false
     }
+
+    /// Whether the settle may trust a minimum near a well's cut-off that the ball came to
+    /// without any margin of [`TorqueModel::cutoff_margins`] changing sign on the way (see
+    /// `dynamics::CUTOFF_SAFETY`): measured so for the "pairs" interaction, not for "coils".
+    fn trusts_uncrossed_cutoffs(&self) -> bool {
+        false
+    }
 }
 
 /// The torque near an orientation, to first order: N_B(delta) = torque + jacobian delta.
@@ -690,6 +697,10 @@ impl TorqueModel for MagnetTorques {
 
     fn nearby(&self, r0: &Matrix3<f64>, active: &[Pair]) -> Option<NearbyMagnets<'_>> {
         (self.interaction == Interaction::Coils).then(|| NearbyMagnets::new(self, r0, active))
+    }
+
+    fn trusts_uncrossed_cutoffs(&self) -> bool {
+        self.interaction == Interaction::Pairs
     }
 
     fn cutoff_margins(
