@@ -373,9 +373,12 @@ const NEWTON_ITERATIONS: u32 = 8;
 /// switch point whose estimate exceeds [`LINEAR_RADIUS`] by these factors is refused at once
 /// instead of after the 4 linearizations a converged search takes. On 7,000 sets of
 /// examples/basins.rs (16,637 searches), the estimates of the searches that succeeded were at
-/// most 1.24 (first) and 1.02 (second) times the radius; these exits refuse 24% and then 30% of
-/// the 9,869 that failed. On its 28,000 sets every settle is the same to the bit as without them
-/// (1.1 for the second changed one light-damping set: it was refused there, then switched later).
+/// most 1.24 (first) and 1.02 (second) times the radius; exits at 2.0 and 1.3 refused 24% and
+/// then 30% of the 9,869 that failed, and on its 28,000 sets every settle was the same to the
+/// bit as without them (1.1 for the second changed one light-damping set: it was refused there,
+/// then switched later). 1.3 after the first step too refuses one linearization sooner where
+/// 2.0 waited for the second (the benchmark's 3-pair set: 73 evaluations instead of 74; the 200
+/// sets of examples/settle_sets.rs settle to the same results).
 const EARLY_EXIT: [f64; 2] = [1.3, 1.3];
 /// Samples per unit of the fastest mode's natural period over 2 pi (1/omega_0): the end phase
 /// looks for the first instant of the settle test on a grid of step 0.1 / omega_0, as fine as
