@@ -11,7 +11,7 @@
 
 use crate::model::geometry::{Orientation, Pair};
 use crate::physics::integrator::{integrate_until, End, OdeSystem, Outcome, Tolerances};
-use crate::physics::torque::{rotation_matrix, TorqueModel};
+use crate::physics::torque::{rotation_matrix, QuaternionRotation, TorqueModel};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use ode_solvers::dop_shared::IntegrationError;
 use ode_solvers::{Dopri5, OutputType, SVector, System};
@@ -181,8 +181,8 @@ impl<'a, M: TorqueModel> RotorDynamics<'a, M> {
 
     /// Body-frame torque N_B at the orientation held in `y` (which need not be normalised).
     pub fn body_torque(&self, y: &[f64; 7]) -> Vector3<f64> {
-        let r = rotation_matrix(y[0], y[1], y[2], y[3]);
-        self.model.body_torque(&r, self.active)
+        let q = QuaternionRotation::new(y[0], y[1], y[2], y[3]);
+        self.model.body_torque_at(&q, self.active)
     }
 
     /// dy/dt: dq/dt = 1/2 (q4 w - w x q), dq4/dt = -1/2 w . q,
@@ -368,6 +368,11 @@ fn settle_from<M: TorqueModel>(
 const LINEAR_RADIUS: f64 = 1e-2;
 /// Newton iterations allowed to find the minimum from the switch point.
 const NEWTON_ITERATIONS: u32 = 8;
+/// A Newton step shorter than this (rad) ends the search without a linearization to verify it:
+/// Newton converges quadratically, so the torque left after it is about |dK/d delta| step^2,
+/// some 1e-11 of the stiffness scale for the prototype's wells (sigma 10 degrees), far below the
+/// 1e-9 of the residual test; and the stiffness used is the one at 1e-6 rad from the minimum.
+const NEWTON_DONE: f64 = 1e-6;
 /// Early exits from the end phase's Newton search: after its first and second steps, the
 /// amplitude test below is estimated from the steps so far and the stiffness there, and a
 /// switch point whose estimate exceeds [`LINEAR_RADIUS`] by these factors is refused at once
@@ -875,6 +880,11 @@ impl EndPhase {
                 }
             }
             q = normalized(quat_mul(q, quat_exp(&step)));
+            if step.norm_squared() < NEWTON_DONE * NEWTON_DONE {
+                // converged: a linearization at the new q would only confirm it
+                converged = Some(k);
+                break;
+            }
         }
         let k = converged.ok_or(Refusal::NotNear)?;
         let eig = nalgebra::SymmetricEigen::new(k);

@@ -25,6 +25,13 @@ pub trait TorqueModel: Sync {
         r.transpose() * self.torque(r, active)
     }
 
+    /// Body-frame torque at the orientation of an unnormalised quaternion (the integrator's
+    /// state): by default [`TorqueModel::body_torque`] of its rotation matrix; a model may
+    /// instead turn world vectors into the body frame with [`QuaternionRotation::to_body`].
+    fn body_torque_at(&self, q: &QuaternionRotation, active: &[Pair]) -> Vector3<f64> {
+        self.body_torque(&q.matrix(), active)
+    }
+
     /// The body-frame torque and its derivative with respect to a small body-frame rotation
     /// (`R -> R exp([delta]x)`), for the settle's linear end phase; `None` when the model has no
     /// analytic derivative (the settle then integrates to the end).
@@ -111,6 +118,55 @@ pub fn rotation_matrix(x: f64, y: f64, z: f64, w: f64) -> Matrix3<f64> {
         yz + wx,
         1.0 - (xx + yy),
     )
+}
+
+/// The rotation of an unnormalised quaternion (x, y, z, w), for turning a few world vectors
+/// into the body frame: R^T v = M^T v / |q|^2 with M = |q|^2 R, whose entries are products of
+/// q's components. The division then runs beside the products instead of before them (an
+/// evaluation of the torque is one chain of dependent operations).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct QuaternionRotation {
+    q: [f64; 4],
+    m: Matrix3<f64>,
+    inv_norm2: f64,
+}
+
+impl QuaternionRotation {
+    #[inline]
+    pub fn new(x: f64, y: f64, z: f64, w: f64) -> Self {
+        let (xx, yy, zz, ww) = (x * x, y * y, z * z, w * w);
+        let (xy, xz, yz) = (x * y, x * z, y * z);
+        let (wx, wy, wz) = (w * x, w * y, w * z);
+        let m = Matrix3::new(
+            (ww + xx) - (yy + zz),
+            2.0 * (xy - wz),
+            2.0 * (xz + wy),
+            2.0 * (xy + wz),
+            (ww + yy) - (xx + zz),
+            2.0 * (yz - wx),
+            2.0 * (xz - wy),
+            2.0 * (yz + wx),
+            (ww + zz) - (xx + yy),
+        );
+        QuaternionRotation {
+            q: [x, y, z, w],
+            m,
+            inv_norm2: 1.0 / ((xx + yy) + (zz + ww)),
+        }
+    }
+
+    /// R^T v: a world-frame vector in the body frame.
+    #[inline]
+    pub fn to_body(&self, v: &Vector3<f64>) -> Vector3<f64> {
+        self.m.tr_mul(v) * self.inv_norm2
+    }
+
+    /// The body-to-world matrix, exactly [`rotation_matrix`] of the quaternion.
+    #[inline]
+    pub fn matrix(&self) -> Matrix3<f64> {
+        let [x, y, z, w] = self.q;
+        rotation_matrix(x, y, z, w)
+    }
 }
 
 /// Shape of a pair's potential well U(d).
@@ -666,6 +722,20 @@ impl TorqueModel for MagnetTorques {
         tau
     }
 
+    fn body_torque_at(&self, q: &QuaternionRotation, active: &[Pair]) -> Vector3<f64> {
+        match self.interaction {
+            Interaction::Pairs => {
+                let mut tau = Vector3::zeros();
+                for pr in active {
+                    let s = q.to_body(&self.stator[pr.coil.0]);
+                    tau += self.well.pair_torque(&self.rotor[pr.magnet.0], &s, -2.0);
+                }
+                tau
+            }
+            Interaction::Coils => self.body_torque(&q.matrix(), active),
+        }
+    }
+
     fn linearize(&self, r: &Matrix3<f64>, active: &[Pair]) -> Option<Linearization> {
         let mut lin = Self::no_linearization();
         let cos_far = self.well.cos_far;
@@ -870,6 +940,25 @@ mod tests {
             Well::new(WellShape::Cosine { strength_j: 0.3 }, Radians(0.5)),
             Well::new(WellShape::Table(table), Radians(0.5)),
         ]
+    }
+
+    #[test]
+    fn a_quaternion_rotation_turns_vectors_as_the_transposed_matrix_does() {
+        // unnormalised, with every component nonzero, so each entry of M is exercised
+        let (x, y, z, w) = (0.31, -0.72, 0.18, 1.9);
+        let q = QuaternionRotation::new(x, y, z, w);
+        let r = rotation_matrix(x, y, z, w);
+        assert_eq!(q.matrix(), r);
+        let unit = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+        assert!((unit.to_rotation_matrix().matrix() - r).norm() < 1e-15);
+        for v in [
+            Vector3::x(),
+            Vector3::y(),
+            Vector3::z(),
+            Vector3::new(0.3, -0.5, 0.8),
+        ] {
+            assert!((q.to_body(&v) - r.transpose() * v).norm() < 1e-15);
+        }
     }
 
     #[test]
