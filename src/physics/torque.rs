@@ -656,6 +656,22 @@ impl MagnetTorques {
         }
     }
 
+    /// The "pairs" interaction's body-frame torque, each coil turned into the body frame by
+    /// `to_body`: a few pairs, so the well's own cut-off test is cheaper than a cosine per call.
+    #[inline(always)]
+    fn pairs_body_torque(
+        &self,
+        active: &[Pair],
+        to_body: impl Fn(&Vector3<f64>) -> Vector3<f64>,
+    ) -> Vector3<f64> {
+        let mut tau = Vector3::zeros();
+        for pr in active {
+            let s = to_body(&self.stator[pr.coil.0]);
+            tau += self.well.pair_torque(&self.rotor[pr.magnet.0], &s, -2.0);
+        }
+        tau
+    }
+
     /// The distinct coils of an active set, in order of first appearance.
     fn coils(active: &[Pair]) -> impl Iterator<Item = usize> + '_ {
         active
@@ -700,16 +716,10 @@ impl TorqueModel for MagnetTorques {
     /// The hot path: each energised coil is turned into the body frame once (R^T s) and the
     /// magnets are used where they are, so no magnet is rotated and nothing is allocated.
     fn body_torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
-        let mut tau = Vector3::zeros();
         match self.interaction {
-            Interaction::Pairs => {
-                // a few pairs: the well's own cut-off test is cheaper than a cosine per call
-                for pr in active {
-                    let s = r.tr_mul(&self.stator[pr.coil.0]);
-                    tau += self.well.pair_torque(&self.rotor[pr.magnet.0], &s, -2.0);
-                }
-            }
+            Interaction::Pairs => self.pairs_body_torque(active, |s| r.tr_mul(s)),
             Interaction::Coils => {
+                let mut tau = Vector3::zeros();
                 let cos_cutoff = self.well.cos_cutoff;
                 for c in Self::coils(active) {
                     let s = r.tr_mul(&self.stator[c]);
@@ -717,21 +727,14 @@ impl TorqueModel for MagnetTorques {
                         tau += self.well.pair_torque(m, &s, cos_cutoff);
                     }
                 }
+                tau
             }
         }
-        tau
     }
 
     fn body_torque_at(&self, q: &QuaternionRotation, active: &[Pair]) -> Vector3<f64> {
         match self.interaction {
-            Interaction::Pairs => {
-                let mut tau = Vector3::zeros();
-                for pr in active {
-                    let s = q.to_body(&self.stator[pr.coil.0]);
-                    tau += self.well.pair_torque(&self.rotor[pr.magnet.0], &s, -2.0);
-                }
-                tau
-            }
+            Interaction::Pairs => self.pairs_body_torque(active, |s| q.to_body(s)),
             Interaction::Coils => self.body_torque(&q.matrix(), active),
         }
     }
