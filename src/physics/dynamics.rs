@@ -646,7 +646,9 @@ const NONLINEAR_RTOL_FLOOR: f64 = 1e-5;
 /// (One of them, looked at: the end phase's motion is right, to 1e-5 N m against the reference's
 /// trajectory, but the reference meets the settle test in a dip of the oscillation about 0.2 ms
 /// wide, which the end phase's grid of [`SAMPLE_STEP`] / omega_0 steps over, even 10 times finer;
-/// it then meets it one period, 0.14 s, later.)
+/// it then meets it one period, 0.14 s, later. The reference saw the dip at one of its
+/// [`SUBSTEPS`] test points in a step of about 1 ms: so narrow a dip is found by either grid or
+/// not, and the first instant of the continuous test, in both, would settle the question.)
 const CUTOFF_SAFETY: f64 = 0.035;
 
 /// A pair's magnet that comes this close to its well's cut-off (in cosine: 1e-4 is 0.013
