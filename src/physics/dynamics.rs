@@ -11,7 +11,7 @@
 
 use crate::model::geometry::{Orientation, Pair};
 use crate::physics::integrator::{integrate_until, End, OdeSystem, Outcome, Tolerances};
-use crate::physics::torque::{rotation_matrix, QuaternionRotation, TorqueModel};
+use crate::physics::torque::{rotation_matrix, TorqueModel};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use ode_solvers::dop_shared::IntegrationError;
 use ode_solvers::{Dopri5, OutputType, SVector, System};
@@ -181,8 +181,8 @@ impl<'a, M: TorqueModel> RotorDynamics<'a, M> {
 
     /// Body-frame torque N_B at the orientation held in `y` (which need not be normalised).
     pub fn body_torque(&self, y: &[f64; 7]) -> Vector3<f64> {
-        let q = QuaternionRotation::new(y[0], y[1], y[2], y[3]);
-        self.model.body_torque_at(&q, self.active)
+        self.model
+            .body_torque_at(&[y[0], y[1], y[2], y[3]], self.active)
     }
 
     /// dy/dt: dq/dt = 1/2 (q4 w - w x q), dq4/dt = -1/2 w . q,

@@ -25,11 +25,12 @@ pub trait TorqueModel: Sync {
         r.transpose() * self.torque(r, active)
     }
 
-    /// Body-frame torque at the orientation of an unnormalised quaternion (the integrator's
-    /// state): by default [`TorqueModel::body_torque`] of its rotation matrix; a model may
-    /// instead turn world vectors into the body frame with [`QuaternionRotation::to_body`].
-    fn body_torque_at(&self, q: &QuaternionRotation, active: &[Pair]) -> Vector3<f64> {
-        self.body_torque(&q.matrix(), active)
+    /// Body-frame torque at the orientation of an unnormalised quaternion `q` = (x, y, z, w),
+    /// the integrator's state: by default [`TorqueModel::body_torque`] of its
+    /// [`rotation_matrix`]; a model that turns only a few world vectors into the body frame may
+    /// use [`QuaternionRotation::to_body`] instead.
+    fn body_torque_at(&self, q: &[f64; 4], active: &[Pair]) -> Vector3<f64> {
+        self.body_torque(&rotation_matrix(q[0], q[1], q[2], q[3]), active)
     }
 
     /// The body-frame torque and its derivative with respect to a small body-frame rotation
@@ -126,14 +127,13 @@ pub fn rotation_matrix(x: f64, y: f64, z: f64, w: f64) -> Matrix3<f64> {
 /// evaluation of the torque is one chain of dependent operations).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct QuaternionRotation {
-    q: [f64; 4],
     m: Matrix3<f64>,
     inv_norm2: f64,
 }
 
 impl QuaternionRotation {
     #[inline]
-    pub fn new(x: f64, y: f64, z: f64, w: f64) -> Self {
+    pub fn new(&[x, y, z, w]: &[f64; 4]) -> Self {
         let (xx, yy, zz, ww) = (x * x, y * y, z * z, w * w);
         let (xy, xz, yz) = (x * y, x * z, y * z);
         let (wx, wy, wz) = (w * x, w * y, w * z);
@@ -149,7 +149,6 @@ impl QuaternionRotation {
             (ww + zz) - (xx + yy),
         );
         QuaternionRotation {
-            q: [x, y, z, w],
             m,
             inv_norm2: 1.0 / ((xx + yy) + (zz + ww)),
         }
@@ -159,13 +158,6 @@ impl QuaternionRotation {
     #[inline]
     pub fn to_body(&self, v: &Vector3<f64>) -> Vector3<f64> {
         self.m.tr_mul(v) * self.inv_norm2
-    }
-
-    /// The body-to-world matrix, exactly [`rotation_matrix`] of the quaternion.
-    #[inline]
-    pub fn matrix(&self) -> Matrix3<f64> {
-        let [x, y, z, w] = self.q;
-        rotation_matrix(x, y, z, w)
     }
 }
 
@@ -732,10 +724,15 @@ impl TorqueModel for MagnetTorques {
         }
     }
 
-    fn body_torque_at(&self, q: &QuaternionRotation, active: &[Pair]) -> Vector3<f64> {
+    fn body_torque_at(&self, q: &[f64; 4], active: &[Pair]) -> Vector3<f64> {
         match self.interaction {
-            Interaction::Pairs => self.pairs_body_torque(active, |s| q.to_body(s)),
-            Interaction::Coils => self.body_torque(&q.matrix(), active),
+            Interaction::Pairs => {
+                let rot = QuaternionRotation::new(q);
+                self.pairs_body_torque(active, |s| rot.to_body(s))
+            }
+            Interaction::Coils => {
+                self.body_torque(&rotation_matrix(q[0], q[1], q[2], q[3]), active)
+            }
         }
     }
 
@@ -949,9 +946,8 @@ mod tests {
     fn a_quaternion_rotation_turns_vectors_as_the_transposed_matrix_does() {
         // unnormalised, with every component nonzero, so each entry of M is exercised
         let (x, y, z, w) = (0.31, -0.72, 0.18, 1.9);
-        let q = QuaternionRotation::new(x, y, z, w);
+        let q = QuaternionRotation::new(&[x, y, z, w]);
         let r = rotation_matrix(x, y, z, w);
-        assert_eq!(q.matrix(), r);
         let unit = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
         assert!((unit.to_rotation_matrix().matrix() - r).norm() < 1e-15);
         for v in [
