@@ -184,6 +184,7 @@ fn bench_planner(c: &mut Criterion) {
         torques: &sc.torques,
         body: sc.body,
         settle: sc.settle,
+        cancel: spherestep::planning::cancel::Cancel::never(),
     };
     let mut g = c.benchmark_group("plan_y_dynamic3");
     g.sample_size(10);

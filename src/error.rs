@@ -93,3 +93,28 @@ impl Error {
         }
     }
 }
+
+/// A number as a message shows it: as written for ordinary magnitudes, in exponent form
+/// (`1e300`) for the very large or small, so that no message spells out 300 digits.
+pub fn shown(x: f64) -> String {
+    let a = x.abs();
+    if a != 0.0 && a.is_finite() && !(1e-4..1e15).contains(&a) {
+        format!("{x:e}")
+    } else {
+        x.to_string()
+    }
+}
+
+#[cfg(test)]
+mod shown_tests {
+    #[test]
+    fn shown_keeps_ordinary_numbers_and_shortens_extreme_ones() {
+        assert_eq!(super::shown(60001.0), "60001");
+        assert_eq!(super::shown(0.25), "0.25");
+        assert_eq!(super::shown(1e300), "1e300");
+        assert_eq!(super::shown(-2e19), "-2e19");
+        assert_eq!(super::shown(1e-300), "1e-300");
+        assert_eq!(super::shown(f64::INFINITY), "inf");
+        assert_eq!(super::shown(0.0), "0");
+    }
+}

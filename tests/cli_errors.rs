@@ -285,3 +285,101 @@ fn targets_beyond_180_degrees_are_refused_with_the_reason() {
     assert_eq!(code, 1);
     assert!(err.contains("`sweep.angles_deg[1]`"), "{err}");
 }
+
+#[test]
+fn relay_durations_beyond_their_bounds_are_refused_not_panicked_on() {
+    // durations too long for any clock: refused with the field and the bound, in the scenario's
+    // [relay], in [[relay.boards]] and in a --map file
+    let cases = [
+        (
+            "[relay]\ntimeout_ms = 1e300\n",
+            "relay.timeout_ms",
+            "<= 60000, got 1e300",
+        ),
+        (
+            "[relay]\ntimeout_ms = 60001\n",
+            "relay.timeout_ms",
+            "<= 60000",
+        ),
+        (
+            "[relay]\nmax_on_time_s = 2e19\n",
+            "relay.max_on_time_s",
+            "<= 86400",
+        ),
+        (
+            "[relay]\ndwell_floor_ms = 1e300\n",
+            "relay.dwell_floor_ms",
+            "<= 3600000",
+        ),
+        (
+            "[[relay.boards]]\nboard = \"lcus\"\ntimeout_ms = 1e300\n",
+            "relay.boards[0].timeout_ms",
+            "<= 60000",
+        ),
+    ];
+    for (text, field, bound) in cases {
+        fails_with(text, "0:14", &[field, bound]);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan.csv");
+    let (code, _, err) = run(&[
+        "plan",
+        "scenarios/prototype.toml",
+        "--out",
+        plan.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let map = scenario(dir.path(), "boards.toml", "max_on_time_s = 1e300\n");
+    let (code, _, err) = run(&[
+        "replay",
+        plan.to_str().unwrap(),
+        "--map",
+        &map,
+        "--board",
+        "lcus",
+        "--dry-run",
+    ]);
+    assert_ne!(code, 0, "{err}");
+    assert_ne!(code, 101, "a panic is not an error message: {err}");
+    assert!(
+        err.contains("boards.toml") && err.contains("max_on_time_s") && err.contains("<= 86400"),
+        "{err}"
+    );
+    // the bounds themselves are accepted
+    let ok = scenario(
+        dir.path(),
+        "edge.toml",
+        "[relay]\ntimeout_ms = 60000\nmax_on_time_s = 86400\ndwell_floor_ms = 3600000\n",
+    );
+    let (code, _, err) = run(&["settle", &ok, "--pairs", "0:14"]);
+    assert_eq!(code, 0, "{err}");
+}
+
+#[test]
+fn a_batch_with_a_scenario_of_overlong_durations_reports_it_and_keeps_the_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenarios = dir.path().join("scenarios");
+    std::fs::create_dir(&scenarios).unwrap();
+    std::fs::write(scenarios.join("a-good.toml"), "name = \"good\"\n").unwrap();
+    std::fs::write(
+        scenarios.join("b-bad.toml"),
+        "[relay]\ntimeout_ms = 1e300\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let (code, stdout, err) = run(&[
+        "batch",
+        scenarios.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_ne!(code, 0, "{stdout}{err}");
+    assert_ne!(code, 101, "a panic is not an error message: {err}");
+    assert!(
+        err.contains("b-bad.toml") && err.contains("relay.timeout_ms"),
+        "{err}"
+    );
+    // the good scenario's result is written all the same
+    let good = std::fs::read_to_string(out.join("good.csv")).unwrap();
+    assert!(good.lines().count() > 1, "{good}");
+}

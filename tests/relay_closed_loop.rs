@@ -11,12 +11,8 @@ use relay_support::{lcus_all_off, path_of, pty, GUARD};
 use serialport::{SerialPort, TTYPort};
 use spherestep::commands::closed_replay::{execute, prepare_closed, ClosedInputs, SensorOptions};
 use spherestep::commands::replay::ReplayOptions;
-use spherestep::commands::{plan_settings, PlanOverrides};
-use spherestep::io::planfile::write_plan;
-use spherestep::io::scenario::Scenario;
 use spherestep::model::geometry::{rot_q, Orientation, Radians, UnitVec};
 use spherestep::planning::closed_loop::{Controller, Decision};
-use spherestep::planning::planner::plan;
 use spherestep::relay::closed::ClosedSummary;
 use spherestep::relay::{Link, RelayError};
 use spherestep::sensor::{self, quat_csv::parse_line, SensorFormat};
@@ -71,19 +67,7 @@ type Shared = Arc<Mutex<Plant>>;
 
 /// A broad-well plan of 30 degrees about Y, written to `dir` and read back as the replay will.
 fn plan_file(dir: &Path) -> PathBuf {
-    let sc = Scenario::load(Path::new(MODEL)).unwrap();
-    let o = PlanOverrides {
-        axis: Some("0,1,0".into()),
-        angle_deg: Some(30.0),
-        ..Default::default()
-    };
-    let p = plan(&sc.motor(), &plan_settings(&sc, &o).unwrap());
-    assert!(p.rows.len() >= 4, "{:?}", p.message);
-    let mut csv = Vec::new();
-    write_plan(&p.rows, &mut csv).unwrap();
-    let path = dir.join("plan.csv");
-    std::fs::write(&path, csv).unwrap();
-    path
+    relay_support::broad_plan(dir, MODEL)
 }
 
 fn options(dir: &Path, plan: &Path) -> ReplayOptions {
@@ -162,34 +146,64 @@ fn expected_frames(sets: &[BTreeSet<usize>]) -> [Vec<u8>; 2] {
     out
 }
 
-/// An LCUS board's far end: records every byte and tells the plant what it switched, until
-/// `done`.
+/// What a board's far end received: the bytes, and when each complete frame had arrived.
+type Received = (Vec<u8>, Vec<Instant>);
+
+/// An LCUS board's far end: records every byte (and when each frame was complete) and tells
+/// the plant what it switched, until `done`.
 fn board(
     mut port: TTYPort,
     index: usize,
     plant: Shared,
     done: Arc<AtomicBool>,
-) -> JoinHandle<Vec<u8>> {
+) -> JoinHandle<Received> {
     std::thread::spawn(move || {
-        port.set_timeout(Duration::from_millis(20)).unwrap();
+        port.set_timeout(Duration::from_millis(5)).unwrap();
         let (mut got, mut buf, start) = (Vec::new(), [0u8; 64], Instant::now());
+        let mut times = Vec::new();
         loop {
             assert!(start.elapsed() < GUARD, "board {index} never told to stop");
             match port.read(&mut buf) {
                 Ok(n) => {
+                    let at = Instant::now();
                     let old = got.len() / 4;
                     got.extend_from_slice(&buf[..n]);
                     let mut p = plant.lock().unwrap();
                     for f in got.chunks_exact(4).skip(old) {
                         assert_eq!(f[0], 0xA0, "board {index}: {got:02X?}");
                         p.switch(index * 8 + usize::from(f[1]) - 1, f[2] == 1);
+                        times.push(at);
                     }
                 }
-                Err(_) if done.load(Ordering::SeqCst) => return got,
+                Err(_) if done.load(Ordering::SeqCst) => return (got, times),
                 Err(_) => {}
             }
         }
     })
+}
+
+/// The longest time any relay of the boards was on, as their far ends saw it (a relay left
+/// on at the end counts until `end`).
+fn longest_on(received: &[Received], end: Instant) -> Duration {
+    let mut longest = Duration::ZERO;
+    for (bytes, times) in received {
+        let mut since: [Option<Instant>; 9] = [None; 9];
+        for (f, &t) in bytes.chunks_exact(4).zip(times) {
+            let ch = usize::from(f[1]);
+            match (f[2] == 1, since[ch]) {
+                (true, None) => since[ch] = Some(t),
+                (false, Some(s)) => {
+                    longest = longest.max(t - s);
+                    since[ch] = None;
+                }
+                _ => {}
+            }
+        }
+        for s in since.into_iter().flatten() {
+            longest = longest.max(end - s);
+        }
+    }
+    longest
 }
 
 /// How the quat-csv far end misbehaves once the script reaches an entry.
@@ -200,6 +214,10 @@ enum Fault {
     Close(usize),
     /// Prints this line instead of readings.
     Garbage(usize, &'static str),
+    /// Prints this line from the start, whatever the plant does.
+    Always(&'static str),
+    /// Never prints anything.
+    Silent,
 }
 
 /// A quat-csv far end: prints the plant's orientation every 10 ms until `done`.
@@ -219,6 +237,11 @@ fn printer(
             let line = match fault {
                 Fault::Close(k) if at == Some(k) => return,
                 Fault::Garbage(k, text) if at == Some(k) => text.to_string(),
+                Fault::Always(text) => text.to_string(),
+                Fault::Silent => {
+                    std::thread::sleep(Duration::from_millis(10));
+                    continue;
+                }
                 _ => line_of(&q),
             };
             if port.write_all(format!("{line}\r\n").as_bytes()).is_err() {
@@ -269,6 +292,10 @@ struct Ran {
     result: Result<ClosedSummary, RelayError>,
     text: String,
     frames: [Vec<u8>; 2],
+    /// What the boards' far ends received, with when.
+    received: [Received; 2],
+    /// When `execute` returned.
+    ended: Instant,
     log: String,
     /// The BNO055's requests (empty with quat-csv).
     requests: Vec<Vec<u8>>,
@@ -278,6 +305,17 @@ struct Ran {
 /// Runs the closed loop of `inputs` on two LCUS boards and a sensor of `format` whose plant
 /// follows `script`.
 fn run(inputs: &ClosedInputs, script: Script, format: SensorFormat, fault: Fault) -> Ran {
+    run_with(inputs, script, format, fault, Duration::from_millis(500))
+}
+
+/// [`run`] with the sensor timeout `timeout`.
+fn run_with(
+    inputs: &ClosedInputs,
+    script: Script,
+    format: SensorFormat,
+    fault: Fault,
+    timeout: Duration,
+) -> Ran {
     let plant: Shared = Arc::new(Mutex::new(Plant {
         script,
         on: BTreeSet::new(),
@@ -300,7 +338,6 @@ fn run(inputs: &ClosedInputs, script: Script, format: SensorFormat, fault: Fault
         SensorFormat::Bno055 => (None, Some(bno055(s_far, plant.clone(), done.clone()))),
     };
     let near = Box::new(s_near.try_clone_native().unwrap());
-    let timeout = Duration::from_millis(500);
     let sensor = sensor::from_port(format, near, &sensor_path, timeout).unwrap();
     let link = |c: &TTYPort| {
         let port = Box::new(c.try_clone_native().unwrap());
@@ -309,8 +346,10 @@ fn run(inputs: &ClosedInputs, script: Script, format: SensorFormat, fault: Fault
     let mut out = Vec::new();
     let stop = Arc::new(AtomicBool::new(false));
     let result = execute(inputs, vec![link(&c0), link(&c1)], sensor, stop, &mut out);
+    let ended = Instant::now();
     done.store(true, Ordering::SeqCst);
-    let frames = boards.map(|h| h.join().unwrap());
+    let received = boards.map(|h| h.join().unwrap());
+    let frames = received.clone().map(|(bytes, _)| bytes);
     if let Some(h) = far_q {
         h.join().unwrap();
     }
@@ -320,6 +359,8 @@ fn run(inputs: &ClosedInputs, script: Script, format: SensorFormat, fault: Fault
         result,
         text: String::from_utf8_lossy(&out).into_owned(),
         frames,
+        received,
+        ended,
         log,
         requests,
         sensor_path,
@@ -494,6 +535,26 @@ fn closed_loop_refuses_dry_run_and_bad_sensor_options() {
         ..so.clone()
     };
     assert!(err(&opts, &bad).starts_with("argument --sensor-timeout-ms"));
+    // the coils stay on while the sensor is awaited: its timeout is under their on-time limit
+    // (10 s here)
+    for ms in [10_000, 15_000, 100_000, u64::MAX] {
+        let long = SensorOptions {
+            timeout_ms: Some(ms),
+            ..so.clone()
+        };
+        assert_eq!(
+            err(&opts, &long),
+            format!(
+                "argument --sensor-timeout-ms: expected a timeout shorter than relay.max_on_time_s \
+                 (10000 ms: the coils stay on while the sensor is awaited), got {ms} ms"
+            )
+        );
+    }
+    let under = SensorOptions {
+        timeout_ms: Some(9_999),
+        ..so.clone()
+    };
+    assert!(prepare_closed(&opts, &under).is_ok());
     let noisy = SensorOptions {
         noise_deg: 90.0,
         ..so
@@ -583,5 +644,102 @@ fn closed_loop_sensor_garbage_switches_everything_off() {
             "sensor {p} (quat-csv): garbage line 'hello there': "
         )),
         "{e}"
+    );
+}
+
+/// Inputs whose boards allow each coil `max_on_time_s`, with the sensor's `timeout_ms`.
+fn limited(dir: &Path, max_on_time_s: f64, timeout_ms: u64) -> ClosedInputs {
+    let plan = plan_file(dir);
+    let mut opts = options(dir, &plan);
+    let map = dir.join("boards.toml");
+    std::fs::write(&map, format!("max_on_time_s = {max_on_time_s}\n{TWO_LCUS}")).unwrap();
+    opts.map = Some(map);
+    let mut so = SensorOptions::new("/dev/sensor-given-by-the-test", SensorFormat::QuatCsv);
+    so.timeout_ms = Some(timeout_ms);
+    prepare_closed(&opts, &so).unwrap()
+}
+
+/// A closed-loop replay that ran into the on-time limit in `phase`: every coil went off
+/// before its limit (as the boards' far ends saw it), the error says so, and the replay ended
+/// soon after the all-off (the reading or the replan was abandoned, not waited for).
+fn switched_off_before_the_limit(ran: &Ran, limit: Duration, phase: &str) {
+    let e = match &ran.result {
+        Ok(s) => panic!("the replay went on: {s:?}\n{}", ran.text),
+        Err(e) => e,
+    };
+    let Err(RelayError::LoopStopped { cause, .. }) = &ran.result else {
+        panic!("{e}");
+    };
+    assert!(
+        matches!(**cause, RelayError::OnTimeReached { phase: p, .. } if p == phase),
+        "{e}\n{}",
+        ran.text
+    );
+    let text = e.to_string();
+    assert!(
+        text.contains(&format!("while the closed loop was {phase}")),
+        "{text}"
+    );
+    let on = longest_on(&ran.received, ran.ended);
+    assert!(
+        on < limit,
+        "a coil was on {on:?}, over {limit:?}\n{}",
+        ran.text
+    );
+    // both boards end all off
+    for f in &ran.frames {
+        assert!(f.ends_with(&lcus_all_off(8)), "{f:02X?}");
+    }
+    let off_at = ran
+        .received
+        .iter()
+        .map(|(_, t)| *t.last().unwrap())
+        .max()
+        .unwrap();
+    assert!(
+        ran.ended.saturating_duration_since(off_at) < Duration::from_secs(1),
+        "the replay ended {:?} after the all-off",
+        ran.ended.saturating_duration_since(off_at)
+    );
+}
+
+#[test]
+fn closed_loop_switches_off_before_the_on_time_limit_while_the_sensor_is_silent() {
+    // 1 s of on-time; step 0's dwell (0.1 s) and a sensor timeout of 0.95 s would end 1.05 s
+    // after step 0's coils went on
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = limited(dir.path(), 1.0, 950);
+    let (script, _) = offline(&inputs, None);
+    let timeout = Duration::from_millis(950);
+    let ran = run_with(
+        &inputs,
+        script,
+        SensorFormat::QuatCsv,
+        Fault::Silent,
+        timeout,
+    );
+    switched_off_before_the_limit(&ran, Duration::from_secs(1), "waiting for the sensor");
+}
+
+#[test]
+fn closed_loop_switches_off_before_the_on_time_limit_while_it_replans() {
+    // a sensor that reads 180 degrees about Z whatever the ball does: the replan from there
+    // takes seconds in the broad wells, the coils of step 0 are allowed 1 s
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = limited(dir.path(), 1.0, 500);
+    let (script, _) = offline(&inputs, None);
+    let far = Fault::Always("0,0,0,1");
+    let ran = run(&inputs, script, SensorFormat::QuatCsv, far);
+    switched_off_before_the_limit(
+        &ran,
+        Duration::from_secs(1),
+        "deciding (fitting the wells, replanning)",
+    );
+    // the reading was taken and logged before the coils went off
+    assert_eq!(
+        sensor_rows(&ran.log),
+        vec![(0, [0.0, 0.0, 0.0, 1.0])],
+        "{}",
+        ran.log
     );
 }

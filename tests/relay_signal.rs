@@ -1,11 +1,19 @@
 //! The built binary replaying on a pseudo-terminal in realtime mode: SIGINT (Ctrl-C) or
 //! SIGTERM in the middle of a dwell sends every channel off and exits non-zero. The test
 //! signals only after the board end has seen step 0's frames, so nothing depends on timing.
+//! In a closed loop the signal also acts while the replay waits for the sensor or replans:
+//! every coil off within a second of it.
 
 mod relay_support;
 
 use relay_support::*;
+use serialport::{SerialPort, TTYPort};
+use std::io::{Read, Write};
 use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
 fn all_off_lcus() -> Vec<u8> {
     vec![
@@ -19,7 +27,7 @@ fn signal_mid_replay(signal: &str) {
     let dir = tempfile::tempdir().unwrap();
     let plan = short_plan(dir.path());
     // A dwell of ten minutes: the signal always arrives inside it.
-    let sc = scenario(dir.path(), "max_on_time_s = 100000");
+    let sc = scenario(dir.path(), "max_on_time_s = 86400");
     let (mut board, computer) = pty();
     let child = Command::new(env!("CARGO_BIN_EXE_spherestep"))
         .arg("replay")
@@ -113,7 +121,7 @@ fn sigterm_mid_replay_on_two_boards_sends_all_off_to_both() {
     let plan = plan(dir.path(), "p.csv", &["0:10;8:11", "8:11"], 0.1);
     let sc = scenario(
         dir.path(),
-        "max_on_time_s = 100000\n[[relay.boards]]\nport = \"/dev/nonexistent-0\"\nboard = \"lcus\"\n[[relay.boards]]\nport = \"/dev/nonexistent-1\"\nboard = \"lcus\"",
+        "max_on_time_s = 86400\n[[relay.boards]]\nport = \"/dev/nonexistent-0\"\nboard = \"lcus\"\n[[relay.boards]]\nport = \"/dev/nonexistent-1\"\nboard = \"lcus\"",
     );
     let (mut board0, computer0) = pty();
     let (mut board1, computer1) = pty();
@@ -156,4 +164,142 @@ fn sigterm_mid_replay_on_two_boards_sends_all_off_to_both() {
     assert!(leftover(&mut board0).is_empty());
     assert!(leftover(&mut board1).is_empty());
     drop((computer0, computer1));
+}
+
+/// An LCUS board's far end for the closed-loop signal tests: every frame with when it had
+/// arrived, shared while it records, until `done`.
+type Frames = Arc<Mutex<Vec<(Instant, [u8; 4])>>>;
+
+fn recorder(mut port: TTYPort, done: Arc<AtomicBool>) -> (Frames, JoinHandle<()>) {
+    let frames: Frames = Arc::default();
+    let theirs = frames.clone();
+    let h = std::thread::spawn(move || {
+        port.set_timeout(Duration::from_millis(5)).unwrap();
+        let (mut got, mut buf, start) = (Vec::new(), [0u8; 64], Instant::now());
+        while !done.load(Ordering::SeqCst) && start.elapsed() < GUARD {
+            if let Ok(n) = port.read(&mut buf) {
+                let at = Instant::now();
+                let old = got.len() / 4;
+                got.extend_from_slice(&buf[..n]);
+                let mut f = theirs.lock().unwrap();
+                for c in got.chunks_exact(4).skip(old) {
+                    f.push((at, [c[0], c[1], c[2], c[3]]));
+                }
+            }
+        }
+    });
+    (frames, h)
+}
+
+/// What the sensor's far end does during a closed-loop replay.
+#[derive(Clone, Copy)]
+enum Sensor {
+    /// Never answers (the replay waits for it).
+    Silent,
+    /// Reads 180 degrees about Z whatever the ball does (the replay replans, for seconds).
+    Far,
+}
+
+/// The built binary closing the loop on two LCUS boards (broad wells, 10 s of on-time) and a
+/// quat-csv sensor that is `sensor`; `signal` sent 0.4 s after step 0's coils went on: every
+/// coil off on both boards within a second of it, and the program ended soon after.
+fn signal_mid_closed_loop(signal: &str, sensor: Sensor) {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = broad_plan(dir.path(), "scenarios/broad-wells.toml");
+    let map = dir.path().join("boards.toml");
+    std::fs::write(
+        &map,
+        "max_on_time_s = 10\nmax_coils_on = 8\n[[boards]]\nboard = \"lcus\"\n[[boards]]\nboard = \"lcus\"\n",
+    )
+    .unwrap();
+    let done = Arc::new(AtomicBool::new(false));
+    let (b0, c0) = pty();
+    let (b1, c1) = pty();
+    let (mut s_far, s_near) = pty();
+    let printer = {
+        let done = done.clone();
+        std::thread::spawn(move || {
+            while !done.load(Ordering::SeqCst) {
+                if let Sensor::Far = sensor {
+                    let _ = s_far.write_all(b"0,0,0,1\r\n");
+                }
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        })
+    };
+    let (f0, h0) = recorder(b0, done.clone());
+    let (f1, h1) = recorder(b1, done.clone());
+    let child = Command::new(env!("CARGO_BIN_EXE_spherestep"))
+        .arg("replay")
+        .arg(&plan)
+        .arg("scenarios/broad-wells.toml")
+        .arg("--map")
+        .arg(&map)
+        .args(["--port", &path_of(&c0), "--port", &path_of(&c1)])
+        .args(["--sensor", &path_of(&s_near), "--sensor-format", "quat-csv"])
+        .args(["--sensor-timeout-ms", "5000", "--dwell-ms", "50"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let on = |f: &Frames| f.lock().unwrap().iter().any(|(_, b)| b[2] == 1);
+    let start = Instant::now();
+    while !(on(&f0) || on(&f1)) {
+        assert!(start.elapsed() < GUARD, "step 0 never switched");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    std::thread::sleep(Duration::from_millis(400));
+    let sent = Instant::now();
+    let killed = Command::new("kill")
+        .args([signal, &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let out = child.wait_with_output().unwrap();
+    let exited = Instant::now();
+    done.store(true, Ordering::SeqCst);
+    h0.join().unwrap();
+    h1.join().unwrap();
+    printer.join().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "exit status {:?}", out.status);
+    assert!(
+        stderr.contains("interrupted by a signal"),
+        "{stderr}\n{stdout}"
+    );
+    for f in [&f0, &f1] {
+        let f = f.lock().unwrap();
+        // the first all-off after the signal arrived within a second of it ...
+        let first_off = f
+            .iter()
+            .position(|(t, _)| *t >= sent)
+            .unwrap_or_else(|| panic!("nothing after the signal\n{stdout}"));
+        let after: Vec<u8> = f[first_off..].iter().flat_map(|(_, b)| *b).collect();
+        assert!(after.starts_with(&all_off_lcus()), "{after:02X?}\n{stdout}");
+        let took = f[first_off].0 - sent;
+        assert!(
+            took < Duration::from_secs(1),
+            "all off {took:?} after the signal\n{stdout}"
+        );
+        // ... and nothing was switched on after it
+        assert!(after.chunks_exact(4).all(|c| c[2] == 0), "{after:02X?}");
+    }
+    let took = exited - sent;
+    assert!(
+        took < Duration::from_secs(2),
+        "exited {took:?} after the signal\n{stdout}"
+    );
+    drop((c0, c1, s_near));
+}
+
+#[test]
+fn sigint_while_the_closed_loop_waits_for_a_silent_sensor_switches_off_at_once() {
+    signal_mid_closed_loop("-INT", Sensor::Silent);
+}
+
+#[test]
+fn sigterm_while_the_closed_loop_replans_switches_off_at_once() {
+    signal_mid_closed_loop("-TERM", Sensor::Far);
 }

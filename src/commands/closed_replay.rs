@@ -9,7 +9,9 @@ use super::replay::{inputs, ReplayOptions};
 use crate::error::Error;
 use crate::io::scenario::Scenario;
 use crate::model::geometry::Orientation;
+use crate::planning::cancel::Cancel;
 use crate::planning::closed_loop::{Controller, LoopSettings};
+use crate::planning::commutation::Motor;
 use crate::planning::plan::{Plan, PlanSettings};
 use crate::relay::closed::{execute_closed, refuse_options, ClosedSummary, Sensing};
 use crate::relay::replay::{open_ports, Prepared};
@@ -97,6 +99,7 @@ pub fn prepare_closed(
     let rows = &f.plan.rows;
     let cl = loop_settings(&o, rows.len() - 1)?;
     let prep = crate::relay::replay::prepare(rows, relay, scenario.stator.len(), opts.drive())?;
+    check_sensor_timeout(so, prep.settings.max_on_time)?;
     if let Some(i) = prep
         .boards
         .iter()
@@ -118,6 +121,32 @@ pub fn prepare_closed(
         goal: f.goal,
         cl,
     })
+}
+
+/// The longest `--sensor-timeout-ms` accepted.
+pub const MAX_SENSOR_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// The sensor is awaited with the step's coils on: its timeout must leave them room under the
+/// on-time limit (the replay also switches everything off before the limit whatever the
+/// timeout, see `relay::closed`), and is at most [`MAX_SENSOR_TIMEOUT`].
+fn check_sensor_timeout(so: &SensorOptions, max_on_time: Duration) -> Result<(), RelayError> {
+    let t = so.timeout();
+    let bound = max_on_time.min(MAX_SENSOR_TIMEOUT);
+    if t >= bound {
+        let why = if max_on_time <= MAX_SENSOR_TIMEOUT {
+            format!(
+                "shorter than relay.max_on_time_s ({} ms: the coils stay on while the sensor is awaited)",
+                max_on_time.as_millis()
+            )
+        } else {
+            format!("at most {} ms", MAX_SENSOR_TIMEOUT.as_millis() - 1)
+        };
+        return Err(RelayError::Arg {
+            arg: "--sensor-timeout-ms".into(),
+            expected: format!("a timeout {why}, got {} ms", t.as_millis()),
+        });
+    }
+    Ok(())
 }
 
 fn check_sensor_options(so: &SensorOptions) -> Result<(), RelayError> {
@@ -151,7 +180,12 @@ pub fn execute(
     stop: Arc<AtomicBool>,
     out: &mut dyn Write,
 ) -> Result<ClosedSummary, RelayError> {
-    let motor = inputs.scenario.motor();
+    // the replans can be abandoned when the coils must go off (relay::closed)
+    let cancel = Cancel::new();
+    let motor = Motor {
+        cancel: cancel.clone(),
+        ..inputs.scenario.motor()
+    };
     let controller = Controller::new(
         &motor,
         &inputs.settings,
@@ -168,6 +202,7 @@ pub fn execute(
         controller,
         settings: inputs.cl,
         stator_coils: inputs.scenario.stator.len(),
+        cancel,
     };
     execute_closed(&inputs.prep, links, sensing, stop, out)
 }

@@ -263,6 +263,7 @@ impl Scenario {
             torques: &self.torques,
             body: self.body,
             settle: self.settle,
+            cancel: crate::planning::cancel::Cancel::never(),
         }
     }
 

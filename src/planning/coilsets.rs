@@ -57,6 +57,9 @@ impl<'a> CoilSets<'a> {
         sets: &[Vec<CoilId>],
         at: Option<&Frontier>,
     ) -> (usize, Vec<Option<CommutationState>>) {
+        if self.motor.cancel.is_cancelled() {
+            return (0, vec![None; sets.len()]);
+        }
         let torques = self.motor.torques;
         let pairs: Vec<Vec<Pair>> = sets.iter().map(|c| label(torques, c, q)).collect();
         let follow = if at.is_some() {

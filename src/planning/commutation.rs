@@ -10,6 +10,7 @@ use crate::model::geometry::{
 };
 use crate::physics::dynamics::{settle_many, Body, SettleParams};
 use crate::physics::torque::{MagnetTorques, Well};
+use crate::planning::cancel::Cancel;
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -145,6 +146,9 @@ pub struct Motor<'a> {
     pub torques: &'a MagnetTorques,
     pub body: Body,
     pub settle: SettleParams,
+    /// Set from another thread to abandon the planning in progress (see
+    /// [`crate::planning::cancel`]); [`Cancel::never`] everywhere but the hardware loop.
+    pub cancel: Cancel,
 }
 
 impl Motor<'_> {
@@ -177,6 +181,9 @@ pub fn settled_states(
     sets: Vec<Vec<Pair>>,
     from: &Orientation,
 ) -> Vec<Option<CommutationState>> {
+    if motor.cancel.is_cancelled() {
+        return vec![None; sets.len()];
+    }
     settle_many(motor.torques, &sets, from, motor.body, motor.weighing())
         .into_iter()
         .zip(sets)

@@ -114,6 +114,9 @@ impl Identifier {
     /// Scores every candidate on one more measured step, settled with the model's body and
     /// weighing settle (`motor`'s; its torques are not used).
     pub fn observe(&mut self, motor: &Motor, o: &Observation) {
+        if motor.cancel.is_cancelled() {
+            return;
+        }
         let errors: Vec<f64> = self
             .candidates
             .par_iter()

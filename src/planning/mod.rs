@@ -4,6 +4,7 @@
 //! a `plan`, the replay of a plan through the dynamics (`simulate`) and the closed loop that
 //! replans from measured orientations (`closed_loop`).
 
+pub mod cancel;
 pub mod closed_loop;
 pub mod coilsets;
 pub mod commutation;

@@ -99,6 +99,9 @@ impl StepSource for FromState<'_> {
 /// the dynamics' settle of the step's active set from the orientation the plan predicts before
 /// it (`start` for step 0), all steps in parallel. `replay` waits this long (times its factor).
 fn predict_settle_times(motor: &Motor, rows: &mut [PlanRow], start: &Orientation) {
+    if motor.cancel.is_cancelled() {
+        return;
+    }
     let froms: Vec<Orientation> = std::iter::once(*start)
         .chain(rows.iter().map(|r| r.q))
         .take(rows.len())

@@ -124,6 +124,9 @@ impl Seek<'_> {
         from: &CommutationState,
         settles: &mut usize,
     ) -> Vec<CommutationState> {
+        if self.motor.cancel.is_cancelled() {
+            return Vec::new();
+        }
         let torques = self.torques;
         let held = coils_of(&from.active);
         let reach = coils_in_reach(torques, &from.q);

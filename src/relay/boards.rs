@@ -4,13 +4,12 @@
 //! channels 1-based as printed). Every error names the field (`relay.boards[1].channels`,
 //! `relay.map.3`) and what was expected.
 
-use super::config::{coil_key, Fields, DEFAULT_SLAVE_ADDRESS, DEFAULT_TIMEOUT_MS};
+use super::config::{coil_key, Fields, DEFAULT_SLAVE_ADDRESS};
 use super::{BoardKind, BoardSpec, Channel, CoilMap, RelayConfig, Slot};
 use crate::error::Result;
 use crate::model::geometry::CoilId;
 use serde::Deserialize;
 use std::collections::BTreeMap;
-use std::time::Duration;
 
 /// One `[[relay.boards]]` entry as written.
 #[derive(Debug, Default, Clone, Deserialize)]
@@ -106,7 +105,7 @@ fn check_board(f: &Fields, i: usize, raw: BoardConfig) -> Result<BoardSpec> {
         }
         p => p,
     };
-    let timeout_ms = f.positive(&field("timeout_ms"), raw.timeout_ms, DEFAULT_TIMEOUT_MS)?;
+    let timeout = f.timeout(&field("timeout_ms"), raw.timeout_ms)?;
     Ok(BoardSpec {
         kind,
         channels,
@@ -116,7 +115,7 @@ fn check_board(f: &Fields, i: usize, raw: BoardConfig) -> Result<BoardSpec> {
         slave_address: f
             .int(&field("slave_address"), raw.slave_address, 1, 247)?
             .map_or(DEFAULT_SLAVE_ADDRESS, |a| a as u8),
-        timeout: Duration::from_secs_f64(timeout_ms / 1000.0),
+        timeout,
         port,
     })
 }

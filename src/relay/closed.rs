@@ -7,19 +7,53 @@
 //! from what is on now, on-times across the joint) before anything of it is switched. Any sensor
 //! error ends the replay with every coil of every board off. Steps are numbered as they are
 //! switched (0: the initial state), through replans.
+//!
+//! While the sensor is awaited and the controller decides (fitting the wells, replanning:
+//! seconds, with a large search), the coils of the step stay on. That phase runs on a worker
+//! thread; this thread watches the stop flag (a signal) and the on-time limit every
+//! [`POLL`](super::replay::POLL). When either fires it switches every coil off at once, before
+//! a coil reaches its limit ([`OFF_MARGIN`] ahead of it), then abandons the reading and the
+//! computation through the [`Cancel`] token they were given, and ends the replay.
 
 use super::replay::{
     check_on_time, entries_from, stdout_error, Drive, Entry, LogKind, Mode, OnTimes, Prepared,
     Resume, Runner,
 };
 use super::{Link, RelayError};
+use crate::model::geometry::Orientation;
+use crate::planning::cancel::Cancel;
 use crate::planning::closed_loop::{Controller, Decision, LoopSettings};
 use crate::planning::plan::PlanRow;
 use crate::sensor::{OrientationSensor, Reading};
 use std::io::Write;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::Duration;
+
+/// How far ahead of a coil's on-time limit the closed loop switches everything off while it
+/// waits for the sensor or decides: room for a poll of the watch and the all-off frames of
+/// every board at a low baud rate (at most a quarter of the limit itself).
+pub const OFF_MARGIN: Duration = Duration::from_millis(150);
+
+/// What the worker of a watched phase sends: the reading as soon as it is taken, then the
+/// decision.
+enum Worked {
+    Read(Reading),
+    Decided(Decision),
+}
+
+/// The phases of the watched part of a step, for messages.
+const WAITING: u8 = 0;
+const DECIDING: u8 = 1;
+
+fn phase_name(phase: u8) -> &'static str {
+    if phase == WAITING {
+        "waiting for the sensor"
+    } else {
+        "deciding (fitting the wells, replanning)"
+    }
+}
 
 /// What closes the loop: the sensor, the controller deciding from its readings, and what the
 /// checks of a replanned plan need besides the prepared replay.
@@ -30,6 +64,10 @@ pub struct Sensing<'a> {
     pub settings: LoopSettings,
     /// The stator's coil count (a replanned coil must be on it).
     pub stator_coils: usize,
+    /// The token the controller's motor was built with ([`crate::planning::commutation::Motor`]'s
+    /// `cancel`): set to abandon a replan when the coils must go off. The sensor is given it
+    /// too.
+    pub cancel: Cancel,
 }
 
 /// How a closed-loop replay that reached the goal went.
@@ -83,6 +121,8 @@ pub fn execute_closed(
     out: &mut dyn Write,
 ) -> Result<ClosedSummary, RelayError> {
     refuse_options(&prep.drive, links.iter().all(Link::is_dry_run))?;
+    let mut sensing = sensing;
+    sensing.sensor.set_cancel(sensing.cancel.clone());
     let s = &sensing.settings;
     writeln!(
         out,
@@ -137,11 +177,8 @@ impl Loop<'_, '_> {
             r.switch(&e)?;
             r.verify_entry(&e)?;
             r.dwell(&e)?;
-            let reading = self.sensing.sensor.read()?;
+            let decision = self.sense_and_decide(r, e.step)?;
             r.check_stop()?;
-            let planned = self.sensing.controller.next_row().q;
-            let decision = self.sensing.controller.observe(&reading.orientation);
-            self.measured(r, e.step, &reading, &planned)?;
             r.mark(e.step, "done")?;
             match decision {
                 Decision::Continue => self.index += 1,
@@ -165,51 +202,93 @@ impl Loop<'_, '_> {
         }
     }
 
-    /// Prints and logs a reading taken after `step`, with its angles from the plan's
-    /// prediction (`planned`) and from the goal.
-    fn measured(
-        &mut self,
-        r: &mut Runner,
-        step: usize,
-        reading: &Reading,
-        planned: &crate::model::geometry::Orientation,
-    ) -> Result<(), RelayError> {
-        let q = reading.orientation;
-        let from_plan = q.angle_to(planned).to_degrees();
-        let to_goal = q.angle_to(&self.sensing.controller.goal()).to_degrees();
-        self.last = Some(to_goal);
-        let t = format!("{:.3}", r.now().as_secs_f64());
-        let raw = reading.raw.to_string();
-        r.say(&format!(
-            "{t:>9} {step:>5} sensor   [{:.4}, {:.4}, {:.4}, {:.4}] {from_plan:.2} deg from the plan, {to_goal:.2} deg from the goal  \"{}\"",
-            q.w,
-            q.i,
-            q.j,
-            q.k,
-            raw.escape_debug()
-        ))?;
-        let Some(log) = r.log.as_mut() else {
-            return Ok(());
-        };
-        let (w, x, y, z) = (
-            q.w.to_string(),
-            q.i.to_string(),
-            q.j.to_string(),
-            q.k.to_string(),
-        );
-        let goal = format!("{to_goal:.4}");
-        let raw = csv_field(&raw);
-        let step = step.to_string();
-        let mut cols = vec![t.as_str(), step.as_str(), "sensor", ""];
-        cols.extend(if log.listed {
-            &["", "", ""][..]
-        } else {
-            &["", ""][..]
-        });
-        cols.extend([w.as_str(), x.as_str(), y.as_str(), z.as_str()]);
-        cols.extend([goal.as_str(), raw.as_str()]);
-        log.row(&cols)?;
-        log.flush()
+    /// Reads the sensor and has the controller decide on a worker thread, while this one
+    /// watches the stop flag and the on-time limit (see the module comment): the reading and
+    /// the decision, or why the coils were switched off first.
+    /// The reading is printed and logged as soon as it arrives (the decision may take long).
+    fn sense_and_decide(&mut self, r: &mut Runner, step: usize) -> Result<Decision, RelayError> {
+        let cancel = self.sensing.cancel.clone();
+        let phase = AtomicU8::new(WAITING);
+        let margin = OFF_MARGIN.min(r.max_on_time / 4);
+        let planned = self.sensing.controller.next_row().q;
+        let goal = self.sensing.controller.goal();
+        let last = &mut self.last;
+        let (sensor, controller) = (&mut self.sensing.sensor, &mut self.sensing.controller);
+        let (tx, rx) = mpsc::channel();
+        std::thread::scope(|scope| {
+            let work = || {
+                // the receiver is gone only when the watch gave up on this phase
+                match sensor.read() {
+                    Ok(reading) => {
+                        phase.store(DECIDING, Ordering::SeqCst);
+                        let q = reading.orientation;
+                        let _ = tx.send(Ok(Worked::Read(reading)));
+                        let _ = tx.send(Ok(Worked::Decided(controller.observe(&q))));
+                    }
+                    Err(e) => {
+                        let _ = tx.send(Err(e));
+                    }
+                }
+            };
+            let worker = std::thread::Builder::new()
+                .name("closed-loop decision".into())
+                .spawn_scoped(scope, work)
+                .map_err(|e| RelayError::Stuck {
+                    step: self.steps,
+                    message: format!("cannot start the thread that reads the sensor: {e}"),
+                })?;
+            let outcome = loop {
+                match rx.recv_timeout(super::replay::POLL) {
+                    Ok(Ok(Worked::Decided(d))) => break Ok(d),
+                    Ok(Ok(Worked::Read(reading))) => {
+                        match measured(r, step, &reading, &planned, &goal) {
+                            Ok(to_goal) => *last = Some(to_goal),
+                            Err(e) => {
+                                cancel.cancel();
+                                break Err(e);
+                            }
+                        }
+                    }
+                    Ok(Err(e)) => break Err(e.into()),
+                    Err(RecvTimeoutError::Timeout) => {}
+                    Err(RecvTimeoutError::Disconnected) => {
+                        break Err(RelayError::Stuck {
+                            step: self.steps,
+                            message: "the closed loop's decision failed (an internal error)".into(),
+                        })
+                    }
+                }
+                let near = r
+                    .longest_on()
+                    .filter(|&(_, _, _, on)| on + margin >= r.max_on_time);
+                let fired = match (r.check_stop(), near) {
+                    (Err(e), _) => Some(e),
+                    (Ok(()), Some((slot, coil, _, on))) => Some(RelayError::OnTimeReached {
+                        coil,
+                        board: r.listed.then_some(slot.board),
+                        channel: slot.channel,
+                        phase: phase_name(phase.load(Ordering::SeqCst)),
+                        on,
+                        max: r.max_on_time,
+                    }),
+                    (Ok(()), None) => None,
+                };
+                if let Some(e) = fired {
+                    // off first, then abandon what the worker does
+                    let _ = r.all_off();
+                    r.on_since.clear();
+                    cancel.cancel();
+                    break Err(e);
+                }
+            };
+            if worker.join().is_err() && outcome.is_ok() {
+                return Err(RelayError::Stuck {
+                    step: self.steps,
+                    message: "the closed loop's decision failed (an internal error)".into(),
+                });
+            }
+            outcome
+        })
     }
 
     /// The controller replanned after entry `e`: checks the new plan from what is on now and
@@ -289,6 +368,53 @@ impl Loop<'_, '_> {
             }),
         }
     }
+}
+
+/// Prints and logs a reading taken after `step`, with its angles from the plan's
+/// prediction (`planned`) and from the goal.
+fn measured(
+    r: &mut Runner,
+    step: usize,
+    reading: &Reading,
+    planned: &Orientation,
+    goal: &Orientation,
+) -> Result<f64, RelayError> {
+    let q = reading.orientation;
+    let from_plan = q.angle_to(planned).to_degrees();
+    let to_goal = q.angle_to(goal).to_degrees();
+    let t = format!("{:.3}", r.now().as_secs_f64());
+    let raw = reading.raw.to_string();
+    r.say(&format!(
+        "{t:>9} {step:>5} sensor   [{:.4}, {:.4}, {:.4}, {:.4}] {from_plan:.2} deg from the plan, {to_goal:.2} deg from the goal  \"{}\"",
+        q.w,
+        q.i,
+        q.j,
+        q.k,
+        raw.escape_debug()
+    ))?;
+    let Some(log) = r.log.as_mut() else {
+        return Ok(to_goal);
+    };
+    let (w, x, y, z) = (
+        q.w.to_string(),
+        q.i.to_string(),
+        q.j.to_string(),
+        q.k.to_string(),
+    );
+    let goal = format!("{to_goal:.4}");
+    let raw = csv_field(&raw);
+    let step = step.to_string();
+    let mut cols = vec![t.as_str(), step.as_str(), "sensor", ""];
+    cols.extend(if log.listed {
+        &["", "", ""][..]
+    } else {
+        &["", ""][..]
+    });
+    cols.extend([w.as_str(), x.as_str(), y.as_str(), z.as_str()]);
+    cols.extend([goal.as_str(), raw.as_str()]);
+    log.row(&cols)?;
+    log.flush()?;
+    Ok(to_goal)
 }
 
 /// A CSV field: quoted, its quotes doubled.

@@ -6,7 +6,7 @@
 
 use super::boards::{self, BoardConfig};
 use super::{BoardKind, BoardSpec, Channel, Slot};
-use crate::error::{Error, Result};
+use crate::error::{shown, Error, Result};
 use crate::model::geometry::CoilId;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -26,6 +26,12 @@ pub const DEFAULT_DWELL_FLOOR_MS: f64 = 200.0;
 pub const DEFAULT_SLAVE_ADDRESS: u8 = 1;
 /// Default reply timeout, ms.
 pub const DEFAULT_TIMEOUT_MS: f64 = 1000.0;
+/// The longest `timeout_ms` accepted (a minute).
+pub const MAX_TIMEOUT_MS: f64 = 60_000.0;
+/// The longest `max_on_time_s` accepted (a day).
+pub const MAX_ON_TIME_LIMIT_S: f64 = 86_400.0;
+/// The longest `dwell_floor_ms` accepted (an hour).
+pub const MAX_DWELL_FLOOR_MS: f64 = 3_600_000.0;
 
 /// The order of the two halves of a step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
@@ -156,15 +162,13 @@ impl RelaySettings {
             }
         };
         let one = single_board(&raw, &f)?;
-        let ms = |x: f64| Duration::from_secs_f64(x / 1000.0);
-        let dwell_floor_ms = match raw.dwell_floor_ms {
-            None => DEFAULT_DWELL_FLOOR_MS,
-            Some(x) if x.is_finite() && x >= 0.0 => x,
-            Some(x) => {
-                let expected = format!("a finite number >= 0, got {x}");
-                return Err(f.err("dwell_floor_ms", expected));
-            }
-        };
+        let dwell_floor = f.millis(
+            "dwell_floor_ms",
+            raw.dwell_floor_ms,
+            DEFAULT_DWELL_FLOOR_MS,
+            true,
+            MAX_DWELL_FLOOR_MS,
+        )?;
         let map = match (raw.map, listed.is_empty()) {
             (None, true) => CoilMap::Default,
             (None, false) => CoilMap::Laid(listed.iter().map(|b| b.channels).collect()),
@@ -180,13 +184,14 @@ impl RelaySettings {
             max_coils_on: f
                 .int("max_coils_on", raw.max_coils_on, 1, 1000)?
                 .map_or(DEFAULT_MAX_COILS_ON, |m| m as usize),
-            max_on_time: Duration::from_secs_f64(f.positive(
+            max_on_time: f.seconds(
                 "max_on_time_s",
                 raw.max_on_time_s,
                 DEFAULT_MAX_ON_TIME_S,
-            )?),
+                MAX_ON_TIME_LIMIT_S,
+            )?,
             dwell_factor: f.positive("dwell_factor", raw.dwell_factor, DEFAULT_DWELL_FACTOR)?,
-            dwell_floor: ms(dwell_floor_ms),
+            dwell_floor,
             order: raw.order.unwrap_or_default(),
             map,
             boards: listed,
@@ -235,7 +240,7 @@ fn single_board(raw: &RelayConfig, f: &Fields) -> Result<SingleBoard> {
             return Err(f.err("channels", expected));
         }
     }
-    let timeout_ms = f.positive("timeout_ms", raw.timeout_ms, DEFAULT_TIMEOUT_MS)?;
+    let timeout = f.timeout("timeout_ms", raw.timeout_ms)?;
     Ok(SingleBoard {
         board,
         baud: f.int("baud", raw.baud, 1, 4_000_000)?.map(|b| b as u32),
@@ -243,7 +248,7 @@ fn single_board(raw: &RelayConfig, f: &Fields) -> Result<SingleBoard> {
             .int("slave_address", raw.slave_address, 1, 247)?
             .map_or(DEFAULT_SLAVE_ADDRESS, |a| a as u8),
         channels,
-        timeout: Duration::from_secs_f64(timeout_ms / 1000.0),
+        timeout,
     })
 }
 
@@ -269,6 +274,53 @@ impl Fields<'_> {
     }
 
     /// An optional finite number > 0, `default` when absent.
+    /// A duration in seconds: above 0 and at most `max` (`default` when unset).
+    pub(super) fn seconds(
+        &self,
+        field: &str,
+        v: Option<f64>,
+        default: f64,
+        max: f64,
+    ) -> Result<Duration> {
+        match v {
+            None => Ok(Duration::from_secs_f64(default)),
+            Some(x) if x.is_finite() && x > 0.0 && x <= max => Ok(Duration::from_secs_f64(x)),
+            Some(x) => Err(self.err(
+                field,
+                format!("a number of seconds > 0 and <= {max}, got {}", shown(x)),
+            )),
+        }
+    }
+
+    /// A duration in milliseconds: above 0 (or at least 0 with `zero_ok`) and at most `max`.
+    pub(super) fn millis(
+        &self,
+        field: &str,
+        v: Option<f64>,
+        default: f64,
+        zero_ok: bool,
+        max: f64,
+    ) -> Result<Duration> {
+        let x = v.unwrap_or(default);
+        let low_ok = x > 0.0 || (zero_ok && x == 0.0);
+        if x.is_finite() && low_ok && x <= max {
+            return Ok(Duration::from_secs_f64(x / 1000.0));
+        }
+        let low = if zero_ok { ">= 0" } else { "> 0" };
+        Err(self.err(
+            field,
+            format!(
+                "a number of milliseconds {low} and <= {max}, got {}",
+                shown(x)
+            ),
+        ))
+    }
+
+    /// A board's reply timeout, `timeout_ms`: above 0, at most [`MAX_TIMEOUT_MS`].
+    pub(super) fn timeout(&self, field: &str, v: Option<f64>) -> Result<Duration> {
+        self.millis(field, v, DEFAULT_TIMEOUT_MS, false, MAX_TIMEOUT_MS)
+    }
+
     pub(super) fn positive(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
         match v {
             None => Ok(default),

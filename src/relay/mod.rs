@@ -235,6 +235,19 @@ pub enum RelayError {
         /// What to do about it (empty when nothing is to be said).
         advice: &'static str,
     },
+    /// A coil came within [`closed::OFF_MARGIN`] of its on-time limit while the closed loop
+    /// waited for the sensor or decided (fitting, replanning): everything was switched off
+    /// before the limit, and the computation abandoned.
+    #[error("coil {coil} ({}) had been on {:.3} s, near its limit of {:.3} s (relay.max_on_time_s), while the closed loop was {phase}: every coil was switched off before the limit (a shorter --dwell-ms or --sensor-timeout-ms, or a higher relay.max_on_time_s, leaves it more time)", where_on(*board, *channel), on.as_secs_f64(), max.as_secs_f64())]
+    OnTimeReached {
+        coil: CoilId,
+        board: Option<usize>,
+        channel: Channel,
+        /// "waiting for the sensor", "deciding (fitting the wells, replanning)".
+        phase: &'static str,
+        on: Duration,
+        max: Duration,
+    },
     /// Ctrl-C, SIGTERM or SIGHUP.
     #[error("interrupted by a signal")]
     Interrupted,

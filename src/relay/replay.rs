@@ -1120,21 +1120,31 @@ impl Runner<'_> {
         Ok(())
     }
 
+    /// The coil on longest now (with its slot, the step since which it is on, and how long).
+    pub(super) fn longest_on(&self) -> Option<(Slot, CoilId, usize, Duration)> {
+        let now = self.now();
+        self.on_since
+            .iter()
+            .map(|(&slot, &(coil, since, step))| (slot, coil, step, now.saturating_sub(since)))
+            .max_by_key(|&(_, _, _, on)| on)
+    }
+
     /// Waits `d` (simulated in a dry run), watching the stop flag and the on-time limit.
     pub(super) fn wait(&mut self, d: Duration) -> Result<(), RelayError> {
         if self.dry_run {
             self.virtual_t += d;
             return Ok(());
         }
-        let end = Instant::now() + d;
+        // elapsed against `d`, not a deadline: no Instant overflows, however long `d`
+        let begun = Instant::now();
         loop {
             self.check_stop()?;
             self.check_on_time()?;
-            let now = Instant::now();
-            if now >= end {
+            let waited = begun.elapsed();
+            if waited >= d {
                 return Ok(());
             }
-            std::thread::sleep(POLL.min(end - now));
+            std::thread::sleep(POLL.min(d - waited));
         }
     }
 

@@ -24,7 +24,9 @@
 //! nothing (at most the sensor timeout); the same happens before the first request.
 //! The quaternion all zero means the fusion is not running (yet): [`SensorError::NotFused`].
 
-use super::{is_idle, unit_quaternion, Ident, Port, Raw, Reading, SensorError, SensorFormat};
+use super::{
+    is_idle, unit_quaternion, Cancel, Ident, Port, Raw, Reading, SensorError, SensorFormat,
+};
 use std::io::{ErrorKind, Read, Write};
 use std::time::{Duration, Instant};
 
@@ -157,6 +159,7 @@ pub struct Bno055 {
     timeout: Duration,
     /// Bytes of an abandoned reply may still come: drain before the next request.
     drain: bool,
+    cancel: Cancel,
 }
 
 impl Bno055 {
@@ -170,6 +173,7 @@ impl Bno055 {
             },
             timeout,
             drain: true,
+            cancel: Cancel::never(),
         };
         s.set_mode(CONFIG_MODE, "CONFIGMODE")?;
         std::thread::sleep(TO_CONFIG);
@@ -214,7 +218,9 @@ impl Bno055 {
                 Err(e) => {
                     self.drain = matches!(
                         e,
-                        SensorError::Timeout { .. } | SensorError::BadReply { .. }
+                        SensorError::Timeout { .. }
+                            | SensorError::BadReply { .. }
+                            | SensorError::Abandoned { .. }
                     );
                     return Err(e);
                 }
@@ -263,6 +269,9 @@ impl Bno055 {
     ) -> Result<(), SensorError> {
         let mut buf = [0u8; 64];
         while got.len() < n {
+            if self.cancel.is_cancelled() {
+                return Err(self.id.abandoned());
+            }
             if Instant::now() >= deadline {
                 let partial = match got.len() {
                     0 => String::new(),
@@ -361,6 +370,10 @@ impl super::OrientationSensor for Bno055 {
 
     fn describe(&self) -> String {
         format!("BNO055 (UART, NDOF mode) on {}", self.id.port)
+    }
+
+    fn set_cancel(&mut self, cancel: Cancel) {
+        self.cancel = cancel;
     }
 }
 

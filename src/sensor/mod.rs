@@ -15,6 +15,7 @@ pub mod bno055;
 pub mod quat_csv;
 
 use crate::model::geometry::Orientation;
+pub use crate::planning::cancel::Cancel;
 pub use crate::relay::link::Port;
 use std::fmt;
 use std::io::ErrorKind;
@@ -116,6 +117,9 @@ pub trait OrientationSensor: Send {
     fn read(&mut self) -> Result<Reading, SensorError>;
     /// The sensor and its port, for messages and the log: `quat-csv sensor on /dev/ttyACM0`.
     fn describe(&self) -> String;
+    /// From now on a [`read`](Self::read) (and a BNO055's reply) gives up within one
+    /// [`POLL_INTERVAL`] of `cancel` being set, with [`SensorError::Abandoned`].
+    fn set_cancel(&mut self, cancel: Cancel);
 }
 
 /// Errors of the sensor drivers; every message starts `sensor <port> (<format>):`.
@@ -185,6 +189,9 @@ pub enum SensorError {
         /// How many times the request was sent.
         attempts: u32,
     },
+    /// The wait for a reading was given up from outside (the replay is switching off).
+    #[error("sensor {port} ({sensor}): the wait for a reading was abandoned (everything is being switched off)")]
+    Abandoned { sensor: SensorFormat, port: String },
     /// The BNO055 reports the zero quaternion: its fusion is not running (yet).
     #[error("sensor {port} ({sensor}): the quaternion is all zero: sensor fusion is not running yet (it starts shortly after NDOF mode is set; a reset returns the sensor to CONFIG mode)")]
     NotFused { sensor: SensorFormat, port: String },
@@ -240,6 +247,13 @@ impl Ident {
             sensor: self.sensor,
             port: self.port.clone(),
             op,
+        }
+    }
+
+    pub fn abandoned(&self) -> SensorError {
+        SensorError::Abandoned {
+            sensor: self.sensor,
+            port: self.port.clone(),
         }
     }
 

@@ -14,7 +14,9 @@
 //! [`NORM_TOLERANCE`](super::NORM_TOLERANCE) of 1; it is then normalised. Anything else (or a
 //! line longer than [`MAX_LINE`] bytes) is [`SensorError::Garbage`] with the line.
 
-use super::{is_idle, unit_quaternion, Ident, Port, Raw, Reading, SensorError, SensorFormat};
+use super::{
+    is_idle, unit_quaternion, Cancel, Ident, Port, Raw, Reading, SensorError, SensorFormat,
+};
 use crate::model::geometry::Orientation;
 use std::collections::VecDeque;
 use std::io::{ErrorKind, Read};
@@ -201,6 +203,7 @@ pub struct QuatCsv {
     timeout: Duration,
     shared: Arc<Shared>,
     reader: Option<JoinHandle<()>>,
+    cancel: Cancel,
 }
 
 impl QuatCsv {
@@ -226,6 +229,7 @@ impl QuatCsv {
             timeout,
             shared,
             reader: Some(reader),
+            cancel: Cancel::never(),
         })
     }
 
@@ -263,6 +267,9 @@ impl QuatCsv {
             if let Some(end) = &inbox.end {
                 return Err(end.error(&self.id));
             }
+            if self.cancel.is_cancelled() {
+                return Err(self.id.abandoned());
+            }
             let now = Instant::now();
             if now >= deadline {
                 let got = match stale {
@@ -274,7 +281,7 @@ impl QuatCsv {
             inbox = self
                 .shared
                 .arrived
-                .wait_timeout(inbox, deadline - now)
+                .wait_timeout(inbox, (deadline - now).min(super::POLL_INTERVAL))
                 .unwrap_or_else(PoisonError::into_inner)
                 .0;
         }
@@ -289,6 +296,10 @@ impl super::OrientationSensor for QuatCsv {
 
     fn describe(&self) -> String {
         format!("quat-csv sensor on {}", self.id.port)
+    }
+
+    fn set_cancel(&mut self, cancel: Cancel) {
+        self.cancel = cancel;
     }
 }
 

@@ -4,6 +4,10 @@
 
 use serialport::{SerialPort, TTYPort};
 use spherestep::commands::replay::{self, ReplayOptions};
+use spherestep::commands::{plan_settings, PlanOverrides};
+use spherestep::io::planfile::write_plan;
+use spherestep::io::scenario::Scenario;
+use spherestep::planning::planner;
 use spherestep::relay::modbus::crc16;
 use spherestep::relay::replay::{execute, execute_on, Summary};
 use spherestep::relay::{Link, RelayError};
@@ -301,4 +305,22 @@ pub fn numato_module(mut port: TTYPort, n: usize) -> JoinHandle<(Vec<String>, TT
 /// The computer end's device path (for spawning the binary).
 pub fn path_of(slave: &TTYPort) -> String {
     slave.name().expect("a pty slave has a path")
+}
+
+/// A plan of 30 degrees about Y in the scenario `model` (at least 3 steps), written to
+/// `dir/plan.csv` as `spherestep plan` writes it.
+pub fn broad_plan(dir: &Path, model: &str) -> PathBuf {
+    let sc = Scenario::load(Path::new(model)).unwrap();
+    let o = PlanOverrides {
+        axis: Some("0,1,0".into()),
+        angle_deg: Some(30.0),
+        ..Default::default()
+    };
+    let p = planner::plan(&sc.motor(), &plan_settings(&sc, &o).unwrap());
+    assert!(p.rows.len() >= 4, "{:?}", p.message);
+    let mut csv = Vec::new();
+    write_plan(&p.rows, &mut csv).unwrap();
+    let path = dir.join("plan.csv");
+    std::fs::write(&path, csv).unwrap();
+    path
 }
