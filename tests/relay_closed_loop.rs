@@ -11,8 +11,9 @@ use relay_support::{lcus_all_off, path_of, pty, GUARD};
 use serialport::{SerialPort, TTYPort};
 use spherestep::commands::closed_replay::{execute, prepare_closed, ClosedInputs, SensorOptions};
 use spherestep::commands::replay::ReplayOptions;
+use spherestep::io::scenario::Scenario;
 use spherestep::model::geometry::{rot_q, Orientation, Radians, UnitVec};
-use spherestep::planning::closed_loop::{Controller, Decision};
+use spherestep::planning::closed_loop::{run_closed_loop, Controller, Decision, LoopSettings};
 use spherestep::relay::closed::ClosedSummary;
 use spherestep::relay::{Link, RelayError};
 use spherestep::sensor::{self, quat_csv::parse_line, SensorFormat};
@@ -742,4 +743,66 @@ fn closed_loop_switches_off_before_the_on_time_limit_while_it_replans() {
         "{}",
         ran.log
     );
+}
+
+#[test]
+fn the_hardware_loop_takes_the_decisions_of_the_simulated_one() {
+    // one loop function drives both plants: the simulated run of the broad-well plan on the
+    // worn plant (1 deg of seeded sensor noise), then the same measurements reported by the
+    // pseudo-terminal sensor as each set goes on: the same sets switched, replans at the same
+    // steps, the same ending
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = prepared(dir.path(), SensorFormat::QuatCsv);
+    let worn = Scenario::load(Path::new("scenarios/plants/broad-wells-worn.toml")).unwrap();
+    let model = inputs.scenario.motor();
+    // the controller's thresholds are those of a noiseless sensor (replan beyond 1 deg), the
+    // simulated sensor's noise 1 deg: measurements stray, and the loop replans
+    let cl = LoopSettings {
+        noise: Radians(1f64.to_radians()),
+        seed: 3,
+        ..inputs.cl
+    };
+    let sim = run_closed_loop(
+        &model,
+        &worn.motor(),
+        &inputs.settings,
+        &inputs.open,
+        inputs.goal,
+        &cl,
+    );
+    assert!(sim.summary.reached, "{:?}", sim.summary);
+    assert!(sim.summary.replans > 0, "{:?}", sim.summary);
+    let script: Script = sim
+        .rows
+        .iter()
+        .map(|r| {
+            let coils = r.active.iter().map(|p| p.coil.0).collect();
+            // as the far end prints it and the replay decodes it
+            (coils, parse_line(&line_of(&r.measured)).unwrap())
+        })
+        .collect();
+    for w in script.windows(2) {
+        assert_ne!(
+            w[0].0, w[1].0,
+            "the far end tells steps apart by their sets"
+        );
+    }
+    let ran = run(&inputs, script.clone(), SensorFormat::QuatCsv, Fault::None);
+    let s = ran.result.unwrap_or_else(|e| panic!("{e}\n{}", ran.text));
+    assert_eq!(ran.frames, expected_frames(&sets(&script)), "{}", ran.text);
+    assert_eq!(s.steps, sim.summary.steps);
+    assert_eq!(s.replans, sim.summary.replans);
+    let replanned_at: Vec<usize> = ran
+        .log
+        .lines()
+        .filter(|l| l.split(',').nth(2) == Some("replan"))
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    let sim_replanned: Vec<usize> = sim
+        .rows
+        .iter()
+        .filter(|r| r.replanned)
+        .map(|r| r.step)
+        .collect();
+    assert_eq!(replanned_at, sim_replanned, "{}", ran.log);
 }

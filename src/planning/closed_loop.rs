@@ -239,6 +239,11 @@ impl<'a> Controller<'a> {
         self.replans
     }
 
+    /// The most steps after the initial state the loop plays.
+    pub fn max_steps(&self) -> usize {
+        self.cl.max_steps
+    }
+
     /// Whether `measured` is within the goal tolerance.
     pub fn at_goal(&self, measured: &Orientation) -> bool {
         angular(measured, &self.goal) <= self.cl.goal_tolerance.0
@@ -430,10 +435,102 @@ impl<'a> Controller<'a> {
     }
 }
 
+/// The decision the loop makes from a measurement: [`Controller::observe`], handed to the
+/// plant so that it can run it where it must (the hardware runs it under its watch of the
+/// coils' on-time and of signals, see `relay::closed`).
+pub type Decide<'a> = dyn FnMut(&Orientation) -> Decision + Send + 'a;
+
+/// What a closed loop plays its rows on: a simulated motor and sensor, or the hardware's
+/// boards and sensor. One loop ([`drive`]) drives the [`Controller`] against either.
+pub trait Plant {
+    /// Why the plant could not go on (nothing for a simulation; a board or sensor failure on
+    /// the hardware).
+    type Error;
+    /// Switches `row`'s set as step `step` (0: the initial commutation state), lets the ball
+    /// settle, measures it and hands the measurement to `decide`: the measurement and the
+    /// decision.
+    fn step(
+        &mut self,
+        step: usize,
+        row: &PlanRow,
+        decide: &mut Decide<'_>,
+    ) -> Result<(Orientation, Decision), Self::Error>;
+    /// After step `step` the controller `ctl` replaced the plan in force (`ctl.plan()`: row 0
+    /// the measured state, row 1 switched next): the plant checks it against its own limits
+    /// before anything of it is switched, and refuses it with an error.
+    fn replanned(&mut self, step: usize, ctl: &Controller) -> Result<(), Self::Error>;
+}
+
+/// How a closed loop ended, unless its plant failed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Ending {
+    /// The controller is done (the goal reached; open loop: the plan played out) ...
+    Done,
+    /// ... or nothing more can be done: why ...
+    Stuck(String),
+    /// ... or the controller's `max_steps` steps were played short of it.
+    MaxSteps,
+}
+
+/// The closed loop: the controller's next row played on `plant`, the measurement decided on,
+/// a replan handed to the plant to check, until the controller is done, stuck, or has played
+/// its `max_steps` steps (steps 0..=max_steps). The ending and the last step played.
+pub fn drive<P: Plant>(ctl: &mut Controller, plant: &mut P) -> Result<(Ending, usize), P::Error> {
+    let max = ctl.max_steps();
+    let mut step = 0;
+    loop {
+        let row = ctl.next_row().clone();
+        let (_, decision) = plant.step(step, &row, &mut |q| ctl.observe(q))?;
+        match decision {
+            Decision::Continue => {}
+            Decision::Replanned => plant.replanned(step, ctl)?,
+            Decision::Done => return Ok((Ending::Done, step)),
+            Decision::Stuck(m) => return Ok((Ending::Stuck(m), step)),
+        }
+        if step >= max {
+            return Ok((Ending::MaxSteps, step));
+        }
+        step += 1;
+    }
+}
+
+/// The simulated plant: the plant's physics settles each set from where the last left the
+/// ball, a seeded sensor measures it; every step is kept as a [`LoopRow`].
+struct Simulated<'a> {
+    plant: &'a Motor<'a>,
+    noise: Noise,
+    truth: Orientation,
+    rows: Loop<'a>,
+}
+
+impl Plant for Simulated<'_> {
+    type Error = std::convert::Infallible;
+
+    fn step(
+        &mut self,
+        _step: usize,
+        row: &PlanRow,
+        decide: &mut Decide<'_>,
+    ) -> Result<(Orientation, Decision), Self::Error> {
+        let p = self.plant;
+        let res = settle(p.torques, &row.active, &self.truth, p.body, p.settle);
+        self.truth = res.q;
+        let measured = self.noise.measure(&self.truth);
+        let decision = decide(&measured);
+        let replanned = decision == Decision::Replanned;
+        self.rows.push(row, measured, &res, replanned);
+        Ok((measured, decision))
+    }
+
+    fn replanned(&mut self, _step: usize, _ctl: &Controller) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
 /// Plays `open` (a plan made with `model` for `settings`) on `plant`, closing the loop as
 /// `cl` says, towards `goal` (the plan's target: ROT[axis, angle] applied to its row 0, see
 /// [`goal_of`]): the plant settles each set from where the last left the ball, a simulated
-/// sensor measures it, the [`Controller`] decides.
+/// sensor measures it, the [`Controller`] decides ([`drive`]).
 pub fn run_closed_loop(
     model: &Motor,
     plant: &Motor,
@@ -446,41 +543,31 @@ pub fn run_closed_loop(
         return no_run("the plan has no initial commutation state");
     };
     let q0 = open.rows[0].q;
-    let mut noise = Noise {
-        state: cl.seed,
-        sigma: cl.noise.0,
+    let mut sim = Simulated {
+        plant,
+        noise: Noise {
+            state: cl.seed,
+            sigma: cl.noise.0,
+        },
+        // row 0: the ball at rest at the plan's start, the initial set on
+        truth: q0,
+        rows: Loop {
+            settings,
+            q0,
+            goal,
+            rows: Vec::new(),
+        },
     };
-    let mut lp = Loop {
-        settings,
-        q0,
-        goal,
-        rows: Vec::new(),
+    let (ending, _) = match drive(&mut ctl, &mut sim) {
+        Ok(end) => end,
+        Err(never) => match never {},
     };
-    // row 0: the ball at rest at the plan's start, the initial set on
-    let mut truth = q0;
-    let (mut message, mut done) = (None, false);
-    while lp.rows.len() <= cl.max_steps {
-        let row = ctl.next_row().clone();
-        let res = settle(plant.torques, &row.active, &truth, plant.body, plant.settle);
-        truth = res.q;
-        let measured = noise.measure(&truth);
-        let decision = ctl.observe(&measured);
-        lp.push(&row, measured, &res, decision == Decision::Replanned);
-        match decision {
-            Decision::Continue | Decision::Replanned => {}
-            Decision::Done => {
-                done = true;
-                break;
-            }
-            Decision::Stuck(m) => {
-                message = Some(m);
-                break;
-            }
-        }
-    }
-    if !done && message.is_none() {
-        message = Some(format!("stopped after {} steps", cl.max_steps));
-    }
+    let message = match ending {
+        Ending::Done => None,
+        Ending::Stuck(m) => Some(m),
+        Ending::MaxSteps => Some(format!("stopped after {} steps", cl.max_steps)),
+    };
+    let lp = sim.rows;
     let reached = lp.rows.last().is_some_and(|r| ctl.at_goal(&r.measured));
     let mut run = lp.finish(message, reached, ctl.replans());
     if let Some((name, step)) = ctl.fitted() {

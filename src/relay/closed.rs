@@ -22,7 +22,9 @@ use super::replay::{
 use super::{Link, RelayError};
 use crate::model::geometry::Orientation;
 use crate::planning::cancel::Cancel;
-use crate::planning::closed_loop::{Controller, Decision, LoopSettings};
+use crate::planning::closed_loop::{
+    drive, Controller, Decide, Decision, Ending, LoopSettings, Plant,
+};
 use crate::planning::plan::PlanRow;
 use crate::sensor::{OrientationSensor, Reading};
 use std::io::Write;
@@ -135,70 +137,65 @@ pub fn execute_closed(
     .map_err(stdout_error)?;
     let mut r = Runner::start(prep, links, stop, None, out, LogKind::ClosedLoop)?;
     r.log_start(0)?;
-    let mut lp = Loop {
+    let Sensing {
+        sensor,
+        mut controller,
+        cancel,
+        stator_coils,
+        ..
+    } = sensing;
+    let mut hw = Hardware {
         prep,
         entries: prep.schedule.entries.clone(),
         index: 0,
+        current: None,
         steps: 0,
         last: None,
-        sensing,
+        goal: controller.goal(),
+        sensor,
+        cancel,
+        stator_coils,
+        r: &mut r,
     };
-    let result = lp.run(&mut r);
-    lp.finish(&mut r, result)
+    let result = hw.run(&mut controller);
+    let (steps, last) = (hw.steps, hw.last);
+    finish(&mut r, result, steps, last, controller.replans())
 }
 
-/// The loop in progress.
-struct Loop<'p, 's> {
+/// The hardware as the closed loop's [`Plant`]: the runner switching the boards, the sensor.
+struct Hardware<'p, 'r, 'w> {
     prep: &'p Prepared,
     /// The checked entries of the plan in force (after a replan, from its row 1).
     entries: Vec<Entry>,
     /// The entry switched next (the controller's next row).
     index: usize,
+    /// The entry switched last.
+    current: Option<Entry>,
     /// The last step switched (or being switched).
     steps: usize,
     /// The last measurement's angle from the goal, degrees.
     last: Option<f64>,
-    sensing: Sensing<'s>,
+    goal: Orientation,
+    sensor: Box<dyn OrientationSensor>,
+    cancel: Cancel,
+    stator_coils: usize,
+    r: &'r mut Runner<'w>,
 }
 
-impl Loop<'_, '_> {
-    /// Steps until the controller is done (`Ok`) or something stops the loop.
-    fn run(&mut self, r: &mut Runner) -> Result<(), RelayError> {
-        r.start_off()?;
-        loop {
-            let Some(e) = self.entries.get(self.index).cloned() else {
-                return Err(RelayError::Stuck {
-                    step: self.steps,
-                    message: "the plan in force has no step left".into(),
-                });
-            };
-            r.next_step = e.step;
-            self.steps = e.step;
-            r.switch(&e)?;
-            r.verify_entry(&e)?;
-            r.dwell(&e)?;
-            let decision = self.sense_and_decide(r, e.step)?;
-            r.check_stop()?;
-            r.mark(e.step, "done")?;
-            match decision {
-                Decision::Continue => self.index += 1,
-                Decision::Replanned => self.replanned(r, &e)?,
-                Decision::Done => return r.mark(e.step, "goal"),
-                Decision::Stuck(message) => {
-                    return Err(RelayError::Stuck {
-                        step: e.step,
-                        message,
-                    })
-                }
-            }
-            let max = self.sensing.settings.max_steps;
-            if e.step >= max {
-                return Err(RelayError::MaxSteps {
-                    steps: e.step,
-                    max,
-                    distance_deg: self.last.unwrap_or(f64::NAN),
-                });
-            }
+impl Hardware<'_, '_, '_> {
+    /// All off, then the closed loop ([`drive`]) until the controller is done (`Ok`) or
+    /// something stops it.
+    fn run(&mut self, ctl: &mut Controller) -> Result<(), RelayError> {
+        self.r.start_off()?;
+        let (ending, step) = drive(ctl, self)?;
+        match ending {
+            Ending::Done => self.r.mark(step, "goal"),
+            Ending::Stuck(message) => Err(RelayError::Stuck { step, message }),
+            Ending::MaxSteps => Err(RelayError::MaxSteps {
+                steps: step,
+                max: ctl.max_steps(),
+                distance_deg: self.last.unwrap_or(f64::NAN),
+            }),
         }
     }
 
@@ -206,14 +203,20 @@ impl Loop<'_, '_> {
     /// watches the stop flag and the on-time limit (see the module comment): the reading and
     /// the decision, or why the coils were switched off first.
     /// The reading is printed and logged as soon as it arrives (the decision may take long).
-    fn sense_and_decide(&mut self, r: &mut Runner, step: usize) -> Result<Decision, RelayError> {
-        let cancel = self.sensing.cancel.clone();
+    fn sense_and_decide(
+        &mut self,
+        step: usize,
+        planned: &Orientation,
+        decide: &mut Decide<'_>,
+    ) -> Result<(Orientation, Decision), RelayError> {
+        let cancel = self.cancel.clone();
         let phase = AtomicU8::new(WAITING);
+        let r = &mut *self.r;
         let margin = OFF_MARGIN.min(r.max_on_time / 4);
-        let planned = self.sensing.controller.next_row().q;
-        let goal = self.sensing.controller.goal();
+        let goal = self.goal;
         let last = &mut self.last;
-        let (sensor, controller) = (&mut self.sensing.sensor, &mut self.sensing.controller);
+        let sensor = &mut self.sensor;
+        let mut measured_q = None;
         let (tx, rx) = mpsc::channel();
         std::thread::scope(|scope| {
             let work = || {
@@ -223,7 +226,7 @@ impl Loop<'_, '_> {
                         phase.store(DECIDING, Ordering::SeqCst);
                         let q = reading.orientation;
                         let _ = tx.send(Ok(Worked::Read(reading)));
-                        let _ = tx.send(Ok(Worked::Decided(controller.observe(&q))));
+                        let _ = tx.send(Ok(Worked::Decided(decide(&q))));
                     }
                     Err(e) => {
                         let _ = tx.send(Err(e));
@@ -234,14 +237,15 @@ impl Loop<'_, '_> {
                 .name("closed-loop decision".into())
                 .spawn_scoped(scope, work)
                 .map_err(|e| RelayError::Stuck {
-                    step: self.steps,
+                    step,
                     message: format!("cannot start the thread that reads the sensor: {e}"),
                 })?;
             let outcome = loop {
                 match rx.recv_timeout(super::replay::POLL) {
                     Ok(Ok(Worked::Decided(d))) => break Ok(d),
                     Ok(Ok(Worked::Read(reading))) => {
-                        match measured(r, step, &reading, &planned, &goal) {
+                        measured_q = Some(reading.orientation);
+                        match measured(r, step, &reading, planned, &goal) {
                             Ok(to_goal) => *last = Some(to_goal),
                             Err(e) => {
                                 cancel.cancel();
@@ -253,7 +257,7 @@ impl Loop<'_, '_> {
                     Err(RecvTimeoutError::Timeout) => {}
                     Err(RecvTimeoutError::Disconnected) => {
                         break Err(RelayError::Stuck {
-                            step: self.steps,
+                            step,
                             message: "the closed loop's decision failed (an internal error)".into(),
                         })
                     }
@@ -283,18 +287,60 @@ impl Loop<'_, '_> {
             };
             if worker.join().is_err() && outcome.is_ok() {
                 return Err(RelayError::Stuck {
-                    step: self.steps,
+                    step,
                     message: "the closed loop's decision failed (an internal error)".into(),
                 });
             }
-            outcome
+            let decision = outcome?;
+            let q = measured_q.ok_or_else(|| RelayError::Stuck {
+                step,
+                message: "the closed loop decided without a reading (an internal error)".into(),
+            })?;
+            Ok((q, decision))
         })
     }
+}
 
-    /// The controller replanned after entry `e`: checks the new plan from what is on now and
-    /// makes it the plan in force, or refuses it (nothing of it switched).
-    fn replanned(&mut self, r: &mut Runner, e: &Entry) -> Result<(), RelayError> {
-        let ctl = &self.sensing.controller;
+impl Plant for Hardware<'_, '_, '_> {
+    type Error = RelayError;
+
+    /// Switches the next entry of the plan in force, verifies (`--verify`), dwells, reads the
+    /// sensor and decides (watched, see the module comment).
+    fn step(
+        &mut self,
+        _step: usize,
+        row: &PlanRow,
+        decide: &mut Decide<'_>,
+    ) -> Result<(Orientation, Decision), RelayError> {
+        let Some(e) = self.entries.get(self.index).cloned() else {
+            return Err(RelayError::Stuck {
+                step: self.steps,
+                message: "the plan in force has no step left".into(),
+            });
+        };
+        self.r.next_step = e.step;
+        self.steps = e.step;
+        self.r.switch(&e)?;
+        self.r.verify_entry(&e)?;
+        self.r.dwell(&e)?;
+        let (q, decision) = self.sense_and_decide(e.step, &row.q, decide)?;
+        self.r.check_stop()?;
+        self.r.mark(e.step, "done")?;
+        if decision == Decision::Continue {
+            self.index += 1;
+        }
+        self.current = Some(e);
+        Ok((q, decision))
+    }
+
+    /// The controller replanned after the entry switched last: checks the new plan from what
+    /// is on now and makes it the plan in force, or refuses it (nothing of it switched).
+    fn replanned(&mut self, step: usize, ctl: &Controller) -> Result<(), RelayError> {
+        let e = self.current.clone().ok_or_else(|| RelayError::Stuck {
+            step,
+            message: "a replan before any step was switched (an internal error)".into(),
+        })?;
+        let r = &mut *self.r;
         let replan = ctl.replans();
         let mut rows: Vec<PlanRow> = ctl.plan().get(1..).unwrap_or_default().to_vec();
         for (j, row) in rows.iter_mut().enumerate() {
@@ -311,7 +357,7 @@ impl Loop<'_, '_> {
             hold_first: false,
         };
         let dwell = prep.drive.dwell_ms.map(Duration::from_millis);
-        let stator = self.sensing.stator_coils;
+        let stator = self.stator_coils;
         let entries = entries_from(&rows, &prep.settings, &prep.boards, stator, dwell, from)
             .map_err(refused)?;
         let now = r.now();
@@ -337,36 +383,37 @@ impl Loop<'_, '_> {
         self.index = 0;
         Ok(())
     }
+}
 
-    /// Switches everything off and reports: the summary at the goal, else why it stopped.
-    fn finish(
-        self,
-        r: &mut Runner,
-        result: Result<(), RelayError>,
-    ) -> Result<ClosedSummary, RelayError> {
-        let replans = self.sensing.controller.replans();
-        match r.close(result)? {
-            Ok(()) => {
-                let d = self.last.unwrap_or(f64::NAN);
-                writeln!(
-                    r.out,
-                    "closed loop done: at the goal after {} step(s), {replans} replan(s); the last measurement {d:.2} deg from the goal; all coils off",
-                    self.steps
-                )
-                .map_err(stdout_error)?;
-                Ok(ClosedSummary {
-                    steps: self.steps,
-                    replans,
-                    distance_deg: d,
-                })
-            }
-            Err(cause) => Err(RelayError::LoopStopped {
-                cause: Box::new(cause),
-                steps: self.steps,
+/// Switches everything off and reports: the summary at the goal, else why it stopped.
+fn finish(
+    r: &mut Runner,
+    result: Result<(), RelayError>,
+    steps: usize,
+    last: Option<f64>,
+    replans: usize,
+) -> Result<ClosedSummary, RelayError> {
+    match r.close(result)? {
+        Ok(()) => {
+            let d = last.unwrap_or(f64::NAN);
+            writeln!(
+                r.out,
+                "closed loop done: at the goal after {} step(s), {replans} replan(s); the last measurement {d:.2} deg from the goal; all coils off",
+                steps
+            )
+            .map_err(stdout_error)?;
+            Ok(ClosedSummary {
+                steps,
                 replans,
-                distance_deg: self.last,
-            }),
+                distance_deg: d,
+            })
         }
+        Err(cause) => Err(RelayError::LoopStopped {
+            cause: Box::new(cause),
+            steps,
+            replans,
+            distance_deg: last,
+        }),
     }
 }
 
