@@ -45,8 +45,10 @@
 //! assert!(r.settled && r.residual_torque_nm < sc.settle.torque_tol);
 //! ```
 
+#[cfg(feature = "cli")]
 pub mod commands;
 pub mod error;
+#[cfg(feature = "figures")]
 pub mod figures;
 pub mod io;
 pub mod model;
@@ -54,5 +56,6 @@ pub mod physics;
 pub mod planning;
 pub mod relay;
 pub mod sensor;
+pub mod serial;
 
 pub use error::{Error, Result};

@@ -1,15 +1,26 @@
 //! Several relay boards in one replay: the `[[relay.boards]]` entries of a `[relay]` section
-//! (each board with its own port, type and serial settings) as written and checked, and the
-//! coil map that goes with them (`coil = "board:channel"`, boards 0-based in list order,
-//! channels 1-based as printed). Every error names the field (`relay.boards[1].channels`,
-//! `relay.map.3`) and what was expected.
+//! (each board with its own port, type and serial settings) as written and checked, with the
+//! serial defaults and bounds every board shares. Every error names the field
+//! (`relay.boards[1].channels`) and what was expected. The coil map that goes with a list of
+//! boards (`coil = "board:channel"`) is read in `config`.
 
-use super::config::{coil_key, Fields, DEFAULT_SLAVE_ADDRESS};
-use super::{BoardKind, BoardSpec, Channel, CoilMap, RelayConfig, Slot};
+use super::fields::Fields;
+use super::{BoardKind, BoardSpec};
 use crate::error::Result;
-use crate::model::geometry::CoilId;
 use serde::Deserialize;
-use std::collections::BTreeMap;
+use std::time::Duration;
+
+/// The modbus slave address when none is given.
+pub const DEFAULT_SLAVE_ADDRESS: u8 = 1;
+/// The time to wait for a board's reply when none is given, ms.
+pub const DEFAULT_TIMEOUT_MS: f64 = 1000.0;
+/// The longest `timeout_ms` accepted (a minute).
+pub const MAX_TIMEOUT_MS: f64 = 60_000.0;
+
+/// A board's reply timeout, `timeout_ms`: above 0, at most [`MAX_TIMEOUT_MS`].
+pub(super) fn reply_timeout(f: &Fields, field: &str, v: Option<f64>) -> Result<Duration> {
+    f.millis(field, v, DEFAULT_TIMEOUT_MS, false, MAX_TIMEOUT_MS)
+}
 
 /// One `[[relay.boards]]` entry as written.
 #[derive(Debug, Default, Clone, Deserialize)]
@@ -27,27 +38,6 @@ pub struct BoardConfig {
     pub slave_address: Option<i64>,
     /// How long to wait for this board's reply, ms.
     pub timeout_ms: Option<f64>,
-}
-
-/// With `[[relay.boards]]`, the keys describing one board at the top of `[relay]` are refused:
-/// they belong in the entries.
-pub(super) fn refuse_single_board_keys(raw: &RelayConfig, f: &Fields) -> Result<()> {
-    let given = [
-        ("board", raw.board.is_some()),
-        ("baud", raw.baud.is_some()),
-        ("channels", raw.channels.is_some()),
-        ("slave_address", raw.slave_address.is_some()),
-        ("timeout_ms", raw.timeout_ms.is_some()),
-    ];
-    match given.iter().find(|(_, set)| *set) {
-        None => Ok(()),
-        Some((key, _)) => Err(f.err(
-            key,
-            format!(
-                "no top-level `{key}` next to [[relay.boards]]: one board is described at the top of [relay], several as [[relay.boards]] entries, each with its own `{key}`"
-            ),
-        )),
-    }
 }
 
 /// Checks the `[[relay.boards]]` entries: at least one, each valid, no port used twice.
@@ -105,7 +95,7 @@ fn check_board(f: &Fields, i: usize, raw: BoardConfig) -> Result<BoardSpec> {
         }
         p => p,
     };
-    let timeout = f.timeout(&field("timeout_ms"), raw.timeout_ms)?;
+    let timeout = reply_timeout(f, &field("timeout_ms"), raw.timeout_ms)?;
     Ok(BoardSpec {
         kind,
         channels,
@@ -120,89 +110,10 @@ fn check_board(f: &Fields, i: usize, raw: BoardConfig) -> Result<BoardSpec> {
     })
 }
 
-/// The `[relay.map]` table with `[[relay.boards]]`: coil index -> `"board:channel"`, the board
-/// one of the list and the channel one of its own, each board channel used once.
-pub(super) fn slot_map(
-    f: &Fields,
-    m: BTreeMap<String, toml::Value>,
-    boards: &[BoardSpec],
-) -> Result<CoilMap> {
-    let mut out = BTreeMap::new();
-    let mut used: BTreeMap<Slot, CoilId> = BTreeMap::new();
-    for (k, v) in m {
-        let field = format!("map.{k}");
-        let coil = coil_key(f, &field, &k)?;
-        let slot = slot_value(f, &field, &v, boards)?;
-        if let Some(other) = used.insert(slot, coil) {
-            return Err(f.err(
-                &field,
-                format!(
-                    "a board channel no other coil uses, got \"{slot}\" (board {}, channel {}), already coil {other}'s",
-                    slot.board, slot.channel
-                ),
-            ));
-        }
-        out.insert(coil, slot);
-    }
-    Ok(CoilMap::Slots(out))
-}
-
-/// One `[relay.map]` value with `[[relay.boards]]`: `"board:channel"`, checked against the
-/// boards.
-fn slot_value(f: &Fields, field: &str, v: &toml::Value, boards: &[BoardSpec]) -> Result<Slot> {
-    let last = boards.len().saturating_sub(1);
-    let form = format!(
-        "\"board:channel\" such as \"0:1\" (board 0..={last} in [[relay.boards]] order, channel from 1)"
-    );
-    let text = match v {
-        toml::Value::String(s) => s.as_str(),
-        toml::Value::Integer(n) => {
-            return Err(f.err(
-                field,
-                format!(
-                "{form}; with [[relay.boards]] a bare channel does not say which board, got {n}"
-            ),
-            ))
-        }
-        other => return Err(f.err(field, format!("{form}, got {other}"))),
-    };
-    let parsed = text.split_once(':').and_then(|(b, c)| {
-        Some((
-            b.trim().parse::<usize>().ok()?,
-            c.trim().parse::<u16>().ok()?,
-        ))
-    });
-    let Some((board, channel)) = parsed else {
-        return Err(f.err(field, format!("{form}, got \"{text}\"")));
-    };
-    let Some(spec) = boards.get(board) else {
-        return Err(f.err(
-            field,
-            format!(
-                "a board of [[relay.boards]], 0..={last} ({} listed), got board {board} in \"{text}\"",
-                boards.len()
-            ),
-        ));
-    };
-    if channel == 0 || channel > spec.channels {
-        return Err(f.err(
-            field,
-            format!(
-                "a channel of board {board} ({} board, channels 1..={}), got channel {channel} in \"{text}\"",
-                spec.kind, spec.channels
-            ),
-        ));
-    }
-    Ok(Slot {
-        board,
-        channel: Channel(channel),
-    })
-}
-
 #[cfg(test)]
 mod tests {
-    use super::*;
-    use crate::relay::RelaySettings;
+    use crate::model::geometry::CoilId;
+    use crate::relay::{Channel, RelaySettings, Slot};
     use std::path::Path;
 
     const TWO: &str = "[[boards]]\nport = \"/dev/a\"\nboard = \"lcus\"\n[[boards]]\nport = \"/dev/b\"\nboard = \"modbus\"\nchannels = 4\n";

@@ -219,20 +219,7 @@ impl Hardware<'_, '_, '_> {
         let mut measured_q = None;
         let (tx, rx) = mpsc::channel();
         std::thread::scope(|scope| {
-            let work = || {
-                // the receiver is gone only when the watch gave up on this phase
-                match sensor.read() {
-                    Ok(reading) => {
-                        phase.store(DECIDING, Ordering::SeqCst);
-                        let q = reading.orientation;
-                        let _ = tx.send(Ok(Worked::Read(reading)));
-                        let _ = tx.send(Ok(Worked::Decided(decide(&q))));
-                    }
-                    Err(e) => {
-                        let _ = tx.send(Err(e));
-                    }
-                }
-            };
+            let work = || read_and_decide(sensor.as_mut(), decide, &phase, tx);
             let worker = std::thread::Builder::new()
                 .name("closed-loop decision".into())
                 .spawn_scoped(scope, work)
@@ -262,22 +249,7 @@ impl Hardware<'_, '_, '_> {
                         })
                     }
                 }
-                let near = r
-                    .longest_on()
-                    .filter(|&(_, _, _, on)| on + margin >= r.max_on_time);
-                let fired = match (r.check_stop(), near) {
-                    (Err(e), _) => Some(e),
-                    (Ok(()), Some((slot, coil, _, on))) => Some(RelayError::OnTimeReached {
-                        coil,
-                        board: r.listed.then_some(slot.board),
-                        channel: slot.channel,
-                        phase: phase_name(phase.load(Ordering::SeqCst)),
-                        on,
-                        max: r.max_on_time,
-                    }),
-                    (Ok(()), None) => None,
-                };
-                if let Some(e) = fired {
+                if let Some(e) = fired(r, margin, phase.load(Ordering::SeqCst)) {
                     // off first, then abandon what the worker does
                     let _ = r.all_off();
                     r.on_since.clear();
@@ -383,6 +355,47 @@ impl Plant for Hardware<'_, '_, '_> {
         self.index = 0;
         Ok(())
     }
+}
+
+/// The worker of a watched phase: reads `sensor`, sends the reading, decides and sends the
+/// decision (or sends the sensor's error).
+fn read_and_decide(
+    sensor: &mut dyn OrientationSensor,
+    decide: &mut Decide<'_>,
+    phase: &AtomicU8,
+    tx: mpsc::Sender<Result<Worked, crate::sensor::SensorError>>,
+) {
+    // the receiver is gone only when the watch gave up on this phase
+    match sensor.read() {
+        Ok(reading) => {
+            phase.store(DECIDING, Ordering::SeqCst);
+            let q = reading.orientation;
+            let _ = tx.send(Ok(Worked::Read(reading)));
+            let _ = tx.send(Ok(Worked::Decided(decide(&q))));
+        }
+        Err(e) => {
+            let _ = tx.send(Err(e));
+        }
+    }
+}
+
+/// What the watch of a phase acts on now: a signal, or a coil within `margin` of its on-time
+/// limit (`None`: nothing).
+fn fired(r: &Runner, margin: Duration, phase: u8) -> Option<RelayError> {
+    if let Err(e) = r.check_stop() {
+        return Some(e);
+    }
+    let (slot, coil, _, on) = r
+        .longest_on()
+        .filter(|&(_, _, _, on)| on + margin >= r.max_on_time)?;
+    Some(RelayError::OnTimeReached {
+        coil,
+        board: r.listed.then_some(slot.board),
+        channel: slot.channel,
+        phase: phase_name(phase),
+        on,
+        max: r.max_on_time,
+    })
 }
 
 /// Switches everything off and reports: the summary at the goal, else why it stopped.

@@ -4,9 +4,11 @@
 //! safety limits. Unknown keys are refused; every value is checked and an error names the file
 //! and the field.
 
-use super::boards::{self, BoardConfig};
+use super::boards::{self, reply_timeout, BoardConfig};
+pub use super::boards::{DEFAULT_SLAVE_ADDRESS, DEFAULT_TIMEOUT_MS, MAX_TIMEOUT_MS};
+use super::fields::{coil_key, Fields};
 use super::{BoardKind, BoardSpec, Channel, Slot};
-use crate::error::{shown, Error, Result};
+use crate::error::{Error, Result};
 use crate::model::geometry::CoilId;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -22,12 +24,6 @@ pub const DEFAULT_MAX_ON_TIME_S: f64 = 10.0;
 pub const DEFAULT_DWELL_FACTOR: f64 = 1.5;
 /// ...but at least this long, ms (relays take a few ms to close, the ball longer to settle).
 pub const DEFAULT_DWELL_FLOOR_MS: f64 = 200.0;
-/// Default Modbus slave address.
-pub const DEFAULT_SLAVE_ADDRESS: u8 = 1;
-/// Default reply timeout, ms.
-pub const DEFAULT_TIMEOUT_MS: f64 = 1000.0;
-/// The longest `timeout_ms` accepted (a minute).
-pub const MAX_TIMEOUT_MS: f64 = 60_000.0;
 /// The longest `max_on_time_s` accepted (a day).
 pub const MAX_ON_TIME_LIMIT_S: f64 = 86_400.0;
 /// The longest `dwell_floor_ms` accepted (an hour).
@@ -157,7 +153,7 @@ impl RelaySettings {
         let listed = match raw.boards.take() {
             None => Vec::new(),
             Some(list) => {
-                boards::refuse_single_board_keys(&raw, &f)?;
+                refuse_single_board_keys(&raw, &f)?;
                 boards::check_boards(&f, list)?
             }
         };
@@ -173,7 +169,7 @@ impl RelaySettings {
             (None, true) => CoilMap::Default,
             (None, false) => CoilMap::Laid(listed.iter().map(|b| b.channels).collect()),
             (Some(m), true) => coil_map(&f, m)?,
-            (Some(m), false) => boards::slot_map(&f, m, &listed)?,
+            (Some(m), false) => slot_map(&f, m, &listed)?,
         };
         Ok(RelaySettings {
             board: one.board,
@@ -240,7 +236,7 @@ fn single_board(raw: &RelayConfig, f: &Fields) -> Result<SingleBoard> {
             return Err(f.err("channels", expected));
         }
     }
-    let timeout = f.timeout("timeout_ms", raw.timeout_ms)?;
+    let timeout = reply_timeout(f, "timeout_ms", raw.timeout_ms)?;
     Ok(SingleBoard {
         board,
         baud: f.int("baud", raw.baud, 1, 4_000_000)?.map(|b| b as u32),
@@ -249,94 +245,6 @@ fn single_board(raw: &RelayConfig, f: &Fields) -> Result<SingleBoard> {
             .map_or(DEFAULT_SLAVE_ADDRESS, |a| a as u8),
         channels,
         timeout,
-    })
-}
-
-/// How the fields of a `[relay]` section are named in errors: the file and the prefix.
-pub(super) struct Fields<'a> {
-    pub(super) file: &'a Path,
-    pub(super) prefix: &'a str,
-}
-
-impl Fields<'_> {
-    pub(super) fn err(&self, field: &str, expected: String) -> Error {
-        Error::field(self.file, &format!("{}{field}", self.prefix), expected)
-    }
-
-    /// An optional integer in `lo..=hi`.
-    pub(super) fn int(&self, field: &str, v: Option<i64>, lo: i64, hi: i64) -> Result<Option<i64>> {
-        match v {
-            Some(x) if x < lo || x > hi => {
-                Err(self.err(field, format!("an integer in {lo}..={hi}, got {x}")))
-            }
-            v => Ok(v),
-        }
-    }
-
-    /// An optional finite number > 0, `default` when absent.
-    /// A duration in seconds: above 0 and at most `max` (`default` when unset).
-    pub(super) fn seconds(
-        &self,
-        field: &str,
-        v: Option<f64>,
-        default: f64,
-        max: f64,
-    ) -> Result<Duration> {
-        match v {
-            None => Ok(Duration::from_secs_f64(default)),
-            Some(x) if x.is_finite() && x > 0.0 && x <= max => Ok(Duration::from_secs_f64(x)),
-            Some(x) => Err(self.err(
-                field,
-                format!("a number of seconds > 0 and <= {max}, got {}", shown(x)),
-            )),
-        }
-    }
-
-    /// A duration in milliseconds: above 0 (or at least 0 with `zero_ok`) and at most `max`.
-    pub(super) fn millis(
-        &self,
-        field: &str,
-        v: Option<f64>,
-        default: f64,
-        zero_ok: bool,
-        max: f64,
-    ) -> Result<Duration> {
-        let x = v.unwrap_or(default);
-        let low_ok = x > 0.0 || (zero_ok && x == 0.0);
-        if x.is_finite() && low_ok && x <= max {
-            return Ok(Duration::from_secs_f64(x / 1000.0));
-        }
-        let low = if zero_ok { ">= 0" } else { "> 0" };
-        Err(self.err(
-            field,
-            format!(
-                "a number of milliseconds {low} and <= {max}, got {}",
-                shown(x)
-            ),
-        ))
-    }
-
-    /// A board's reply timeout, `timeout_ms`: above 0, at most [`MAX_TIMEOUT_MS`].
-    pub(super) fn timeout(&self, field: &str, v: Option<f64>) -> Result<Duration> {
-        self.millis(field, v, DEFAULT_TIMEOUT_MS, false, MAX_TIMEOUT_MS)
-    }
-
-    pub(super) fn positive(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
-        match v {
-            None => Ok(default),
-            Some(x) if x.is_finite() && x > 0.0 => Ok(x),
-            Some(x) => Err(self.err(field, format!("a finite number > 0, got {x}"))),
-        }
-    }
-}
-
-/// A `[relay.map]` key: the coil index.
-pub(super) fn coil_key(f: &Fields, field: &str, k: &str) -> Result<CoilId> {
-    k.trim().parse::<usize>().map(CoilId).map_err(|_| {
-        f.err(
-            field,
-            format!("a coil index (0, 1, ...) as the key, got '{k}'"),
-        )
     })
 }
 
@@ -370,6 +278,102 @@ fn coil_map(f: &Fields, m: BTreeMap<String, toml::Value>) -> Result<CoilMap> {
         out.insert(coil, ch);
     }
     Ok(CoilMap::Explicit(out))
+}
+
+/// With `[[relay.boards]]`, the keys describing one board at the top of `[relay]` are refused:
+/// they belong in the entries.
+fn refuse_single_board_keys(raw: &RelayConfig, f: &Fields) -> Result<()> {
+    let given = [
+        ("board", raw.board.is_some()),
+        ("baud", raw.baud.is_some()),
+        ("channels", raw.channels.is_some()),
+        ("slave_address", raw.slave_address.is_some()),
+        ("timeout_ms", raw.timeout_ms.is_some()),
+    ];
+    match given.iter().find(|(_, set)| *set) {
+        None => Ok(()),
+        Some((key, _)) => Err(f.err(
+            key,
+            format!(
+                "no top-level `{key}` next to [[relay.boards]]: one board is described at the top of [relay], several as [[relay.boards]] entries, each with its own `{key}`"
+            ),
+        )),
+    }
+}
+
+/// The `[relay.map]` table with `[[relay.boards]]`: coil index -> `"board:channel"`, the board
+/// one of the list and the channel one of its own, each board channel used once.
+fn slot_map(f: &Fields, m: BTreeMap<String, toml::Value>, boards: &[BoardSpec]) -> Result<CoilMap> {
+    let mut out = BTreeMap::new();
+    let mut used: BTreeMap<Slot, CoilId> = BTreeMap::new();
+    for (k, v) in m {
+        let field = format!("map.{k}");
+        let coil = coil_key(f, &field, &k)?;
+        let slot = slot_value(f, &field, &v, boards)?;
+        if let Some(other) = used.insert(slot, coil) {
+            return Err(f.err(
+                &field,
+                format!(
+                    "a board channel no other coil uses, got \"{slot}\" (board {}, channel {}), already coil {other}'s",
+                    slot.board, slot.channel
+                ),
+            ));
+        }
+        out.insert(coil, slot);
+    }
+    Ok(CoilMap::Slots(out))
+}
+
+/// One `[relay.map]` value with `[[relay.boards]]`: `"board:channel"`, checked against the
+/// boards.
+fn slot_value(f: &Fields, field: &str, v: &toml::Value, boards: &[BoardSpec]) -> Result<Slot> {
+    let last = boards.len().saturating_sub(1);
+    let form = format!(
+        "\"board:channel\" such as \"0:1\" (board 0..={last} in [[relay.boards]] order, channel from 1)"
+    );
+    let text = match v {
+        toml::Value::String(s) => s.as_str(),
+        toml::Value::Integer(n) => {
+            return Err(f.err(
+                field,
+                format!(
+                "{form}; with [[relay.boards]] a bare channel does not say which board, got {n}"
+            ),
+            ))
+        }
+        other => return Err(f.err(field, format!("{form}, got {other}"))),
+    };
+    let parsed = text.split_once(':').and_then(|(b, c)| {
+        Some((
+            b.trim().parse::<usize>().ok()?,
+            c.trim().parse::<u16>().ok()?,
+        ))
+    });
+    let Some((board, channel)) = parsed else {
+        return Err(f.err(field, format!("{form}, got \"{text}\"")));
+    };
+    let Some(spec) = boards.get(board) else {
+        return Err(f.err(
+            field,
+            format!(
+                "a board of [[relay.boards]], 0..={last} ({} listed), got board {board} in \"{text}\"",
+                boards.len()
+            ),
+        ));
+    };
+    if channel == 0 || channel > spec.channels {
+        return Err(f.err(
+            field,
+            format!(
+                "a channel of board {board} ({} board, channels 1..={}), got channel {channel} in \"{text}\"",
+                spec.kind, spec.channels
+            ),
+        ));
+    }
+    Ok(Slot {
+        board,
+        channel: Channel(channel),
+    })
 }
 
 #[cfg(test)]

@@ -4,31 +4,12 @@
 //! can print and log exactly what went on the wire.
 
 use super::{BoardKind, RelayError};
+pub use crate::serial::Port;
 use std::io::{ErrorKind, Read, Write};
 use std::time::{Duration, Instant};
 
-/// Something bytes can be written to and read from.
-pub trait Port: Read + Write + Send {}
-impl<T: Read + Write + Send> Port for T {}
-
 /// The default time to wait for a board's reply.
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(1000);
-
-/// Opens a serial port 8N1, no flow control, with `timeout` for every read and write (the
-/// relay boards' and the orientation sensors' one way to open a port).
-pub fn open_8n1(
-    path: &str,
-    baud: u32,
-    timeout: Duration,
-) -> Result<Box<dyn serialport::SerialPort>, serialport::Error> {
-    serialport::new(path, baud)
-        .timeout(timeout)
-        .data_bits(serialport::DataBits::Eight)
-        .parity(serialport::Parity::None)
-        .stop_bits(serialport::StopBits::One)
-        .flow_control(serialport::FlowControl::None)
-        .open()
-}
 
 /// A link to a board (or a dry run).
 pub struct Link {
@@ -40,8 +21,13 @@ pub struct Link {
 
 impl Link {
     /// Opens a serial port, 8N1, no flow control, with `timeout` for every read and write.
+    ///
+    /// # Errors
+    ///
+    /// [`RelayError::Open`] naming the port, when it cannot be opened.
+    #[cfg(feature = "hardware")]
     pub fn open_serial(path: &str, baud: u32, timeout: Duration) -> Result<Link, RelayError> {
-        let port = open_8n1(path, baud, timeout).map_err(|e| RelayError::Open {
+        let port = crate::serial::open_8n1(path, baud, timeout).map_err(|e| RelayError::Open {
             port: path.to_string(),
             message: e.to_string(),
         })?;

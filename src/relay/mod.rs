@@ -8,6 +8,7 @@
 pub mod boards;
 pub mod closed;
 pub mod config;
+mod fields;
 pub mod kmtronic;
 pub mod lcus;
 pub mod link;
@@ -395,14 +396,7 @@ fn boards_off_failed(
     )
 }
 
-/// Bytes as upper-case hex pairs separated by spaces: `A0 01 01 A2`.
-pub fn hex(bytes: &[u8]) -> String {
-    bytes
-        .iter()
-        .map(|b| format!("{b:02X}"))
-        .collect::<Vec<_>>()
-        .join(" ")
-}
+pub use crate::serial::hex;
 
 fn list(chs: &[Channel]) -> String {
     chs.iter()

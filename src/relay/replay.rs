@@ -558,6 +558,12 @@ fn on_board(index: usize, port: &str, error: RelayError) -> RelayError {
 /// Opens every board's serial port (8N1, its baud rate and timeout); every board needs one.
 /// With several boards, when a port cannot be opened the boards already open are switched all
 /// off (their state is unknown) before the error, naming the board, is returned.
+///
+/// # Errors
+///
+/// [`RelayError::Arg`] for a board without a port, [`RelayError::Open`] (naming the board
+/// with several) for a port that cannot be opened.
+#[cfg(feature = "hardware")]
 pub fn open_ports(prep: &Prepared) -> Result<Vec<Link>, RelayError> {
     let listed = prep.listed();
     let ports = prep
@@ -587,6 +593,7 @@ pub fn open_ports(prep: &Prepared) -> Result<Vec<Link>, RelayError> {
 }
 
 /// Switches the boards already opened all off after `cause` (a port that failed to open).
+#[cfg(feature = "hardware")]
 fn switch_off_opened(prep: &Prepared, links: Vec<Link>, cause: RelayError) -> RelayError {
     let mut failed = Vec::new();
     let mut switched_off = Vec::new();

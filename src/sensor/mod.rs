@@ -8,7 +8,7 @@
 //!
 //! Every reading is an [`Orientation`] (body to world, normalised) together with the raw bytes
 //! received, for the replay's log. Every error names the sensor format and the port.
-//! A driver sits on the relay layer's [`Port`] (anything `Read + Write + Send`: a serial port,
+//! A driver sits on the serial layer's [`Port`] (anything `Read + Write + Send`: a serial port,
 //! or a pseudo-terminal in the tests).
 
 pub mod bno055;
@@ -16,7 +16,7 @@ pub mod quat_csv;
 
 use crate::model::geometry::Orientation;
 pub use crate::planning::cancel::Cancel;
-pub use crate::relay::link::Port;
+pub use crate::serial::Port;
 use std::fmt;
 use std::io::ErrorKind;
 use std::str::FromStr;
@@ -214,7 +214,7 @@ fn attempts_suffix(attempts: u32) -> String {
 }
 
 /// Bytes as upper-case hex pairs separated by spaces: `AA 01 20 08`.
-pub use crate::relay::hex;
+pub use crate::serial::hex;
 
 /// The sensor and port a driver reports its errors with.
 #[derive(Debug, Clone)]
@@ -294,6 +294,12 @@ pub fn unit_quaternion(w: f64, x: f64, y: f64, z: f64) -> Result<Orientation, St
 
 /// Opens a serial port (8N1, no flow control) and starts the driver for `format` on it;
 /// `timeout` bounds every reading (and, for the BNO055, every reply).
+///
+/// # Errors
+///
+/// [`SensorError::Open`] when the port cannot be opened; the driver's start errors (the
+/// BNO055's mode setting).
+#[cfg(feature = "hardware")]
 pub fn open(
     format: SensorFormat,
     path: &str,
@@ -301,7 +307,7 @@ pub fn open(
     timeout: Duration,
 ) -> Result<Box<dyn OrientationSensor>, SensorError> {
     let poll = POLL_INTERVAL.min(timeout).max(Duration::from_millis(5));
-    let port = crate::relay::link::open_8n1(path, baud, poll).map_err(|e| SensorError::Open {
+    let port = crate::serial::open_8n1(path, baud, poll).map_err(|e| SensorError::Open {
         sensor: format,
         port: path.to_string(),
         message: e.to_string(),
