@@ -86,20 +86,21 @@ impl Packing {
         best
     }
 
-    /// Smallest angular distance between two points (pi for fewer than two points).
+    /// Smallest angular distance between two points (pi for fewer than two points); see
+    /// [`min_separation`].
     pub fn min_separation(&self) -> Radians {
-        let mut m = std::f64::consts::PI;
-        for (a, p) in self.points.iter().enumerate() {
-            for q in &self.points[a + 1..] {
-                m = m.min(angular_distance(p, q).0);
-            }
-        }
-        Radians(m)
+        min_separation(&self.points)
     }
 
     /// The distinct "center lengths": pairwise angular distances, merged when within `tol` of
-    /// the previous one (sorted ascending), each with how many pairs share it.
+    /// the previous one (sorted ascending), each with how many pairs share it. Up to
+    /// [`EXACT_CENTER_LENGTHS`] points every distance is kept and sorted; above, the distances
+    /// are counted in bins of `tol / 16` (memory bounded by the bins, not the pairs) and merged
+    /// bin by bin, so a merged length may differ from the exact one by a bin.
     pub fn center_lengths(&self, tol: Radians) -> Vec<(Radians, usize)> {
+        if self.points.len() > EXACT_CENTER_LENGTHS {
+            return binned_center_lengths(&self.points, tol);
+        }
         let mut d: Vec<f64> = Vec::new();
         for (a, p) in self.points.iter().enumerate() {
             for q in &self.points[a + 1..] {
@@ -121,6 +122,94 @@ impl Packing {
             .map(|(_, s, n)| (Radians(s / n as f64), n))
             .collect()
     }
+}
+
+/// Above this many points [`Packing::center_lengths`] bins the distances instead of keeping
+/// them all (2,000 points: 2 million pairs, 16 MB).
+pub const EXACT_CENTER_LENGTHS: usize = 2_000;
+
+/// The smallest angular distance between two of `points` (pi for fewer than two), as the
+/// all-pairs minimum of [`angular_distance`] gives it, in about n log n: the points sorted by x
+/// and swept (two points closer than the best chord so far are closer in x too); the pairs
+/// whose chord is within a relative 1e-9 of the shortest are then measured with
+/// [`angular_distance`] itself, so the value is the all-pairs one to the last bit.
+pub fn min_separation(points: &[UnitVec]) -> Radians {
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by(|&a, &b| points[a].x.total_cmp(&points[b].x));
+    let chord = |a: usize, b: usize| (points[a].into_inner() - points[b].into_inner()).norm();
+    let mut best = f64::INFINITY;
+    for (k, &a) in order.iter().enumerate() {
+        for &b in &order[k + 1..] {
+            if points[b].x - points[a].x > best {
+                break;
+            }
+            best = best.min(chord(a, b));
+        }
+    }
+    if !best.is_finite() {
+        return Radians(std::f64::consts::PI);
+    }
+    let near = best * (1.0 + 1e-9) + 1e-300;
+    let mut m = std::f64::consts::PI;
+    for (k, &a) in order.iter().enumerate() {
+        for &b in &order[k + 1..] {
+            if points[b].x - points[a].x > near {
+                break;
+            }
+            if chord(a, b) <= near {
+                m = m.min(angular_distance(&points[a], &points[b]).0);
+            }
+        }
+    }
+    Radians(m)
+}
+
+/// [`Packing::center_lengths`] for large packings: the pairwise distances (in parallel, rows
+/// of the pair triangle) counted in bins of `tol / 16` with their sums, then merged as the
+/// exact version merges sorted distances, a bin at a time.
+fn binned_center_lengths(points: &[UnitVec], tol: Radians) -> Vec<(Radians, usize)> {
+    use rayon::prelude::*;
+    let width = (tol.0 / 16.0).max(1e-9);
+    let bins = (std::f64::consts::PI / width) as usize + 1;
+    let bin_of = |d: f64| ((d / width) as usize).min(bins - 1);
+    let (count, sum) = (0..points.len())
+        .into_par_iter()
+        .fold(
+            || (vec![0usize; bins], vec![0.0f64; bins]),
+            |(mut c, mut s), a| {
+                for q in &points[a + 1..] {
+                    let d = points[a].dot(q).clamp(-1.0, 1.0).acos();
+                    let k = bin_of(d);
+                    c[k] += 1;
+                    s[k] += d;
+                }
+                (c, s)
+            },
+        )
+        .reduce(
+            || (vec![0usize; bins], vec![0.0f64; bins]),
+            |(mut c, mut s), (c2, s2)| {
+                for k in 0..bins {
+                    c[k] += c2[k];
+                    s[k] += s2[k];
+                }
+                (c, s)
+            },
+        );
+    let mut out: Vec<(f64, f64, usize)> = Vec::new(); // (first, sum, count)
+    for k in (0..bins).filter(|&k| count[k] > 0) {
+        let first = k as f64 * width;
+        match out.last_mut() {
+            Some((f, s, n)) if first - *f <= tol.0 => {
+                *s += sum[k];
+                *n += count[k];
+            }
+            _ => out.push((first, sum[k], count[k])),
+        }
+    }
+    out.into_iter()
+        .map(|(_, s, n)| (Radians(s / n as f64), n))
+        .collect()
 }
 
 /// One line of the compatibility report: a stator center length and the nearest rotor one.
@@ -445,6 +534,74 @@ mod tests {
         let stator = generate_prototype_stator();
         assert_eq!(points_csv(&rotor), PROTOTYPE_ROTOR_CSV);
         assert_eq!(points_csv(&stator), PROTOTYPE_STATOR_CSV);
+    }
+
+    /// Points spread on the sphere (a Fibonacci spiral) with a seeded jitter.
+    fn spiral(n: usize, seed: u64) -> Vec<UnitVec> {
+        let g = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let mut state = seed;
+        let mut jitter = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.02
+        };
+        (0..n)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+                let r = (1.0 - z * z).sqrt();
+                let t = g * i as f64;
+                unit(Vector3::new(r * t.cos() + jitter(), r * t.sin() + jitter(), z)).unwrap()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn min_separation_is_the_all_pairs_minimum_to_the_bit() {
+        let brute = |p: &[UnitVec]| {
+            let mut m = std::f64::consts::PI;
+            for (a, x) in p.iter().enumerate() {
+                for y in &p[a + 1..] {
+                    m = m.min(angular_distance(x, y).0);
+                }
+            }
+            m
+        };
+        for (n, seed) in [(0, 1), (1, 1), (2, 3), (80, 4), (500, 5), (1500, 6)] {
+            let p = spiral(n, seed);
+            assert_eq!(min_separation(&p).0.to_bits(), brute(&p).to_bits(), "n {n}");
+        }
+        let rotor = prototype_rotor();
+        assert_eq!(
+            rotor.min_separation().0.to_bits(),
+            brute(&rotor.points).to_bits()
+        );
+    }
+
+    #[test]
+    fn binned_center_lengths_agree_with_the_exact_ones() {
+        // 300 points: the exact lengths, and the binned ones from the same distances; the
+        // binned merge starts each length at its bin, so the two can split a run of close
+        // lengths differently, but every pair is counted once and the lengths cover the same
+        // range to within a bin
+        let tol = CENTER_LENGTH_TOL.to_radians();
+        let p = Packing { points: spiral(300, 7) };
+        let exact = p.center_lengths(tol);
+        let binned = binned_center_lengths(&p.points, tol);
+        let pairs = 300 * 299 / 2;
+        assert_eq!(exact.iter().map(|l| l.1).sum::<usize>(), pairs);
+        assert_eq!(binned.iter().map(|l| l.1).sum::<usize>(), pairs);
+        let bin = tol.0 / 16.0;
+        let (e0, b0) = (exact[0].0 .0, binned[0].0 .0);
+        assert!((e0 - b0).abs() < tol.0 + bin, "{e0} {b0}");
+        let (e1, b1) = (exact.last().unwrap().0 .0, binned.last().unwrap().0 .0);
+        assert!((e1 - b1).abs() < tol.0 + bin, "{e1} {b1}");
+        // every exact length has a binned one within the merge tolerance and a bin
+        for (e, _) in &exact {
+            let nearest = binned
+                .iter()
+                .map(|(b, _)| (b.0 - e.0).abs())
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest < tol.0 + bin, "{} deg", e.0.to_degrees());
+        }
     }
 
     #[test]

@@ -87,16 +87,11 @@ pub fn default_step_model(torques: &MagnetTorques) -> StepModel {
     }
 }
 
-/// The smallest angular distance between two magnets of a rotor (pi for fewer than two).
+/// The smallest angular distance between two magnets of a rotor (pi for fewer than two), in
+/// about n log n ([`crate::model::packing::min_separation`]).
 fn rotor_separation(rotor: &[Vector3<f64>]) -> Radians {
-    let mut best = std::f64::consts::PI;
-    for (k, a) in rotor.iter().enumerate() {
-        for b in &rotor[..k] {
-            let d = angular_distance(&UnitVec::new_normalize(*a), &UnitVec::new_normalize(*b));
-            best = best.min(d.0);
-        }
-    }
-    Radians(best)
+    let points: Vec<UnitVec> = rotor.iter().map(|a| UnitVec::new_normalize(*a)).collect();
+    crate::model::packing::min_separation(&points)
 }
 
 /// How many pairs are on after a step: the pivot kept from the held set plus `min - 1` to
