@@ -16,34 +16,35 @@
 //!
 //! [`error`] is shared by all layers.
 //!
+//! The few types most uses need are re-exported here; the layers' modules hold the rest.
 //! Plan a motion on the built-in prototype (its `[plan]` defaults: 90 degrees about Z) and
 //! replay the plan through the dynamics:
 //!
 //! ```
-//! use spherestep::io::scenario::Scenario;
-//! use spherestep::planning::planner::{max_axis_error_deg, plan};
-//! use spherestep::planning::simulate::simulate;
+//! use spherestep::{max_axis_error_deg, Scenario};
 //!
 //! let sc = Scenario::prototype();
-//! let p = plan(&sc.motor(), &sc.plan);
+//! let motor = sc.motor();
+//! let p = motor.plan(&sc.plan);
 //! assert!(p.reached && max_axis_error_deg(&p.rows) < 15.0);
-//! let sim = simulate(&sc.motor(), &p.rows);
+//! let sim = motor.simulate(&p.rows);
 //! assert!(sim.iter().all(|s| s.deviation_deg < 1e-6));
 //! ```
 //!
 //! Settle the ball under one active set of coil:magnet pairs:
 //!
 //! ```
-//! use spherestep::io::scenario::Scenario;
-//! use spherestep::model::geometry::parse_pairs;
-//! use spherestep::physics::dynamics::settle;
+//! use spherestep::{parse_pairs, Orientation, Scenario};
 //!
 //! let sc = Scenario::prototype();
 //! let pairs = parse_pairs("0:14,12:26", "pairs").unwrap();
-//! let q0 = nalgebra::UnitQuaternion::identity();
-//! let r = settle(&sc.torques, &pairs, &q0, sc.body, sc.settle);
+//! let r = sc.motor().settle(&pairs, &Orientation::identity());
 //! assert!(r.settled && r.residual_torque_nm < sc.settle.torque_tol);
 //! ```
+//!
+//! Features (all on by default): `cli` (the [`commands`] layer and the binary), `hardware`
+//! (opening serial devices), `figures` (the pictures). Without them the library is the
+//! physics, the planners and the files.
 
 #[cfg(feature = "cli")]
 pub mod commands;
@@ -59,3 +60,16 @@ pub mod sensor;
 pub mod serial;
 
 pub use error::{Error, Result};
+pub use io::scenario::Scenario;
+pub use model::geometry::{
+    parse_pairs, CoilId, Degrees, MagnetId, Orientation, Pair, Radians, UnitVec,
+};
+pub use physics::dynamics::{Body, SettleParams, SettleResult, Stop};
+pub use planning::cancel::Cancel;
+pub use planning::closed_loop::{
+    drive, Controller, Decision, Ending, LoopRun, LoopSettings, LoopSummary, Plant,
+};
+pub use planning::commutation::{CommutationState, Motor, StepModel};
+pub use planning::plan::{Plan, PlanRow, PlanSettings};
+pub use planning::planner::max_axis_error_deg;
+pub use planning::simulate::SimRow;

@@ -541,7 +541,9 @@ mod tests {
         let g = std::f64::consts::PI * (3.0 - 5f64.sqrt());
         let mut state = seed;
         let mut jitter = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.02
         };
         (0..n)
@@ -549,7 +551,12 @@ mod tests {
                 let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
                 let r = (1.0 - z * z).sqrt();
                 let t = g * i as f64;
-                unit(Vector3::new(r * t.cos() + jitter(), r * t.sin() + jitter(), z)).unwrap()
+                unit(Vector3::new(
+                    r * t.cos() + jitter(),
+                    r * t.sin() + jitter(),
+                    z,
+                ))
+                .unwrap()
             })
             .collect()
     }
@@ -583,7 +590,9 @@ mod tests {
         // lengths differently, but every pair is counted once and the lengths cover the same
         // range to within a bin
         let tol = CENTER_LENGTH_TOL.to_radians();
-        let p = Packing { points: spiral(300, 7) };
+        let p = Packing {
+            points: spiral(300, 7),
+        };
         let exact = p.center_lengths(tol);
         let binned = binned_center_lengths(&p.points, tol);
         let pairs = 300 * 299 / 2;

@@ -9,6 +9,7 @@ pub mod closed_loop;
 pub mod coilsets;
 pub mod commutation;
 pub mod identify;
+mod motor;
 pub mod plan;
 pub mod planner;
 pub mod search;

@@ -1,0 +1,81 @@
+//! The motor as a user calls it: the entry points of the library as methods of [`Motor`] (the
+//! view of a scenario's physics that [`crate::Scenario::motor`] gives), each the free function
+//! of its layer with the motor's torques, body and settle parameters filled in.
+
+use crate::model::geometry::{Orientation, Pair};
+use crate::physics::dynamics::{self, SettleResult};
+use crate::planning::closed_loop::{run_closed_loop, LoopRun, LoopSettings};
+use crate::planning::commutation::Motor;
+use crate::planning::plan::{Plan, PlanRow, PlanSettings};
+use crate::planning::planner;
+use crate::planning::simulate::{self, SimRow};
+
+impl Motor<'_> {
+    /// Settles the ball from `q0` under the coil:magnet pairs `pairs` (see
+    /// [`dynamics::settle`]).
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use spherestep::{parse_pairs, Orientation, Scenario};
+    ///
+    /// let sc = Scenario::prototype();
+    /// let pairs = parse_pairs("0:14,12:26", "pairs").unwrap();
+    /// let r = sc.motor().settle(&pairs, &Orientation::identity());
+    /// assert!(r.settled && r.residual_torque_nm < sc.settle.torque_tol);
+    /// ```
+    pub fn settle(&self, pairs: &[Pair], q0: &Orientation) -> SettleResult {
+        dynamics::settle(self.torques, pairs, q0, self.body, self.settle)
+    }
+
+    /// Settles each of `sets` from `q0`, in parallel; the results in the sets' order, the same
+    /// on any number of threads.
+    pub fn settle_many(&self, sets: &[Vec<Pair>], q0: &Orientation) -> Vec<SettleResult> {
+        dynamics::settle_many(self.torques, sets, q0, self.body, self.settle)
+    }
+
+    /// Plans the motion `settings` asks for (axis, angle, step model, limits).
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use spherestep::Scenario;
+    ///
+    /// let sc = Scenario::prototype();
+    /// let p = sc.motor().plan(&sc.plan);
+    /// assert!(p.reached && p.rows.len() > 1);
+    /// ```
+    pub fn plan(&self, settings: &PlanSettings) -> Plan {
+        planner::plan(self, settings)
+    }
+
+    /// Replays a plan's rows through the dynamics: where the ball really settles at each step.
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use spherestep::Scenario;
+    ///
+    /// let sc = Scenario::prototype();
+    /// let m = sc.motor();
+    /// let sim = m.simulate(&m.plan(&sc.plan).rows);
+    /// assert!(sim.iter().all(|s| s.deviation_deg < 1e-6));
+    /// ```
+    pub fn simulate(&self, rows: &[PlanRow]) -> Vec<SimRow> {
+        simulate::simulate(self, rows)
+    }
+
+    /// Plays `open` (a plan of this motor's for `settings`) on `plant` with the closed loop
+    /// `cl` towards `goal` (see [`run_closed_loop`]); this motor is the model the replans are
+    /// made in.
+    pub fn run(
+        &self,
+        plant: &Motor,
+        settings: &PlanSettings,
+        open: &Plan,
+        goal: Orientation,
+        cl: &LoopSettings,
+    ) -> LoopRun {
+        run_closed_loop(self, plant, settings, open, goal, cl)
+    }
+}
