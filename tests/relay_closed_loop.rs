@@ -16,6 +16,7 @@ use spherestep::model::geometry::{rot_q, Orientation, Radians, UnitVec};
 use spherestep::planning::closed_loop::{run_closed_loop, Controller, Decision, LoopSettings};
 use spherestep::relay::closed::ClosedSummary;
 use spherestep::relay::{Link, RelayError};
+use spherestep::sensor::bno055::FusionMode;
 use spherestep::sensor::{self, quat_csv::parse_line, SensorFormat};
 use std::collections::BTreeSet;
 use std::io::{Read, Write};
@@ -219,6 +220,8 @@ enum Fault {
     Always(&'static str),
     /// Never prints anything.
     Silent,
+    /// (BNO055) reports this CALIB_STAT byte (else 0xFF, all calibrated).
+    Calibration(u8),
 }
 
 /// A quat-csv far end: prints the plant's orientation every 10 ms until `done`.
@@ -253,9 +256,14 @@ fn printer(
     })
 }
 
-/// A BNO055 far end: acknowledges the mode writes, answers every quaternion read with the
-/// plant's orientation, until `done`; returns the requests.
-fn bno055(mut port: TTYPort, plant: Shared, done: Arc<AtomicBool>) -> JoinHandle<Vec<Vec<u8>>> {
+/// A BNO055 far end: acknowledges the mode writes, answers CALIB_STAT with `calib` and every
+/// quaternion read with the plant's orientation, until `done`; returns the requests.
+fn bno055(
+    mut port: TTYPort,
+    plant: Shared,
+    calib: u8,
+    done: Arc<AtomicBool>,
+) -> JoinHandle<Vec<Vec<u8>>> {
     std::thread::spawn(move || {
         port.set_timeout(Duration::from_millis(20)).unwrap();
         let (mut requests, mut got, start) = (Vec::new(), Vec::new(), Instant::now());
@@ -274,6 +282,8 @@ fn bno055(mut port: TTYPort, plant: Shared, done: Arc<AtomicBool>) -> JoinHandle
             let req: Vec<u8> = got.drain(..need).collect();
             let reply = if req[1] == 0x00 {
                 vec![0xEE, 0x01]
+            } else if req[2] == 0x35 {
+                vec![0xBB, 0x01, calib]
             } else {
                 let q = plant.lock().unwrap().now();
                 let mut r = vec![0xBB, 0x08];
@@ -336,7 +346,16 @@ fn run_with(
             Some(printer(s_far, plant.clone(), fault, done.clone())),
             None,
         ),
-        SensorFormat::Bno055 => (None, Some(bno055(s_far, plant.clone(), done.clone()))),
+        SensorFormat::Bno055 => {
+            let calib = match fault {
+                Fault::Calibration(c) => c,
+                _ => 0xFF,
+            };
+            (
+                None,
+                Some(bno055(s_far, plant.clone(), calib, done.clone())),
+            )
+        }
     };
     let near = Box::new(s_near.try_clone_native().unwrap());
     let sensor = sensor::from_port(format, near, &sensor_path, timeout).unwrap();
@@ -355,7 +374,8 @@ fn run_with(
         h.join().unwrap();
     }
     let requests = far_b.map(|h| h.join().unwrap()).unwrap_or_default();
-    let log = std::fs::read_to_string(inputs.prep.drive.log.as_ref().unwrap()).unwrap();
+    // no log when the replay was refused before it began
+    let log = std::fs::read_to_string(inputs.prep.drive.log.as_ref().unwrap()).unwrap_or_default();
     Ran {
         result,
         text: String::from_utf8_lossy(&out).into_owned(),
@@ -556,6 +576,15 @@ fn closed_loop_refuses_dry_run_and_bad_sensor_options() {
         ..so.clone()
     };
     assert!(prepare_closed(&opts, &under).is_ok());
+    let mode = SensorOptions {
+        mode: Some(FusionMode::Ndof),
+        ..so.clone()
+    };
+    assert_eq!(
+        err(&opts, &mode),
+        "argument --sensor-mode: expected no --sensor-mode with a quat-csv sensor (the mode is \
+         the BNO055's; the sketch behind a quat-csv port chooses its own fusion), got ndof"
+    );
     let noisy = SensorOptions {
         noise_deg: 90.0,
         ..so
@@ -573,9 +602,12 @@ fn closed_loop_on_a_bno055_reads_after_every_step() {
     assert_eq!((s.steps, s.replans), (script.len() - 1, 0));
     assert!(s.distance_deg < 0.05, "{s:?}");
     assert_eq!(ran.frames, expected_frames(&sets(&script)), "{}", ran.text);
+    // CONFIGMODE, then IMU (no magnetometer: it would read the motor's magnets), the
+    // calibration status, then a reading after every step
     let mut want = vec![
         vec![0xAA, 0x00, 0x3D, 0x01, 0x00],
-        vec![0xAA, 0x00, 0x3D, 0x01, 0x0C],
+        vec![0xAA, 0x00, 0x3D, 0x01, 0x08],
+        vec![0xAA, 0x01, 0x35, 0x01],
     ];
     want.extend((0..script.len()).map(|_| vec![0xAA, 0x01, 0x20, 0x08]));
     assert_eq!(ran.requests, want);
@@ -590,7 +622,9 @@ fn closed_loop_on_a_bno055_reads_after_every_step() {
     );
     assert!(
         ran.text
-            .starts_with("closed loop: BNO055 (UART, NDOF mode) on "),
+            .starts_with(
+                "sensor calibration: system 3, gyroscope 3, accelerometer 3, magnetometer 3 (of 3)\nclosed loop: BNO055 (UART, IMU mode) on "
+            ),
         "{}",
         ran.text
     );
@@ -805,4 +839,31 @@ fn the_hardware_loop_takes_the_decisions_of_the_simulated_one() {
         .map(|r| r.step)
         .collect();
     assert_eq!(replanned_at, sim_replanned, "{}", ran.log);
+}
+
+#[test]
+fn closed_loop_refuses_a_bno055_whose_gyroscope_is_uncalibrated_before_any_switching() {
+    // CALIB_STAT 0xCF: system 3, gyroscope 0, accelerometer 3, magnetometer 3
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = prepared(dir.path(), SensorFormat::Bno055);
+    let (script, _) = offline(&inputs, None);
+    let ran = run(
+        &inputs,
+        script,
+        SensorFormat::Bno055,
+        Fault::Calibration(0xCF),
+    );
+    let e = ran.result.expect_err("refused").to_string();
+    assert_eq!(
+        e,
+        format!(
+            "sensor {} (bno055): the gyroscope is not calibrated (system 3, gyroscope 0, \
+             accelerometer 3, magnetometer 3 (of 3)): keep the ball still for a few seconds \
+             with every coil off, then start again",
+            ran.sensor_path
+        )
+    );
+    // no byte went to either board
+    assert_eq!(ran.frames, [Vec::<u8>::new(), Vec::new()]);
+    assert_eq!(ran.requests.last().unwrap(), &vec![0xAA, 0x01, 0x35, 0x01]);
 }

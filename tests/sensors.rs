@@ -3,6 +3,7 @@
 //! on the wire and the numbers decoded, and guards against hangs.
 
 use serialport::{SerialPort, TTYPort};
+use spherestep::sensor::bno055::FusionMode;
 use spherestep::sensor::{
     self, bno055, OrientationSensor, Raw, Reading, SensorError, SensorFormat,
 };
@@ -97,7 +98,14 @@ fn quat_csv_readings_are_the_printed_quaternions_normalised() {
     let (master, slave) = pty();
     let path = path_of(&slave);
     // Through `open`, by path, as the binary will.
-    let mut s = sensor::open(SensorFormat::QuatCsv, &path, 115_200, TIMEOUT).unwrap();
+    let mut s = sensor::open(
+        SensorFormat::QuatCsv,
+        FusionMode::Imu,
+        &path,
+        115_200,
+        TIMEOUT,
+    )
+    .unwrap();
     assert_eq!(s.describe(), format!("quat-csv sensor on {path}"));
     let (tx, h) = printer(master);
     let cases: Vec<Printed> = vec![
@@ -276,6 +284,7 @@ fn quat_csv_far_end_closed_is_an_error_not_a_hang() {
 fn sensor_open_reports_a_missing_port_by_name() {
     let e = sensor::open(
         SensorFormat::Bno055,
+        FusionMode::Ndof,
         "/dev/does-not-exist-sensor",
         115_200,
         TIMEOUT,
@@ -317,7 +326,7 @@ struct Seen {
 
 const ACK: [u8; 2] = [0xEE, 0x01];
 const CONFIG_WRITE: [u8; 5] = [0xAA, 0x00, 0x3D, 0x01, 0x00];
-const NDOF_WRITE: [u8; 5] = [0xAA, 0x00, 0x3D, 0x01, 0x0C];
+const IMU_WRITE: [u8; 5] = [0xAA, 0x00, 0x3D, 0x01, 0x08];
 const QUAT_READ: [u8; 4] = [0xAA, 0x01, 0x20, 0x08];
 
 /// A read reply carrying raw w, x, y, z.
@@ -393,17 +402,17 @@ fn requests(seen: &[Seen]) -> Vec<Vec<u8>> {
 }
 
 #[test]
-fn bno055_start_sets_configmode_then_ndof_with_the_switching_times() {
+fn bno055_start_sets_configmode_then_imu_with_the_switching_times() {
     let data = [8192, -8192, 8192, -8192];
     let (mut s, end) = started(vec![Act::Reply(quat_reply(data))], TIMEOUT);
-    assert_eq!(s.describe(), "BNO055 (UART, NDOF mode) on pty");
+    assert_eq!(s.describe(), "BNO055 (UART, IMU mode) on pty");
     s.read().unwrap();
     let seen = end.join().unwrap().0;
     assert_eq!(
         requests(&seen),
         vec![
             CONFIG_WRITE.to_vec(),
-            NDOF_WRITE.to_vec(),
+            IMU_WRITE.to_vec(),
             QUAT_READ.to_vec()
         ]
     );

@@ -62,6 +62,10 @@ pub struct Args {
     /// The sensor's baud rate (default 115200).
     #[arg(long, requires = "sensor")]
     pub sensor_baud: Option<u32>,
+    /// The BNO055's fusion mode: imu (accelerometer and gyroscope, the default: the
+    /// magnetometer reads the motor's magnets) or ndof (with the magnetometer).
+    #[arg(long, requires = "sensor")]
+    pub sensor_mode: Option<spherestep::sensor::bno055::FusionMode>,
     /// How long to wait for a reading, ms (default 500).
     #[arg(long, requires = "sensor")]
     pub sensor_timeout_ms: Option<u64>,
@@ -85,6 +89,7 @@ impl Args {
         let (device, format) = (self.sensor.clone()?, self.sensor_format?);
         Some(SensorOptions {
             baud: self.sensor_baud,
+            mode: self.sensor_mode,
             timeout_ms: self.sensor_timeout_ms,
             noise_deg: self.sensor_noise_deg,
             max_steps: self.max_steps,

@@ -16,6 +16,7 @@ use crate::planning::plan::{Plan, PlanSettings};
 use crate::relay::closed::{execute_closed, refuse_options, ClosedSummary, Sensing};
 use crate::relay::replay::{open_ports, Prepared};
 use crate::relay::{Link, RelayError};
+use crate::sensor::bno055::FusionMode;
 use crate::sensor::{self, OrientationSensor, SensorFormat};
 use std::io::Write;
 use std::sync::atomic::AtomicBool;
@@ -31,6 +32,8 @@ pub struct SensorOptions {
     pub format: SensorFormat,
     /// `--sensor-baud` (default: the format's).
     pub baud: Option<u32>,
+    /// `--sensor-mode`: the BNO055's fusion mode (default IMU, no magnetometer).
+    pub mode: Option<FusionMode>,
     /// `--sensor-timeout-ms`: how long to wait for a reading (default 500).
     pub timeout_ms: Option<u64>,
     /// `--sensor-noise-deg`: the sensor's expected noise; sets the replan and goal thresholds.
@@ -49,6 +52,7 @@ impl SensorOptions {
             device: device.into(),
             format,
             baud: None,
+            mode: None,
             timeout_ms: None,
             noise_deg: 0.0,
             max_steps: None,
@@ -58,6 +62,11 @@ impl SensorOptions {
 
     pub fn baud(&self) -> u32 {
         self.baud.unwrap_or(self.format.default_baud())
+    }
+
+    /// The BNO055's fusion mode: `--sensor-mode`, else IMU.
+    pub fn mode(&self) -> FusionMode {
+        self.mode.unwrap_or_default()
     }
 
     pub fn timeout(&self) -> Duration {
@@ -162,6 +171,15 @@ fn check_sensor_options(so: &SensorOptions) -> Result<(), RelayError> {
             expected: "a timeout of at least 1 ms, got 0".into(),
         });
     }
+    if let (Some(m), SensorFormat::QuatCsv) = (so.mode, so.format) {
+        return Err(RelayError::Arg {
+            arg: "--sensor-mode".into(),
+            expected: format!(
+                "no --sensor-mode with a quat-csv sensor (the mode is the BNO055's; the sketch behind a quat-csv port chooses its own fusion), got {}",
+                m.name()
+            ),
+        });
+    }
     if so.device.trim().is_empty() {
         return Err(RelayError::Arg {
             arg: "--sensor".into(),
@@ -216,7 +234,7 @@ pub fn run(
     out: &mut dyn Write,
 ) -> Result<ClosedSummary, RelayError> {
     let inputs = prepare_closed(opts, so)?;
-    let sensor = sensor::open(so.format, &so.device, so.baud(), so.timeout())?;
+    let sensor = sensor::open(so.format, so.mode(), &so.device, so.baud(), so.timeout())?;
     let links = open_ports(&inputs.prep)?;
     execute(&inputs, links, sensor, stop, out)
 }

@@ -125,6 +125,10 @@ pub fn execute_closed(
     refuse_options(&prep.drive, links.iter().all(Link::is_dry_run))?;
     let mut sensing = sensing;
     sensing.sensor.set_cancel(sensing.cancel.clone());
+    // before any byte goes to a board: a sensor that cannot measure yet is refused
+    if let Some(c) = sensing.sensor.ready()? {
+        writeln!(out, "sensor calibration: {c}").map_err(stdout_error)?;
+    }
     let s = &sensing.settings;
     writeln!(
         out,

@@ -8,14 +8,21 @@
 //!   `BB <len> <data...>` or `EE <status>` (READ_FAIL and the others: [`status_name`]); at most
 //!   128 bytes per request;
 //! - section 3.3, tables 3-5 and 3-6: OPR_MODE (register 0x3D, page 0) selects the operating
-//!   mode, CONFIGMODE = 0x00 and NDOF = 0x0C (9 degrees of freedom fusion); switching into
-//!   CONFIGMODE takes 19 ms, out of it 7 ms;
+//!   mode, CONFIGMODE = 0x00, IMU = 0x08 (accelerometer and gyroscope fusion: orientation
+//!   relative to the start, no magnetometer) and NDOF = 0x0C (9 degrees of freedom fusion,
+//!   the magnetometer included); switching into CONFIGMODE takes 19 ms, out of it 7 ms;
+//! - section 3.10 and register 4.3.54: CALIB_STAT (0x35) holds the calibration status of the
+//!   system, gyroscope, accelerometer and magnetometer, two bits each (bits 7-6, 5-4, 3-2,
+//!   1-0; 0 uncalibrated, 3 fully calibrated);
 //! - section 3.6.5.5, tables 3-30 and 3-31, and registers 4.3.33 to 4.3.40: the quaternion is
 //!   QUA_Data_w/x/y/z at 0x20..=0x27, each a signed 16-bit value, LSB first, and
 //!   1 (unit less) = 2^14 LSB.
 //!
-//! At start the driver sets CONFIGMODE, then NDOF, each written once and acknowledged (the
-//! first write also makes sure the sensor is there). A reading reads the 8 quaternion bytes.
+//! At start the driver sets CONFIGMODE, then the fusion mode ([`FusionMode`]: IMU unless NDOF
+//! is asked for), each written once and acknowledged (the first write also makes sure the
+//! sensor is there). IMU is the default because the magnetometer that NDOF fuses reads, inside
+//! a ball of permanent magnets beside switching coils, the motor rather than the earth
+//! (datasheet 3.3.3: the compass needs a stable field). A reading reads the 8 quaternion bytes.
 //! BUS_OVER_RUN_ERROR (the sensor could not empty its receive buffer in time, usually busy with
 //! the fusion) and RECEIVE_CHARACTER_TIMEOUT (a byte of the request was lost) are transient:
 //! the request is sent again, [`ATTEMPTS`] times in all, [`RETRY_PAUSE`] apart; every other
@@ -53,6 +60,82 @@ pub const OPR_MODE: u8 = 0x3D;
 pub const CONFIG_MODE: u8 = 0x00;
 /// OPR_MODE value of NDOF (absolute orientation from accelerometer, gyroscope, magnetometer).
 pub const NDOF_MODE: u8 = 0x0C;
+/// OPR_MODE value of IMU (relative orientation from accelerometer and gyroscope).
+pub const IMU_MODE: u8 = 0x08;
+/// The calibration status register (page 0).
+pub const CALIB_STAT: u8 = 0x35;
+
+/// The fusion mode the sensor runs in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FusionMode {
+    /// Accelerometer and gyroscope (OPR_MODE 0x08): no magnetometer, which the motor's own
+    /// magnets and coils would disturb.
+    #[default]
+    Imu,
+    /// Accelerometer, gyroscope and magnetometer (OPR_MODE 0x0C): absolute heading, only
+    /// where the magnetic field is the earth's.
+    Ndof,
+}
+
+impl FusionMode {
+    /// The name on the command line and in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            FusionMode::Imu => "imu",
+            FusionMode::Ndof => "ndof",
+        }
+    }
+
+    /// The OPR_MODE value.
+    pub fn register_value(self) -> u8 {
+        match self {
+            FusionMode::Imu => IMU_MODE,
+            FusionMode::Ndof => NDOF_MODE,
+        }
+    }
+}
+
+impl std::str::FromStr for FusionMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "imu" => Ok(FusionMode::Imu),
+            "ndof" => Ok(FusionMode::Ndof),
+            _ => Err(format!("unknown BNO055 mode '{s}': expected imu or ndof")),
+        }
+    }
+}
+
+/// The calibration status CALIB_STAT reports: each 0 (uncalibrated) to 3 (fully calibrated).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Calibration {
+    pub system: u8,
+    pub gyroscope: u8,
+    pub accelerometer: u8,
+    pub magnetometer: u8,
+}
+
+impl Calibration {
+    /// From the CALIB_STAT byte.
+    pub fn from_byte(b: u8) -> Calibration {
+        Calibration {
+            system: b >> 6,
+            gyroscope: (b >> 4) & 3,
+            accelerometer: (b >> 2) & 3,
+            magnetometer: b & 3,
+        }
+    }
+}
+
+impl std::fmt::Display for Calibration {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "system {}, gyroscope {}, accelerometer {}, magnetometer {} (of 3)",
+            self.system, self.gyroscope, self.accelerometer, self.magnetometer
+        )
+    }
+}
 /// The first of the 8 quaternion registers (w LSB).
 pub const QUA_DATA_W_LSB: u8 = 0x20;
 /// One unit of a quaternion component, in LSB (2^14).
@@ -160,11 +243,22 @@ pub struct Bno055 {
     /// Bytes of an abandoned reply may still come: drain before the next request.
     drain: bool,
     cancel: Cancel,
+    mode: FusionMode,
 }
 
 impl Bno055 {
-    /// Sets CONFIGMODE then NDOF on the sensor behind `port`; `timeout` bounds every reply.
+    /// Sets CONFIGMODE then IMU on the sensor behind `port`; `timeout` bounds every reply.
     pub fn start(port: Box<dyn Port>, name: &str, timeout: Duration) -> Result<Self, SensorError> {
+        Bno055::start_in(port, name, timeout, FusionMode::Imu)
+    }
+
+    /// Sets CONFIGMODE then `mode` on the sensor behind `port`.
+    pub fn start_in(
+        port: Box<dyn Port>,
+        name: &str,
+        timeout: Duration,
+        mode: FusionMode,
+    ) -> Result<Self, SensorError> {
         let mut s = Bno055 {
             port,
             id: Ident {
@@ -174,10 +268,12 @@ impl Bno055 {
             timeout,
             drain: true,
             cancel: Cancel::never(),
+            mode,
         };
         s.set_mode(CONFIG_MODE, "CONFIGMODE")?;
         std::thread::sleep(TO_CONFIG);
-        s.set_mode(NDOF_MODE, "NDOF")?;
+        let upper = mode.name().to_ascii_uppercase();
+        s.set_mode(mode.register_value(), &upper)?;
         std::thread::sleep(FROM_CONFIG);
         Ok(s)
     }
@@ -369,7 +465,30 @@ impl super::OrientationSensor for Bno055 {
     }
 
     fn describe(&self) -> String {
-        format!("BNO055 (UART, NDOF mode) on {}", self.id.port)
+        let mode = self.mode.name().to_ascii_uppercase();
+        format!("BNO055 (UART, {mode} mode) on {}", self.id.port)
+    }
+
+    fn ready(&mut self) -> Result<Option<Calibration>, SensorError> {
+        let what = format!("read CALIB_STAT (0x{CALIB_STAT:02X}, 1 byte)");
+        let frame = self.exchange(&read_request(CALIB_STAT, 1), &what, Expect::Data(1))?;
+        let Some(&byte) = frame.get(2) else {
+            return Err(SensorError::BadReply {
+                sensor: self.id.sensor,
+                port: self.id.port.clone(),
+                expected: Expect::Data(1).describe(),
+                got: frame,
+            });
+        };
+        let calibration = Calibration::from_byte(byte);
+        if calibration.gyroscope == 0 {
+            return Err(SensorError::Uncalibrated {
+                sensor: self.id.sensor,
+                port: self.id.port.clone(),
+                calibration,
+            });
+        }
+        Ok(Some(calibration))
     }
 
     fn set_cancel(&mut self, cancel: Cancel) {

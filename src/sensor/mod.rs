@@ -117,6 +117,12 @@ pub trait OrientationSensor: Send {
     fn read(&mut self) -> Result<Reading, SensorError>;
     /// The sensor and its port, for messages and the log: `quat-csv sensor on /dev/ttyACM0`.
     fn describe(&self) -> String;
+    /// Whether the sensor can measure, before the closed loop starts: its calibration status,
+    /// for those that report one (the BNO055: [`SensorError::Uncalibrated`] while the
+    /// gyroscope is not calibrated); `None` for the others.
+    fn ready(&mut self) -> Result<Option<bno055::Calibration>, SensorError> {
+        Ok(None)
+    }
     /// From now on a [`read`](Self::read) (and a BNO055's reply) gives up within one
     /// [`POLL_INTERVAL`] of `cancel` being set, with [`SensorError::Abandoned`].
     fn set_cancel(&mut self, cancel: Cancel);
@@ -189,11 +195,18 @@ pub enum SensorError {
         /// How many times the request was sent.
         attempts: u32,
     },
+    /// The gyroscope is not calibrated: the orientation would drift.
+    #[error("sensor {port} ({sensor}): the gyroscope is not calibrated ({calibration}): keep the ball still for a few seconds with every coil off, then start again")]
+    Uncalibrated {
+        sensor: SensorFormat,
+        port: String,
+        calibration: bno055::Calibration,
+    },
     /// The wait for a reading was given up from outside (the replay is switching off).
     #[error("sensor {port} ({sensor}): the wait for a reading was abandoned (everything is being switched off)")]
     Abandoned { sensor: SensorFormat, port: String },
     /// The BNO055 reports the zero quaternion: its fusion is not running (yet).
-    #[error("sensor {port} ({sensor}): the quaternion is all zero: sensor fusion is not running yet (it starts shortly after NDOF mode is set; a reset returns the sensor to CONFIG mode)")]
+    #[error("sensor {port} ({sensor}): the quaternion is all zero: sensor fusion is not running yet (it starts shortly after a fusion mode is set; a reset returns the sensor to CONFIG mode)")]
     NotFused { sensor: SensorFormat, port: String },
 }
 
@@ -302,6 +315,7 @@ pub fn unit_quaternion(w: f64, x: f64, y: f64, z: f64) -> Result<Orientation, St
 #[cfg(feature = "hardware")]
 pub fn open(
     format: SensorFormat,
+    mode: bno055::FusionMode,
     path: &str,
     baud: u32,
     timeout: Duration,
@@ -312,7 +326,7 @@ pub fn open(
         port: path.to_string(),
         message: e.to_string(),
     })?;
-    from_port(format, Box::new(port), path, timeout)
+    from_port_in(format, mode, Box::new(port), path, timeout)
 }
 
 /// Starts the driver for `format` on an already open port named `name` (the BNO055's mode
@@ -324,9 +338,20 @@ pub fn from_port(
     name: &str,
     timeout: Duration,
 ) -> Result<Box<dyn OrientationSensor>, SensorError> {
+    from_port_in(format, bno055::FusionMode::Imu, port, name, timeout)
+}
+
+/// [`from_port`] with the BNO055 in fusion mode `mode` (ignored by quat-csv).
+pub fn from_port_in(
+    format: SensorFormat,
+    mode: bno055::FusionMode,
+    port: Box<dyn Port>,
+    name: &str,
+    timeout: Duration,
+) -> Result<Box<dyn OrientationSensor>, SensorError> {
     Ok(match format {
         SensorFormat::QuatCsv => Box::new(quat_csv::QuatCsv::start(port, name, timeout)?),
-        SensorFormat::Bno055 => Box::new(bno055::Bno055::start(port, name, timeout)?),
+        SensorFormat::Bno055 => Box::new(bno055::Bno055::start_in(port, name, timeout, mode)?),
     })
 }
 
