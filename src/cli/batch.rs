@@ -14,7 +14,7 @@ pub struct Args {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
-    /// Worker threads (default: all cores). Output is the same for any number.
+    /// Worker threads, 1 to 256 (default: all cores). Output is the same for any number.
     #[arg(long)]
     pub jobs: Option<usize>,
     /// Run part I of N (0-based), e.g. 0/3; merge with a later run using --resume.
@@ -38,9 +38,6 @@ impl Args {
             resume,
             plots,
         } = self;
-        if jobs == Some(0) {
-            anyhow::bail!("argument --jobs: expected a number of threads >= 1, got 0");
-        }
         let opts = spherestep::commands::batch::BatchOptions {
             out: out_dir,
             jobs,
@@ -61,6 +58,9 @@ impl Args {
             report.skipped.len(),
             report.failed.len()
         )?;
+        for w in &report.warnings {
+            eprintln!("spherestep: warning: {}", spherestep::error::printable(w));
+        }
         for (name, err) in &report.failed {
             eprintln!("spherestep: scenario {name} failed: {err}");
         }
