@@ -2,6 +2,7 @@
 //! summary.csv.
 
 use anyhow::Result;
+use spherestep::error::{printable, printable_lines};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -59,9 +60,10 @@ impl Args {
             report.failed.len()
         )?;
         for w in &report.warnings {
-            eprintln!("spherestep: warning: {}", spherestep::error::printable(w));
+            eprintln!("spherestep: warning: {}", printable(w));
         }
         for (name, err) in &report.failed {
+            let (name, err) = (printable(name), printable_lines(err));
             eprintln!("spherestep: scenario {name} failed: {err}");
         }
         if !report.failed.is_empty() {
