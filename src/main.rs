@@ -12,7 +12,9 @@ fn main() -> ExitCode {
     match cli.run(&mut stdout.lock()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("spherestep: error: {e:#}");
+            // what files and devices hold is in the message: never sent to the terminal raw
+            let message = spherestep::error::printable_lines(&format!("{e:#}"));
+            eprintln!("spherestep: error: {message}");
             ExitCode::FAILURE
         }
     }

@@ -256,4 +256,23 @@ fn bad_shard_and_jobs_arguments_are_refused() {
         "0",
     ]);
     assert_eq!(r.status.code(), Some(1));
+    // Issue 18, item 12: more threads than any machine runs are refused at once (they were
+    // all started before any work)
+    for jobs in ["257", "100000", "0"] {
+        let r = batch(&[
+            s.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--jobs",
+            jobs,
+        ]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{jobs}: {err}");
+        assert!(
+            err.contains(&format!(
+                "argument --jobs: expected a number of worker threads from 1 to 256, got {jobs}"
+            )),
+            "{err}"
+        );
+    }
 }

@@ -161,9 +161,15 @@ fn resume_continues_a_sweep_from_its_saved_cases() {
     assert_eq!(r.status.code(), Some(1));
     let progress = out.join("sw.csv.progress");
     let saved = text(&progress);
+    // the `.hash` holds the scenario's content hash (the progress file's), then the result's
+    // digest
     let hash = text(&full.join("sw.csv.hash"));
     let (first, saved_rows) = saved.split_once('\n').unwrap();
-    assert_eq!(first, format!("hash {}", hash.trim()));
+    assert_eq!(first, format!("hash {}", hash.lines().next().unwrap()));
+    assert!(
+        hash.lines().nth(1).unwrap().starts_with("sha256 "),
+        "{hash}"
+    );
     let mut sorted: Vec<&str> = saved_rows.lines().collect();
     sorted.sort_by_key(|l| l.split(',').next().unwrap().parse::<usize>().unwrap());
     assert_eq!(
@@ -271,4 +277,168 @@ fn resume_with_plots_draws_the_missing_pictures() {
     let r = batch(&resume);
     let said = String::from_utf8_lossy(&r.stdout);
     assert!(said.contains("0 computed, 3 up to date"), "{said}");
+}
+
+/// Sets column `col` of `case` in sweep CSV rows to `value`.
+fn set(rows: &str, case: usize, col: usize, value: &str) -> String {
+    rows.lines()
+        .map(|l| {
+            let mut f: Vec<String> = l.split(',').map(str::to_string).collect();
+            if f[0] == case.to_string() {
+                f[col] = value.to_string();
+            }
+            f.join(",") + "\n"
+        })
+        .collect()
+}
+
+/// Issue 18, item 5: progress rows that are not what this sweep writes (a hand-edited
+/// `reached`, a number that is not one, another case's settings, a case the sweep does not
+/// have, a short row) are not copied into the result: those cases are computed again, with a
+/// warning naming the progress file; the run succeeds.
+#[test]
+fn damaged_progress_rows_are_computed_again_with_a_warning() {
+    let t = tempfile::tempdir().unwrap();
+    let s = t.path().join("sw.toml");
+    std::fs::write(&s, SWEEP).unwrap();
+    let full = t.path().join("full");
+    let r = batch(&[s.to_str().unwrap(), "--out", full.to_str().unwrap()]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let expected = text(&full.join("sw.csv"));
+    // every case saved by a run that could not write its result
+    let out = t.path().join("out");
+    std::fs::create_dir_all(out.join("sw.csv").join("blocker")).unwrap();
+    let r = batch(&[s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(r.status.code(), Some(1));
+    std::fs::remove_dir_all(out.join("sw.csv")).unwrap();
+    let progress = out.join("sw.csv.progress");
+    let saved = text(&progress);
+    let (first, rows) = saved.split_once('\n').unwrap();
+    let mut damaged = set(rows, 3, 11, "maybe");
+    damaged = set(&damaged, 5, 8, "x");
+    damaged = set(&damaged, 7, 1, "nonsense");
+    damaged = set(&damaged, 9, 0, "99");
+    damaged.push_str("1,2,3\n");
+    std::fs::write(&progress, format!("{first}\n{damaged}")).unwrap();
+    let r = batch(&[
+        s.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--resume",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{err}");
+    assert_eq!(
+        text(&out.join("sw.csv")),
+        expected,
+        "damaged rows not copied"
+    );
+    let warning = err
+        .lines()
+        .find(|l| {
+            l.starts_with("spherestep: warning: ") && l.contains(&progress.display().to_string())
+        })
+        .unwrap_or_else(|| panic!("no warning naming the progress file: {err}"));
+    assert!(warning.contains("5 damaged row(s)"), "{warning}");
+    assert!(
+        warning.contains("column `reached`: expected true or false, got \"maybe\""),
+        "{warning}"
+    );
+    assert!(warning.contains("computed again"), "{warning}");
+    assert!(!progress.exists());
+}
+
+/// How a test damages a file's text.
+type Damage = fn(&str) -> String;
+
+/// Issue 18, item 5: a result file cut short, emptied or replaced with garbage is not kept as
+/// up to date by `--resume` (its bytes are checked against the digest its `.hash` records): it
+/// is computed again, with a warning naming it, and the run succeeds with the same files. A
+/// result of an older spherestep (no digest recorded) is checked by its contents.
+#[test]
+fn damaged_results_are_computed_again_with_a_warning() {
+    let t = tempfile::tempdir().unwrap();
+    let s = t.path().join("scen");
+    std::fs::create_dir_all(&s).unwrap();
+    std::fs::write(s.join("p.toml"), "[plan]\nangle_deg = 30\n").unwrap();
+    std::fs::write(s.join("sw.toml"), SWEEP).unwrap();
+    let out = t.path().join("out");
+    let args = [s.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    let r = batch(&args);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let names = [
+        "p.csv",
+        "sw.csv",
+        "p.csv.hash",
+        "sw.csv.hash",
+        "summary.csv",
+    ];
+    let good: Vec<String> = names.iter().map(|n| text(&out.join(n))).collect();
+    let mut resume = args.to_vec();
+    resume.push("--resume");
+    let damages: [(&str, Damage); 4] = [
+        ("cut mid-line", |t| t[..t.len() / 2].to_string()),
+        ("cut at a line end", |t| {
+            let body = t.trim_end_matches('\n');
+            body[..body.rfind('\n').unwrap() + 1].to_string()
+        }),
+        ("garbage", |_| "garbage\n\u{0}\u{1}".to_string()),
+        ("emptied", |_| String::new()),
+    ];
+    for (what, damage) in damages {
+        for (n, g) in names.iter().zip(&good).take(2) {
+            std::fs::write(out.join(n), damage(g)).unwrap();
+        }
+        let r = batch(&resume);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(r.status.success(), "{what}: {err}");
+        let said = String::from_utf8_lossy(&r.stdout);
+        assert!(
+            said.starts_with("2 computed, 0 up to date"),
+            "{what}: {said}"
+        );
+        for n in ["p.csv", "sw.csv"] {
+            let file = out.join(n).display().to_string();
+            assert!(
+                err.lines().any(|l| l.starts_with("spherestep: warning: ")
+                    && l.contains(&format!(
+                        "{file}: its contents are not those recorded in {file}.hash"
+                    ))
+                    && l.contains("computed again")),
+                "{what}: no warning naming {file}: {err}"
+            );
+        }
+        for (n, g) in names.iter().zip(&good) {
+            assert_eq!(&text(&out.join(n)), g, "{what}: {n}");
+        }
+    }
+    // the older form of `.hash` (the scenario's hash alone): a whole result is kept, silently
+    for n in ["p.csv.hash", "sw.csv.hash"] {
+        let h = text(&out.join(n));
+        std::fs::write(out.join(n), format!("{}\n", h.lines().next().unwrap())).unwrap();
+    }
+    let r = batch(&resume);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        String::from_utf8_lossy(&r.stdout).starts_with("0 computed, 2 up to date"),
+        "{err}"
+    );
+    assert!(!err.contains("warning"), "{err}");
+    // ... and a damaged one computed again
+    let reached = if good[1].contains(",true,") {
+        ",true,"
+    } else {
+        ",false,"
+    };
+    std::fs::write(out.join("sw.csv"), good[1].replacen(reached, ",maybe,", 1)).unwrap();
+    let r = batch(&resume);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        String::from_utf8_lossy(&r.stdout).starts_with("1 computed, 1 up to date"),
+        "{err}"
+    );
+    assert!(err.contains("sw.csv: its contents are not those"), "{err}");
+    for (n, g) in names.iter().zip(&good).filter(|(n, _)| **n != "p.csv.hash") {
+        assert_eq!(&text(&out.join(n)), g, "{n}");
+    }
 }

@@ -383,3 +383,200 @@ fn a_batch_with_a_scenario_of_overlong_durations_reports_it_and_keeps_the_others
     let good = std::fs::read_to_string(out.join("good.csv")).unwrap();
     assert!(good.lines().count() > 1, "{good}");
 }
+
+/// Issue 18, item 4: `--out` naming one of the command's inputs (the scenario, the plan, the
+/// plant, a sets file, a sim file, a file the scenario reads) is refused before computing,
+/// naming both, and the input is left as it was; another spelling of the same file or a link
+/// to it is the same file.
+#[test]
+fn out_naming_an_input_is_refused_and_the_input_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let path = |n: &str| d.join(n).to_string_lossy().into_owned();
+    let sc = scenario(d, "p.toml", "[plan]\nangle_deg = 20\n");
+    let plant = scenario(d, "q.toml", "[plan]\nangle_deg = 20\n");
+    std::fs::copy("scenarios/prototype/rotor.csv", d.join("pts.csv")).unwrap();
+    let from_file = scenario(d, "r.toml", "[rotor]\nfile = \"pts.csv\"\n");
+    let plan = path("plan.csv");
+    let sim = path("sim.csv");
+    let well = path("well.csv");
+    for args in [
+        vec!["plan", &sc, "--out", &plan],
+        vec!["simulate", &plan, &sc, "--out", &sim],
+        vec!["wells", &sc, "--step-deg", "1", "--out", &well],
+    ] {
+        let (code, _, err) = run(&args);
+        assert_eq!(code, 0, "{args:?}: {err}");
+    }
+    let table = scenario(
+        d,
+        "t.toml",
+        "[magnets]\nshape = \"table\"\ntable = \"well.csv\"\n",
+    );
+    let sets = path("sets.txt");
+    std::fs::write(&sets, "0:14,7:68\n").unwrap();
+    std::fs::create_dir_all(d.join("sub")).unwrap();
+    let other_spelling = format!("{}/sub/../p.toml", d.display());
+    let link = path("link.csv");
+    std::os::unix::fs::symlink(&plan, &link).unwrap();
+    let pts = path("pts.csv");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["plan", &sc, "--out", &sc], &sc),
+        (vec!["plan", &sc, "--out", &other_spelling], &sc),
+        (vec!["plan", &from_file, "--out", &pts], &pts),
+        (vec!["simulate", &plan, "--out", &plan], &plan),
+        (vec!["simulate", &plan, "--out", &link], &plan),
+        (vec!["simulate", &plan, &sc, "--out", &sc], &sc),
+        (
+            vec!["simulate", &plan, &sc, "--plant", &plant, "--out", &plant],
+            &plant,
+        ),
+        (
+            vec![
+                "simulate",
+                &plan,
+                &sc,
+                "--plant",
+                &plant,
+                "--closed-loop",
+                "--out",
+                &plan,
+            ],
+            &plan,
+        ),
+        (vec!["run", &sc, "--plant", &plant, "--out", &plant], &plant),
+        (vec!["settle", &sc, "--sets", &sets, "--out", &sets], &sets),
+        (vec!["wells", &table, "--out", &well], &well),
+        (vec!["wells", &sc, "--out", &sc], &sc),
+        (vec!["view", &plan, "--out", &plan], &plan),
+        (vec!["view", &plan, &sc, "--sim", &sim, "--out", &sim], &sim),
+    ];
+    for (args, input) in &cases {
+        let before = std::fs::read(input).unwrap();
+        let (code, _, err) = run(args);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        let out = args[args.len() - 1];
+        assert!(
+            err.contains(&format!("argument --out: expected a file that is not one of the command's inputs, got {out}, the same file as {input}")),
+            "{args:?}: {err}"
+        );
+        assert_eq!(
+            std::fs::read(input).unwrap(),
+            before,
+            "{args:?} changed {input}"
+        );
+    }
+    // batch: a scenario whose result would land on a file another scenario reads
+    let scen = d.join("scen");
+    std::fs::create_dir_all(&scen).unwrap();
+    std::fs::write(
+        scen.join("a.toml"),
+        "name = \"pts\"\n[plan]\nangle_deg = 20\n",
+    )
+    .unwrap();
+    std::fs::write(
+        scen.join("b.toml"),
+        "[rotor]\nfile = \"../pts.csv\"\n[plan]\nangle_deg = 20\n",
+    )
+    .unwrap();
+    let before = std::fs::read(&pts).unwrap();
+    let (code, _, err) = run(&[
+        "batch",
+        scen.to_str().unwrap(),
+        "--out",
+        d.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains(&pts)
+            && err.contains(&format!("the same file as {}/../pts.csv", scen.display())),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read(&pts).unwrap(),
+        before,
+        "the rotor file changed"
+    );
+    assert!(d.join("b.csv").is_file(), "the other scenario still runs");
+}
+
+/// Issue 18, item 17: numbers in messages are shown in exponent form when extreme (no
+/// 309-digit integers), and control characters in a scenario's name are escaped, never sent to
+/// the terminal raw.
+#[test]
+fn extreme_numbers_and_control_characters_are_shown_escaped() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases = [
+        (
+            "[body]\ndamping_nms = -1e308\n",
+            "`body.damping_nms`",
+            "got -1e308",
+        ),
+        (
+            "[magnets]\nstrength_j = -1e308\n",
+            "`magnets.strength_j`",
+            "got -1e308",
+        ),
+        (
+            "[magnets]\nmax_attraction_deg = 1e308\n",
+            "`magnets.max_attraction_deg`",
+            "got 1e308",
+        ),
+        (
+            "[settle]\nt_max_s = -1e300\n",
+            "`settle.t_max_s`",
+            "got -1e300",
+        ),
+        (
+            "[plan]\nangle_deg = 1e308\n",
+            "`plan.angle_deg`",
+            "got 1e308",
+        ),
+        (
+            "[report]\nreference_deg = -1e308\n",
+            "`report.reference_deg`",
+            "got -1e308",
+        ),
+        (
+            "[rotor]\npoints = [[1e308, 1e308, 0]]\n",
+            "`rotor.points[0]`",
+            "got [1e308, 1e308, 0]",
+        ),
+    ];
+    for (text, field, got) in cases {
+        let file = scenario(d, "big.toml", text);
+        let (code, _, err) = run(&["packing", &file]);
+        assert_eq!(code, 1, "{text}: {err}");
+        assert!(err.contains(field) && err.contains(got), "{text}: {err}");
+        assert!(!err.contains("0000000000"), "{text}: {err}");
+    }
+    let (code, _, err) = run(&["plan", "scenarios/prototype.toml", "--angle", "1e308"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("got 1e308") && !err.contains("0000000000"),
+        "{err}"
+    );
+
+    let evil = scenario(
+        d,
+        "evil.toml",
+        "name = \"evil\\u001b[31mred\\u0007\\u0000\"\n[plan]\nangle_deg = 20\n",
+    );
+    let shown = "evil\\u{1b}[31mred\\u{7}\\0";
+    let plan = d.join("plan.csv").to_string_lossy().into_owned();
+    for args in [
+        vec!["packing", &evil],
+        vec!["plan", &evil, "--out", &plan],
+        vec!["wells", &evil, "--step-deg", "1", "--out", &plan],
+    ] {
+        let (code, out, err) = run(&args);
+        assert_eq!(code, 0, "{args:?}: {err}");
+        let all = format!("{out}{err}");
+        assert!(
+            !all.contains(['\u{1b}', '\u{7}', '\0']),
+            "{args:?}: raw control characters: {all:?}"
+        );
+        assert!(all.contains(shown), "{args:?}: {all}");
+    }
+}

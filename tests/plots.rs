@@ -803,3 +803,61 @@ fn sweep_maps_mark_unreached_cases_and_coil_axes() {
     let svg = std::fs::read_to_string(&plot_csv(&plain, None, None).unwrap()[0]).unwrap();
     assert!(!has_text(&svg, "not reached") && !has_text(&svg, "coil axis"));
 }
+
+/// The text elements of an SVG with their `x` and `y` attributes.
+fn placed_texts(svg: &str) -> Vec<(String, String, String)> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| {
+            let attr = |name: &str| {
+                let k = t.find(&format!(" {name}=\""))? + name.len() + 3;
+                Some(t[k..k + t[k..].find('"')?].to_string())
+            };
+            let start = t.find('>')? + 1;
+            let end = t.find("</text>")?;
+            Some((t[start..end].trim().to_string(), attr("x")?, attr("y")?))
+        })
+        .collect()
+}
+
+/// Issue 18, item 17: a run's step axis (`plot` of a run CSV) is labelled with whole steps,
+/// each once, however few the steps.
+#[test]
+fn loop_plot_labels_its_steps_with_whole_numbers_each_once() {
+    for last in [1usize, 2, 3, 7, 40] {
+        let fig = spherestep::figures::LoopPlot {
+            title: "run".into(),
+            rows: (0..=last)
+                .map(|k| (k, 10.0 - k as f64 * 0.2, 3.0 * k as f64, k == 1))
+                .collect(),
+        };
+        let svg = render_svg(&fig).unwrap();
+        // the step labels: the numbers on the lowest line of labels
+        let numbers: Vec<(String, String, String)> = placed_texts(&svg)
+            .into_iter()
+            .filter(|(t, _, _)| t.parse::<f64>().is_ok())
+            .collect();
+        let bottom = numbers
+            .iter()
+            .map(|(_, _, y)| y.parse::<f64>().unwrap())
+            .fold(f64::MIN, f64::max);
+        let steps: Vec<&str> = numbers
+            .iter()
+            .filter(|(_, _, y)| y.parse::<f64>().unwrap() == bottom)
+            .map(|(t, _, _)| t.as_str())
+            .collect();
+        assert!(steps.len() >= 2, "{last}: {steps:?}");
+        let values: Vec<i64> = steps
+            .iter()
+            .map(|s| {
+                s.parse::<i64>()
+                    .unwrap_or_else(|_| panic!("{last}: {s} in {steps:?}"))
+            })
+            .collect();
+        assert!(values.windows(2).all(|w| w[0] < w[1]), "{last}: {steps:?}");
+        assert!(
+            values.iter().all(|&v| (0..=last as i64).contains(&v)),
+            "{last}: {steps:?}"
+        );
+    }
+}

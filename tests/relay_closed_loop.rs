@@ -593,6 +593,39 @@ fn closed_loop_refuses_dry_run_and_bad_sensor_options() {
 }
 
 #[test]
+fn closed_loop_refuses_a_log_of_another_kind_before_opening_anything() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = plan_file(dir.path());
+    let mut opts = options(dir.path(), &plan);
+    let so = SensorOptions::new("/dev/ttyACM0", SensorFormat::QuatCsv);
+    let log = dir.path().join("replay.csv");
+    // the plan itself, and a replay's log (without the sensor's columns)
+    std::fs::write(&log, "t_s,step,action,coil,board,channel,bytes\n").unwrap();
+    for (file, says) in [
+        (&plan, "its first line is `step,pivot_coil,"),
+        (&log, "a replay's log without the sensor's columns"),
+    ] {
+        let before = std::fs::read(file).unwrap();
+        opts.log = Some(file.clone());
+        let e = prepare_closed(&opts, &so)
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(e.starts_with(&format!("log {}: ", file.display())), "{e}");
+        assert!(e.contains(says), "{e}");
+        assert_eq!(std::fs::read(file).unwrap(), before);
+    }
+    // a closed loop's own log is fine
+    std::fs::write(
+        &log,
+        "t_s,step,action,coil,board,channel,bytes,qw,qx,qy,qz,goal_deg,raw\n",
+    )
+    .unwrap();
+    opts.log = Some(log);
+    assert!(prepare_closed(&opts, &so).is_ok());
+}
+
+#[test]
 fn closed_loop_on_a_bno055_reads_after_every_step() {
     let dir = tempfile::tempdir().unwrap();
     let inputs = prepared(dir.path(), SensorFormat::Bno055);

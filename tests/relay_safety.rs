@@ -292,3 +292,84 @@ fn one_board_closing_mid_replay_names_its_port_and_the_other_board_goes_off() {
 fn all_off_lcus8() -> Vec<u8> {
     (1..=8u8).flat_map(|c| [0xA0, c, 0x00, 0xA0 + c]).collect()
 }
+
+/// The replay binary with `args`: exit code and standard error.
+fn replay_cli(args: &[&str]) -> (Option<i32>, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_spherestep"))
+        .arg("replay")
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+#[test]
+fn a_log_that_is_not_a_replay_log_is_refused_before_any_port_is_opened() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = short_plan(dir.path());
+    let sc = scenario(dir.path(), "board = \"lcus\"\nchannels = 4");
+    // a first line that is a replay log's header and more, and one with trailing spaces
+    let wider = dir.path().join("wider.csv");
+    std::fs::write(&wider, "t_s,step,action,coil,channel,bytes,extra\n1,2\n").unwrap();
+    let spaced = dir.path().join("spaced.csv");
+    std::fs::write(&spaced, "t_s,step,action,coil,channel,bytes  \n").unwrap();
+    let (mut board, computer) = pty();
+    let port = path_of(&computer);
+    let (p, s) = (plan.to_str().unwrap(), sc.to_str().unwrap());
+    for target in [&plan, &sc, &wider, &spaced] {
+        let before = std::fs::read(target).unwrap();
+        let t = target.to_str().unwrap();
+        let (code, err) = replay_cli(&[p, s, "--port", &port, "--dwell-ms", "0", "--log", t]);
+        assert_eq!(code, Some(1), "{err}");
+        assert!(err.contains(&format!("log {t}: ")), "names the file: {err}");
+        assert!(
+            err.contains("expected an empty or new file, or a replay log whose first line is exactly `t_s,step,action,coil,channel,bytes`"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read(target).unwrap(), before, "{t} changed");
+        assert!(leftover(&mut board).is_empty(), "bytes were sent");
+    }
+    // the plan is not appended to by a dry run either
+    let before = std::fs::read(&plan).unwrap();
+    let (code, err) = replay_cli(&[p, s, "--dry-run", "--log", p]);
+    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(std::fs::read(&plan).unwrap(), before);
+    // in-process: `prepare` refuses it, naming the file and what its first line is
+    let mut opts = options(&plan, &sc);
+    opts.log = Some(plan.clone());
+    let e = replay::prepare(&opts).unwrap_err();
+    assert!(matches!(e, RelayError::Log { .. }), "{e}");
+    assert!(
+        e.to_string()
+            .contains("its first line is `step,pivot_coil,"),
+        "{e}"
+    );
+    // A new file, an empty one and a replay log are written or appended to, on a line of its own.
+    let log = dir.path().join("replay.csv");
+    let header = "t_s,step,action,coil,channel,bytes";
+    for (start, runs) in [(None, 1), (Some(""), 1), (Some(header), 2)] {
+        let _ = std::fs::remove_file(&log);
+        if let Some(t) = start {
+            std::fs::write(&log, t).unwrap();
+        }
+        opts.log = Some(log.clone());
+        let (r, _) = run(&opts, spherestep::relay::Link::dry_run());
+        r.unwrap();
+        if start == Some(header) {
+            let (r, _) = run(&opts, spherestep::relay::Link::dry_run());
+            r.unwrap();
+        }
+        let text = std::fs::read_to_string(&log).unwrap();
+        assert!(
+            text.starts_with(&format!("{header}\n0.000,0,start,")),
+            "{text}"
+        );
+        assert_eq!(text.matches(header).count(), 1, "{text}");
+        assert_eq!(text.matches(",start,").count(), runs, "{text}");
+        assert!(text.lines().all(|l| l.split(',').count() == 6), "{text}");
+    }
+    drop(computer);
+}

@@ -226,6 +226,26 @@ fn quat_csv_garbage_lines_and_bad_norms_are_errors_with_the_line() {
     h.join().unwrap();
 }
 
+/// Issue 18, item 17: what a sensor sends is printed with its control characters escaped
+/// (NUL bytes, terminal escapes), never raw.
+#[test]
+fn quat_csv_control_bytes_are_escaped_in_messages() {
+    let (master, slave) = pty();
+    let mut s = quat_csv_on(slave, Duration::from_secs(2));
+    let (tx, h) = printer(master);
+    tx.send(one("1,\0\0,0,\x1b[2J\n")).unwrap();
+    let e = s.read().expect_err("garbage");
+    let msg = e.to_string();
+    assert!(!msg.contains(['\0', '\u{1b}']), "{msg:?}");
+    assert!(
+        msg.starts_with("sensor pty (quat-csv): garbage line '1,\\0\\0,0,\\u{1b}[2J': "),
+        "{msg}"
+    );
+    assert!(msg.contains("field 2 ('\\0\\0') is not a number"), "{msg}");
+    drop(tx);
+    h.join().unwrap();
+}
+
 #[test]
 fn quat_csv_silence_is_a_timeout() {
     let (mut master, slave) = pty();

@@ -120,8 +120,39 @@ fn the_command_writes_the_csv_and_its_picture_and_refuses_a_bad_step() {
         let (code, _, stderr) = run(&["wells", &bad]);
         assert_eq!(code, 1);
         assert!(
-            stderr.contains("--step-deg") && stderr.contains("(0, 10]"),
+            stderr.contains("--step-deg") && stderr.contains("[0.001, 10]"),
             "{stderr}"
         );
     }
+}
+
+/// Issue 18, item 11: a step so small that the curve cannot be held (`1e-300`: more rows than
+/// memory has addresses; `1e-7`: gigabytes) is refused with the bound, not a panic or a
+/// machine out of memory.
+#[test]
+fn tiny_angle_steps_are_refused_with_the_bound() {
+    for (bad, shown) in [
+        ("1e-300", "1e-300"),
+        ("1e-7", "1e-7"),
+        ("0.0009", "0.0009"),
+        ("5e-324", "5e-324"),
+    ] {
+        let arg = format!("--step-deg={bad}");
+        let (code, stdout, stderr) = run(&["wells", &arg]);
+        assert_eq!(code, 1, "{bad}: {stderr}");
+        assert!(stdout.is_empty(), "{bad}");
+        assert!(
+            stderr.contains(&format!(
+                "argument --step-deg: expected an angle step in [0.001, 10] degrees, got {shown}"
+            )),
+            "{bad}: {stderr}"
+        );
+    }
+    let (code, stdout, stderr) = run(&["wells", "--step-deg", "0.001"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(
+        stdout.lines().count(),
+        30_002,
+        "0 to 30 degrees by 0.001, and the header"
+    );
 }

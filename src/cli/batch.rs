@@ -2,6 +2,7 @@
 //! summary.csv.
 
 use anyhow::Result;
+use spherestep::error::{printable, printable_lines};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -14,7 +15,7 @@ pub struct Args {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
-    /// Worker threads (default: all cores). Output is the same for any number.
+    /// Worker threads, 1 to 256 (default: all cores). Output is the same for any number.
     #[arg(long)]
     pub jobs: Option<usize>,
     /// Run part I of N (0-based), e.g. 0/3; merge with a later run using --resume.
@@ -38,9 +39,6 @@ impl Args {
             resume,
             plots,
         } = self;
-        if jobs == Some(0) {
-            anyhow::bail!("argument --jobs: expected a number of threads >= 1, got 0");
-        }
         let opts = spherestep::commands::batch::BatchOptions {
             out: out_dir,
             jobs,
@@ -61,7 +59,11 @@ impl Args {
             report.skipped.len(),
             report.failed.len()
         )?;
+        for w in &report.warnings {
+            eprintln!("spherestep: warning: {}", printable(w));
+        }
         for (name, err) in &report.failed {
+            let (name, err) = (printable(name), printable_lines(err));
             eprintln!("spherestep: scenario {name} failed: {err}");
         }
         if !report.failed.is_empty() {

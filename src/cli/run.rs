@@ -5,6 +5,7 @@ use super::{CsvOutput, LoopArgs};
 use anyhow::Result;
 use spherestep::commands::closed_loop::{run_command, Report};
 use spherestep::commands::{self as app};
+use spherestep::io::output::check_not_input;
 use spherestep::io::scenario::Scenario;
 use std::io::Write;
 use std::path::PathBuf;
@@ -29,6 +30,9 @@ impl Args {
     pub fn run(self, out: &mut dyn Write) -> Result<()> {
         let sc = Scenario::load(&self.scenario)?;
         let plant = Scenario::load(&self.plant)?;
+        if let Some(o) = &self.output.out {
+            check_not_input(o, &[&sc.files[..], &plant.files[..]].concat())?;
+        }
         let o = self.what.overrides();
         let settings = app::plan_settings(&sc, &o)?;
         let mut stderr = std::io::stderr();

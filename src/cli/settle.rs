@@ -2,7 +2,7 @@
 
 use anyhow::Result;
 use spherestep::commands::{self as app};
-use spherestep::io::output::write_atomic;
+use spherestep::io::output::{check_not_input, write_atomic};
 use spherestep::io::scenario::{parse_orientation, Scenario};
 use std::io::Write;
 use std::path::PathBuf;
@@ -45,6 +45,11 @@ impl Args {
             reference,
         } = self;
         let mut sc = Scenario::load(&scenario)?;
+        if let Some(o) = &out_file {
+            let mut read = sc.files.clone();
+            read.extend(sets.clone());
+            check_not_input(o, &read)?;
+        }
         if reference {
             sc.settle = sc.settle.reference();
         }

@@ -4,7 +4,7 @@
 use super::{CsvOutput, LoopArgs};
 use anyhow::Result;
 use spherestep::commands::{self as app};
-use spherestep::io::output::emit_csv;
+use spherestep::io::output::{check_not_input, emit_csv};
 use spherestep::io::scenario::Scenario;
 use spherestep::io::simfile::write_sim;
 use std::io::Write;
@@ -50,6 +50,16 @@ impl Args {
             None => Scenario::prototype(),
         };
         let plant = plant.map(|p| Scenario::load(&p)).transpose()?;
+        if let Some(o) = &out_file {
+            let mut read = vec![plan.clone()];
+            read.extend(
+                sc.files
+                    .iter()
+                    .chain(plant.iter().flat_map(|p| &p.files))
+                    .cloned(),
+            );
+            check_not_input(o, &read)?;
+        }
         if looping.closed_loop || model.is_some() {
             let Some(plant) = plant else {
                 anyhow::bail!(

@@ -1,6 +1,7 @@
 //! `spherestep view`: writes the self-contained 3-D page of a plan.
 
 use anyhow::Result;
+use spherestep::io::output::check_not_input;
 use spherestep::io::scenario::{parse_axis, Scenario};
 use std::io::Write;
 use std::path::PathBuf;
@@ -36,6 +37,9 @@ impl Args {
             Some(p) => Scenario::load(&p)?,
             None => Scenario::prototype(),
         };
+        let mut read = vec![plan.clone()];
+        read.extend(sc.files.iter().cloned().chain(sim.clone()));
+        check_not_input(&page, &read)?;
         let axis = axis.map(|a| parse_axis(&a, "--axis")).transpose()?;
         let data = spherestep::figures::view::write_view(&plan, &sc, sim.as_deref(), axis, &page)?;
         writeln!(out, "wrote {} ({} steps)", page.display(), data.steps.len())?;

@@ -2,7 +2,7 @@
 //! closed loop) and `spherestep simulate PLAN --plant P --closed-loop` (the same from a plan
 //! file): the per-step CSV and the summary.
 
-use crate::error::{Error, Result};
+use crate::error::{printable, Error, Result};
 use crate::io::loopfile::write_loop;
 use crate::io::output::emit_csv;
 use crate::io::planfile::read_plan;
@@ -58,7 +58,10 @@ pub fn loop_settings(o: &LoopOptions, planned_steps: usize) -> Result<LoopSettin
     if !(o.noise_deg.is_finite() && (0.0..=45.0).contains(&o.noise_deg)) {
         return Err(Error::Arg {
             arg: "--sensor-noise-deg".into(),
-            expected: format!("a noise in [0, 45] degrees, got {}", o.noise_deg),
+            expected: format!(
+                "a noise in [0, 45] degrees, got {}",
+                crate::error::shown(o.noise_deg)
+            ),
         });
     }
     if o.max_steps == Some(0) {
@@ -207,7 +210,7 @@ fn play(
             "{} loop on {}: {} steps ({} planned), {} replans{}: {:.2} deg from the goal, \
              turned {:.2} deg, worst axis error {:.2} deg, {}{}",
             summary.mode,
-            plant.name,
+            printable(&plant.name),
             r.steps,
             planned_steps,
             r.replans,

@@ -14,7 +14,7 @@ use crate::planning::closed_loop::{Controller, LoopSettings};
 use crate::planning::commutation::Motor;
 use crate::planning::plan::{Plan, PlanSettings};
 use crate::relay::closed::{execute_closed, refuse_options, ClosedSummary, Sensing};
-use crate::relay::replay::{open_ports, Prepared};
+use crate::relay::replay::{check_log, open_ports, Prepared};
 use crate::relay::{Link, RelayError};
 use crate::sensor::bno055::FusionMode;
 use crate::sensor::{self, OrientationSensor, SensorFormat};
@@ -108,6 +108,7 @@ pub fn prepare_closed(
     let rows = &f.plan.rows;
     let cl = loop_settings(&o, rows.len() - 1)?;
     let prep = crate::relay::replay::prepare(rows, relay, scenario.stator.len(), opts.drive())?;
+    check_log(&prep, true)?;
     check_sensor_timeout(so, prep.settings.max_on_time)?;
     if let Some(i) = prep
         .boards

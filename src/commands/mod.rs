@@ -7,7 +7,7 @@ pub mod closed_replay;
 pub mod replay;
 pub mod wells;
 
-use crate::error::{Error, Result};
+use crate::error::{printable, Error, Result};
 use crate::io::output::emit_csv;
 use crate::io::planfile::{read_plan, write_plan};
 use crate::io::scenario::{
@@ -39,7 +39,7 @@ pub fn packing_report(sc: &Scenario, json: bool, out: &mut dyn Write) -> Result<
         writeln!(out, "{s}").map_err(&w)?;
         return Ok(());
     }
-    writeln!(out, "scenario: {}", sc.name).map_err(&w)?;
+    writeln!(out, "scenario: {}", printable(&sc.name)).map_err(&w)?;
     writeln!(
         out,
         "rotor: {} magnets, minimum separation {:.3} deg",
@@ -363,7 +363,7 @@ pub fn plan_command(
         let mut text = format!(
             "{}: {} steps about [{:.4}, {:.4}, {:.4}] by {:.2} deg ({} model, {} {}, {}): \
              final angle {:.2} deg, worst axis error {:.2} deg, {}",
-            sc.name,
+            printable(&sc.name),
             s.steps,
             ax.x,
             ax.y,

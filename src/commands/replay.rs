@@ -6,7 +6,7 @@ use crate::error::Error;
 use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
 use crate::planning::plan::PlanRow;
-use crate::relay::replay::{execute_on, open_ports, Drive, Mode, Prepared, Summary};
+use crate::relay::replay::{check_log, execute_on, open_ports, Drive, Mode, Prepared, Summary};
 use crate::relay::{BoardKind, Link, RelayError, RelaySettings};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -94,10 +94,13 @@ pub fn inputs(opts: &ReplayOptions) -> Result<(Vec<PlanRow>, Scenario, RelaySett
     Ok((rows, scenario, settings))
 }
 
-/// Reads the plan, scenario and map, resolves the settings and checks the schedule.
+/// Reads the plan, scenario and map, resolves the settings, checks the schedule and that the
+/// `--log` is a replay log that may be appended to (or a new or empty file).
 pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
     let (rows, scenario, settings) = inputs(opts)?;
-    crate::relay::replay::prepare(&rows, settings, scenario.stator.len(), opts.drive())
+    let prep = crate::relay::replay::prepare(&rows, settings, scenario.stator.len(), opts.drive())?;
+    check_log(&prep, false)?;
+    Ok(prep)
 }
 
 /// `spherestep replay`: prepares, opens the ports (unless dry run) and replays.
@@ -121,7 +124,7 @@ pub fn run(
 pub fn resume_step(log: &Path) -> Result<usize, RelayError> {
     let text = std::fs::read_to_string(log).map_err(|e| RelayError::Log {
         path: log.to_path_buf(),
-        source: e,
+        cause: e,
     })?;
     let mut next = 0;
     for line in text.lines().skip(1) {

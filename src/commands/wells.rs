@@ -3,9 +3,9 @@
 //! `table` format (`angle_deg,torque_nm`, from 0 to the cut-off) that a measurement can be
 //! compared with and a `shape = "table"` scenario reads back, with its picture and a summary.
 
-use crate::error::{Error, Result};
+use crate::error::{printable, shown, Error, Result};
 use crate::figures::{write_figure, WellPlot};
-use crate::io::output::emit_csv;
+use crate::io::output::{check_not_input, emit_csv};
 use crate::io::scenario::Scenario;
 use crate::io::table::csv_bytes;
 use crate::physics::torque::Well;
@@ -18,12 +18,22 @@ use std::path::{Path, PathBuf};
 /// and g'' h^2 / 8 with |g''| <= 50 N m / rad^2).
 pub const DEFAULT_STEP_DEG: f64 = 0.02;
 
-/// The torque curve of a well: (angle, deg; torque, N m) from 0 to the cut-off, both included.
+/// The finest angle step of a curve, degrees: a cut-off of at most 180 degrees then gives at
+/// most 180,001 rows (a few MB of CSV), 20 times finer than the default.
+pub const MIN_STEP_DEG: f64 = 0.001;
+/// The coarsest angle step of a curve, degrees.
+pub const MAX_STEP_DEG: f64 = 10.0;
+
+/// The torque curve of a well: (angle, deg; torque, N m) from 0 to the cut-off, both included,
+/// the step in [`MIN_STEP_DEG`, `MAX_STEP_DEG`].
 pub fn well_curve(well: &Well, step_deg: f64) -> Result<Vec<(f64, f64)>> {
-    if !(step_deg.is_finite() && step_deg > 0.0 && step_deg <= 10.0) {
+    if !(step_deg.is_finite() && (MIN_STEP_DEG..=MAX_STEP_DEG).contains(&step_deg)) {
         return Err(Error::Arg {
             arg: "--step-deg".into(),
-            expected: format!("an angle step in (0, 10] degrees, got {step_deg}"),
+            expected: format!(
+                "an angle step in [{MIN_STEP_DEG}, {MAX_STEP_DEG}] degrees, got {}",
+                shown(step_deg)
+            ),
         });
     }
     // the cut-off in the degrees it was given in (radians and back lose the last bit)
@@ -125,6 +135,19 @@ pub fn wells_command(
     out: &mut dyn Write,
     note: &mut dyn Write,
 ) -> Result<WellSummary> {
+    if let Some(path) = out_file {
+        // the CSV and its pictures must not replace what the scenario was read from (its
+        // table, say)
+        let stem = picture_stem(path).into_os_string();
+        let pictures = ["svg", "png"].map(|e| {
+            let mut p = stem.clone();
+            p.push(format!(".{e}"));
+            PathBuf::from(p)
+        });
+        for p in std::iter::once(path).chain(pictures.iter().map(PathBuf::as_path)) {
+            check_not_input(p, &sc.files)?;
+        }
+    }
     let well = &sc.torques.well;
     let curve = well_curve(well, step_deg)?;
     let csv = curve_csv(&curve)?;
@@ -132,7 +155,10 @@ pub fn wells_command(
     let mut pictures = Vec::new();
     if let Some(path) = out_file {
         let fig = WellPlot {
-            title: format!("{}: torque on one magnet passing one coil", sc.name),
+            title: format!(
+                "{}: torque on one magnet passing one coil",
+                printable(&sc.name)
+            ),
             points: with_beyond(well, &curve),
             cutoff_deg: curve.last().map(|p| p.0),
         };
@@ -148,7 +174,7 @@ pub fn wells_command(
             out,
             "{}: peak pull {:.4} N m at {:.2} deg, half of it from {:.2} to {:.2} deg, \
              {:.4} N m at the {:.2} deg cut-off, stiffness {:.4} N m/rad ({} rows)",
-            sc.name,
+            printable(&sc.name),
             s.peak_torque_nm,
             s.peak_angle_deg,
             s.half_peak_from_deg,

@@ -5,6 +5,7 @@
 use crate::figures::figure::DrawError;
 use crate::figures::style::text;
 use plotters::chart::{MeshStyle, SeriesLabelPosition};
+use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
@@ -39,13 +40,19 @@ pub(crate) fn plot_dims<DB: DrawingBackend>(
     )
 }
 
-/// The axes of a 2-D chart with their descriptions, tick labels in 16 px and descriptions in
-/// 18 px; the caller sets the rest (formatters, grid) and draws.
-pub(crate) fn axes<'a, 'b, DB: DrawingBackend>(
-    chart: &'b mut Chart2d<'a, DB>,
+/// The axes of a 2-D chart (real axes, or whole numbers along x) with their descriptions, tick
+/// labels in 16 px and descriptions in 18 px; the caller sets the rest (formatters, grid) and
+/// draws.
+pub(crate) fn axes<'a, 'b, DB, X, Y>(
+    chart: &'b mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
     x_desc: &str,
     y_desc: &str,
-) -> MeshStyle<'a, 'b, RangedCoordf64, RangedCoordf64, DB> {
+) -> MeshStyle<'a, 'b, X, Y, DB>
+where
+    DB: DrawingBackend,
+    X: Ranged + ValueFormatter<X::ValueType>,
+    Y: Ranged + ValueFormatter<Y::ValueType>,
+{
     let mut mesh = chart.configure_mesh();
     mesh.x_desc(x_desc)
         .y_desc(y_desc)

@@ -53,7 +53,10 @@ impl Figure for LoopPlot {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
         self.check()?;
         let area = titled(root, &self.title, (10, 30, 10, 10))?;
-        let last = self.rows.iter().map(|r| r.0).max().unwrap_or(0).max(1) as f64;
+        // steps are whole numbers: an integer axis labels each step once (a real one labelled
+        // 0, 0.2, ... rounded to 0, 0, ... for few steps)
+        let step = |k: usize| i32::try_from(k).unwrap_or(i32::MAX);
+        let last = step(self.rows.iter().map(|r| r.0).max().unwrap_or(0).max(1));
         let (lo, top) = (
             self.rows
                 .iter()
@@ -65,10 +68,16 @@ impl Figure for LoopPlot {
         let mut chart = ChartBuilder::on(&area)
             .x_label_area_size(50)
             .y_label_area_size(70)
-            .build_cartesian_2d(0.0..last, lo..top)?;
+            .build_cartesian_2d(0..last, lo..top)?;
         let yd = tick_decimals(top - lo);
         axes(&mut chart, "step", "degrees")
-            .x_label_formatter(&|v| tick(*v, 0))
+            .x_labels(
+                usize::try_from(last)
+                    .unwrap_or(10)
+                    .saturating_add(1)
+                    .min(10),
+            )
+            .x_label_formatter(&|v| v.to_string())
             .y_label_formatter(&|v| tick(*v, yd))
             .light_line_style(RGBColor(238, 238, 238))
             .bold_line_style(RGBColor(215, 215, 215))
@@ -76,7 +85,7 @@ impl Figure for LoopPlot {
         let err = SERIES_COLORS[0].stroke_width(2);
         chart
             .draw_series(LineSeries::new(
-                self.rows.iter().map(|r| (r.0 as f64, r.1)),
+                self.rows.iter().map(|r| (step(r.0), r.1)),
                 err,
             ))?
             .label("true distance to the goal")
@@ -84,7 +93,7 @@ impl Figure for LoopPlot {
         let cum = SERIES_COLORS[1].stroke_width(1);
         chart
             .draw_series(LineSeries::new(
-                self.rows.iter().map(|r| (r.0 as f64, r.2)),
+                self.rows.iter().map(|r| (step(r.0), r.2)),
                 cum,
             ))?
             .label("true cumulative rotation angle")
@@ -95,7 +104,7 @@ impl Figure for LoopPlot {
                 self.rows
                     .iter()
                     .filter(|r| r.3)
-                    .map(|r| Circle::new((r.0 as f64, r.1), 5, mark)),
+                    .map(|r| Circle::new((step(r.0), r.1), 5, mark)),
             )?
             .label("replanned after this step")
             .legend(move |(x, y)| Circle::new((x + 10, y), 5, mark));

@@ -121,7 +121,9 @@ impl SweepMap {
         let (lo, hi) = self.value_range();
         if !(hi - lo).is_finite() || lo.abs().max(hi.abs()) > 1e12 {
             return Err(DrawError(format!(
-                "sweep map: expected values within +-1e12, got {lo} to {hi}"
+                "sweep map: expected values within +-1e12, got {} to {}",
+                crate::error::shown(lo),
+                crate::error::shown(hi)
             )));
         }
         Ok(())

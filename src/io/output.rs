@@ -142,6 +142,43 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     })
 }
 
+/// Whether `a` and `b` name the same existing file: the same canonical path, or (on Unix) the
+/// same device and inode (a hard link). A path that does not exist is no file's.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
+        return false;
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if (ma.dev(), ma.ino()) == (mb.dev(), mb.ino()) {
+            return true;
+        }
+    }
+    let _ = (ma, mb);
+    matches!(
+        (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+        (Ok(x), Ok(y)) if x == y
+    )
+}
+
+/// Refuses an output `out` (given as `--out`, or written into its folder) that is the same file
+/// as one of `inputs`, the files the command reads: writing it would replace what was read.
+/// Checked before anything is computed.
+pub fn check_not_input<P: AsRef<Path>>(out: &Path, inputs: &[P]) -> Result<()> {
+    match inputs.iter().find(|i| same_file(out, i.as_ref())) {
+        None => Ok(()),
+        Some(input) => Err(Error::Arg {
+            arg: "--out".into(),
+            expected: format!(
+                "a file that is not one of the command's inputs, got {}, the same file as {}",
+                out.display(),
+                input.as_ref().display()
+            ),
+        }),
+    }
+}
+
 /// Sends a command's CSV where it goes: to `file` (atomically) when given, else alone to `out`
 /// unless a JSON summary is asked for (which takes `out`). Returns where the summary goes:
 /// `note` (standard error) when the CSV took `out`, else `out`; so that `cmd > file.csv` gives

@@ -107,7 +107,8 @@ fn plan_row(r: &Row, idx: &[usize]) -> Result<PlanRow> {
     let settle_time_s = num(14)?;
     if settle_time_s < 0.0 {
         return Err(r.error(format!(
-            "column `settle_time_s`: expected a time >= 0 s, got {settle_time_s}"
+            "column `settle_time_s`: expected a time >= 0 s, got {}",
+            crate::error::shown(settle_time_s)
         )));
     }
     Ok(PlanRow {

@@ -2,7 +2,7 @@
 //! damping, how to settle. Unknown keys are rejected; every value is checked, and an error names
 //! the file, the field and what was expected. Every section has defaults (the prototype).
 
-use crate::error::{Error, Result};
+use crate::error::{printable, shown, Error, Result};
 use crate::model::geometry::{orientation_from_xyzw, unit, Degrees, Pair, Radians, UnitVec};
 use crate::model::packing::{self, Cap, Packing, SemiRegular};
 use crate::model::symmetry::Group;
@@ -233,6 +233,9 @@ struct RawSettle {
 pub struct Scenario {
     /// The file it came from (`<built-in>` for the prototype).
     pub path: PathBuf,
+    /// The files it was read from: `path` (when loaded from it) and the files it names
+    /// (point files, a torque table), as they were opened; what an output must not replace.
+    pub files: Vec<PathBuf>,
     pub name: String,
     pub description: String,
     pub rotor: Packing,
@@ -270,7 +273,9 @@ impl Scenario {
     /// Reads and checks a scenario file.
     pub fn load(path: &Path) -> Result<Scenario> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        Scenario::from_toml(&text, path)
+        let mut sc = Scenario::from_toml(&text, path)?;
+        sc.files.insert(0, path.to_path_buf());
+        Ok(sc)
     }
 
     /// Parses and checks scenario text; `path` names the file in errors and anchors relative
@@ -284,7 +289,10 @@ impl Scenario {
     }
 
     fn from_raw(raw: RawScenario, path: &Path) -> Result<Scenario> {
-        let ck = Checker { file: path };
+        let ck = Checker {
+            file: path,
+            read: Default::default(),
+        };
         let rotor = ck.packing(raw.rotor.unwrap_or_default(), "rotor")?;
         let stator = ck.packing(raw.stator.unwrap_or_default(), "stator")?;
         let well_and_interaction = ck.magnets(raw.magnets.unwrap_or_default())?;
@@ -308,7 +316,7 @@ impl Scenario {
                     Some(v) if !(v.is_finite() && v >= 0.0) => {
                         return Err(ck.err(
                             "report.reference_deg",
-                            format!("a finite angle >= 0 degrees, got {v}"),
+                            format!("a finite angle >= 0 degrees, got {}", shown(v)),
                         ))
                     }
                     v => v,
@@ -328,6 +336,7 @@ impl Scenario {
         });
         Ok(Scenario {
             path: path.to_path_buf(),
+            files: ck.read.into_inner(),
             name,
             description: raw.description.unwrap_or_default(),
             rotor,
@@ -391,7 +400,7 @@ impl Scenario {
         let counts = |sc: &Scenario| {
             format!(
                 "{} ({}): {} magnets, {} coils",
-                sc.name,
+                printable(&sc.name),
                 sc.path.display(),
                 sc.rotor.len(),
                 sc.stator.len()
@@ -513,6 +522,8 @@ fn parse_numbers<const N: usize>(text: &str, arg: &str, form: &str) -> Result<[f
 /// Field checks with the file name at hand.
 struct Checker<'a> {
     file: &'a Path,
+    /// The files read so far (point files, tables).
+    read: std::cell::RefCell<Vec<PathBuf>>,
 }
 
 impl Checker<'_> {
@@ -524,7 +535,7 @@ impl Checker<'_> {
         match v {
             None => Ok(default),
             Some(x) if x.is_finite() && x > 0.0 => Ok(x),
-            Some(x) => Err(self.err(field, format!("a finite number > 0, got {x}"))),
+            Some(x) => Err(self.err(field, format!("a finite number > 0, got {}", shown(x)))),
         }
     }
 
@@ -532,7 +543,7 @@ impl Checker<'_> {
         match v {
             None => Ok(default),
             Some(x) if x.is_finite() && x >= 0.0 => Ok(x),
-            Some(x) => Err(self.err(field, format!("a finite number >= 0, got {x}"))),
+            Some(x) => Err(self.err(field, format!("a finite number >= 0, got {}", shown(x)))),
         }
     }
 
@@ -542,7 +553,9 @@ impl Checker<'_> {
                 field,
                 format!(
                     "a non-zero, finite vector, got [{}, {}, {}]",
-                    v[0], v[1], v[2]
+                    shown(v[0]),
+                    shown(v[1]),
+                    shown(v[2])
                 ),
             )
         })
@@ -586,7 +599,7 @@ impl Checker<'_> {
                 if !(deg.is_finite() && deg > 0.0 && deg <= 180.0) {
                     return Err(self.err(
                         &format!("{section}.cap_deg"),
-                        format!("an angle in (0, 180] degrees, got {deg}"),
+                        format!("an angle in (0, 180] degrees, got {}", shown(deg)),
                     ));
                 }
                 let axis = self.unit(
@@ -662,6 +675,7 @@ impl Checker<'_> {
         } else if let Some(file) = raw.file {
             let path = self.relative(&file);
             let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+            self.read.borrow_mut().push(path.clone());
             packing::parse_points_csv(&text).map_err(|m| {
                 self.err(
                     &format!("{section}.file"),
@@ -695,7 +709,7 @@ impl Checker<'_> {
         if !(max_deg.is_finite() && max_deg > 0.0 && max_deg <= 180.0) {
             return Err(self.err(
                 "magnets.max_attraction_deg",
-                format!("an angle in (0, 180] degrees, got {max_deg}"),
+                format!("an angle in (0, 180] degrees, got {}", shown(max_deg)),
             ));
         }
         let strength = self.positive("magnets.strength_j", raw.strength_j, DEFAULT_STRENGTH_J)?;
@@ -728,6 +742,7 @@ impl Checker<'_> {
                     )
                 })?;
                 let path = self.relative(&file);
+                self.read.borrow_mut().push(path.clone());
                 WellShape::Table(read_table(&path).map_err(|m| {
                     self.err(
                         "magnets.table",
@@ -888,7 +903,10 @@ impl Checker<'_> {
         match v {
             None => Ok(default),
             Some(x) if x.is_finite() && x > 0.0 && x <= 180.0 => Ok(Degrees(x).to_radians()),
-            Some(x) => Err(self.err(field, format!("an angle in (0, 180] degrees, got {x}"))),
+            Some(x) => Err(self.err(
+                field,
+                format!("an angle in (0, 180] degrees, got {}", shown(x)),
+            )),
         }
     }
 

@@ -454,7 +454,7 @@ impl DipoleParts {
         if !self.coil_turns_amps.is_finite() {
             return Err(format!(
                 "coil_turns_amps: expected finite ampere-turns N I (A), got {}",
-                self.coil_turns_amps
+                crate::error::shown(self.coil_turns_amps)
             ));
         }
         positive(
@@ -465,13 +465,13 @@ impl DipoleParts {
         if !(self.gap_m >= 0.0 && self.gap_m.is_finite()) {
             return Err(format!(
                 "gap_m: expected a finite gap >= 0 (m), got {}",
-                self.gap_m
+                crate::error::shown(self.gap_m)
             ));
         }
         if !(self.core_gain >= 1.0 && self.core_gain.is_finite()) {
             return Err(format!(
                 "core_gain: expected a finite gain >= 1, got {}",
-                self.core_gain
+                crate::error::shown(self.core_gain)
             ));
         }
         Ok(())
@@ -494,7 +494,10 @@ fn positive(name: &str, value: f64, expected: &str) -> Result<(), String> {
     if value > 0.0 && value.is_finite() {
         Ok(())
     } else {
-        Err(format!("{name}: expected {expected}, got {value}"))
+        Err(format!(
+            "{name}: expected {expected}, got {}",
+            crate::error::shown(value)
+        ))
     }
 }
 
@@ -548,7 +551,7 @@ impl DipoleWell {
         if parts.coil_turns_amps <= 0.0 {
             return Err(format!(
                 "coil_turns_amps: expected > 0 for a well (an attracting coil), got {}",
-                parts.coil_turns_amps
+                crate::error::shown(parts.coil_turns_amps)
             ));
         }
         // the well's angular scale: the closest the magnets come to the wire, seen from the

@@ -196,7 +196,7 @@ impl TorqueTable {
         if rows[0].0 != 0.0 {
             return Err(format!(
                 "row 1: expected the first angle to be 0 degrees, got {}",
-                rows[0].0
+                crate::error::shown(rows[0].0)
             ));
         }
         for (i, &(d, g)) in rows.iter().enumerate() {
@@ -205,9 +205,10 @@ impl TorqueTable {
             }
             if i > 0 && d <= rows[i - 1].0 {
                 return Err(format!(
-                    "row {}: expected angles strictly increasing, got {d} after {}",
+                    "row {}: expected angles strictly increasing, got {} after {}",
                     i + 1,
-                    rows[i - 1].0
+                    crate::error::shown(d),
+                    crate::error::shown(rows[i - 1].0)
                 ));
             }
             if d > 180.0 {

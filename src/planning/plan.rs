@@ -99,7 +99,8 @@ pub fn target_angle(deg: f64) -> std::result::Result<Radians, String> {
             false => "",
         };
         Err(format!(
-            "a target angle in (0, {MAX_TARGET_DEG}] degrees, got {deg}{longer}"
+            "a target angle in (0, {MAX_TARGET_DEG}] degrees, got {}{longer}",
+            crate::error::shown(deg)
         ))
     }
 }

@@ -76,7 +76,7 @@ impl Fields<'_> {
         match v {
             None => Ok(default),
             Some(x) if x.is_finite() && x > 0.0 => Ok(x),
-            Some(x) => Err(self.err(field, format!("a finite number > 0, got {x}"))),
+            Some(x) => Err(self.err(field, format!("a finite number > 0, got {}", shown(x)))),
         }
     }
 }

@@ -255,12 +255,13 @@ pub enum RelayError {
     /// Standard input closed while waiting for Enter in step mode.
     #[error("standard input closed while waiting for Enter")]
     InputClosed,
-    /// Writing the replay log failed.
-    #[error("log {path}: {source}")]
+    /// Reading, checking or writing the replay log failed.
+    /// (The cause is part of the message and not a `source`, so that printing the error chain
+    /// does not say it twice.)
+    #[error("log {path}: {cause}")]
     Log {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// Bad arguments (for example a --from-step past the plan's end).
     #[error("argument {arg}: expected {expected}")]

@@ -744,10 +744,10 @@ fn choose_verified(boards: &mut [Driven], listed: bool) -> Result<(), RelayError
 }
 
 /// A failed write of the replay's report.
-pub(super) fn stdout_error(source: std::io::Error) -> RelayError {
+pub(super) fn stdout_error(cause: std::io::Error) -> RelayError {
     RelayError::Log {
         path: "<stdout>".into(),
-        source,
+        cause,
     }
 }
 
@@ -896,47 +896,129 @@ pub(super) fn log_header(listed: bool, kind: LogKind) -> String {
     }
 }
 
+/// What a `--log` path holds before the replay writes to it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct LogFile {
+    /// A log with rows already (appended to, its header not written again).
+    existing: bool,
+    /// Its last byte is a line end (else one is written before the first row).
+    ends_with_line_end: bool,
+}
+
+/// The longest first line read to tell whether a file is a replay log.
+const LOG_FIRST_LINE_MAX: u64 = 4096;
+
+/// Checks that the log at `path` may take this replay's rows: a new or empty file, or a log
+/// whose first line is exactly this replay's header (`log_header(listed, kind)`). Anything
+/// else is refused: a log of another kind (its columns would not line up), and any other file
+/// (a plan, a scenario, notes: appending would corrupt it).
+fn inspect_log(path: &Path, listed: bool, kind: LogKind) -> Result<LogFile, RelayError> {
+    use std::io::{Read, Seek, SeekFrom};
+    let err = |e| RelayError::Log {
+        path: path.to_path_buf(),
+        cause: e,
+    };
+    let refuse = |message: String| {
+        err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            message,
+        ))
+    };
+    let header = log_header(listed, kind);
+    let meta = match std::fs::metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Ok(LogFile {
+                existing: false,
+                ends_with_line_end: true,
+            })
+        }
+        Err(e) => return Err(err(e)),
+        Ok(m) => m,
+    };
+    if meta.is_dir() {
+        return Err(refuse(
+            "expected a file for the replay log, got a folder: give another --log file".into(),
+        ));
+    }
+    if meta.len() == 0 {
+        return Ok(LogFile {
+            existing: false,
+            ends_with_line_end: true,
+        });
+    }
+    let mut f = std::fs::File::open(path).map_err(err)?;
+    let mut first = Vec::new();
+    std::io::BufReader::new((&mut f).take(LOG_FIRST_LINE_MAX))
+        .read_until(b'\n', &mut first)
+        .map_err(err)?;
+    let line = first.strip_suffix(b"\n").unwrap_or(&first);
+    if line == header.as_bytes() {
+        let mut last = [0u8];
+        f.seek(SeekFrom::End(-1))
+            .and_then(|_| f.read_exact(&mut last))
+            .map_err(err)?;
+        return Ok(LogFile {
+            existing: true,
+            ends_with_line_end: last[0] == b'\n',
+        });
+    }
+    let other = [false, true]
+        .into_iter()
+        .flat_map(|l| {
+            [
+                log_header(l, LogKind::Replay),
+                log_header(l, LogKind::ClosedLoop),
+            ]
+        })
+        .find(|h| line == h.as_bytes());
+    if let Some(other) = other {
+        let why = if kind == LogKind::Replay && other.contains(LOG_SENSOR_COLUMNS) {
+            "a closed-loop replay's log"
+        } else if kind == LogKind::ClosedLoop && !other.contains(LOG_SENSOR_COLUMNS) {
+            "a replay's log without the sensor's columns"
+        } else {
+            "one board / several"
+        };
+        return Err(refuse(format!(
+            "its columns are `{other}`, this replay writes `{header}` ({why}): give another --log file"
+        )));
+    }
+    let text = crate::error::printable(&String::from_utf8_lossy(line));
+    let shown = match text.char_indices().nth(80) {
+        Some((k, _)) => format!("{}...", &text[..k]),
+        None => text,
+    };
+    Err(refuse(format!(
+        "expected an empty or new file, or a replay log whose first line is exactly `{header}`; \
+         its first line is `{shown}`, so it is not a replay log and is not appended to: give \
+         another --log file"
+    )))
+}
+
+/// Checks the replay's `--log` (when given) before any port is opened: see `Log::open`.
+/// `closed_loop`: the log of a closed-loop replay (with the sensor's columns).
+pub fn check_log(prep: &Prepared, closed_loop: bool) -> Result<(), RelayError> {
+    let kind = match closed_loop {
+        true => LogKind::ClosedLoop,
+        false => LogKind::Replay,
+    };
+    match &prep.drive.log {
+        Some(p) => inspect_log(p, prep.listed(), kind).map(|_| ()),
+        None => Ok(()),
+    }
+}
+
 impl Log {
-    /// Opens (appends to) the log; refuses a log written with another of the headers (one
-    /// board / several, replay / closed loop), whose columns would not line up.
+    /// Opens (appends to) the log, after `inspect_log`: a new or empty file gets the header;
+    /// a log of this replay's header is appended to, on a line of its own; anything else (a
+    /// log of another kind, any other file) is refused.
     fn open(path: &Path, listed: bool, kind: LogKind) -> Result<Log, RelayError> {
         let err = |e| RelayError::Log {
             path: path.to_path_buf(),
-            source: e,
+            cause: e,
         };
         let header = log_header(listed, kind);
-        let existing = std::fs::metadata(path)
-            .map(|m| m.len() > 0)
-            .unwrap_or(false);
-        if existing {
-            let mut first = String::new();
-            let f = std::fs::File::open(path).map_err(err)?;
-            std::io::BufReader::new(f)
-                .read_line(&mut first)
-                .map_err(err)?;
-            let other = [false, true]
-                .into_iter()
-                .flat_map(|l| {
-                    [
-                        log_header(l, LogKind::Replay),
-                        log_header(l, LogKind::ClosedLoop),
-                    ]
-                })
-                .find(|h| *h != header && first.trim_end() == h);
-            if let Some(other) = other {
-                let why = if kind == LogKind::Replay && other.contains(LOG_SENSOR_COLUMNS) {
-                    "a closed-loop replay's log"
-                } else if kind == LogKind::ClosedLoop && !other.contains(LOG_SENSOR_COLUMNS) {
-                    "a replay's log without the sensor's columns"
-                } else {
-                    "one board / several"
-                };
-                return Err(err(std::io::Error::new(
-                    std::io::ErrorKind::InvalidData,
-                    format!("its columns are `{other}`, this replay writes `{header}` ({why}): give another --log file"),
-                )));
-            }
-        }
+        let found = inspect_log(path, listed, kind)?;
         let file = std::fs::OpenOptions::new()
             .create(true)
             .append(true)
@@ -948,8 +1030,10 @@ impl Log {
             listed,
             columns: header.split(',').count(),
         };
-        if !existing {
+        if !found.existing {
             writeln!(log.file, "{header}").map_err(err)?;
+        } else if !found.ends_with_line_end {
+            writeln!(log.file).map_err(err)?;
         }
         Ok(log)
     }
@@ -959,7 +1043,7 @@ impl Log {
         let pad = self.columns.saturating_sub(cols.len());
         writeln!(self.file, "{}{}", cols.join(","), ",".repeat(pad)).map_err(|e| RelayError::Log {
             path: self.path.clone(),
-            source: e,
+            cause: e,
         })
     }
 
@@ -972,7 +1056,7 @@ impl Log {
     pub(super) fn flush(&mut self) -> Result<(), RelayError> {
         self.file.flush().map_err(|e| RelayError::Log {
             path: self.path.clone(),
-            source: e,
+            cause: e,
         })
     }
 }

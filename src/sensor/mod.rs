@@ -14,6 +14,7 @@
 pub mod bno055;
 pub mod quat_csv;
 
+use crate::error::printable;
 use crate::model::geometry::Orientation;
 pub use crate::planning::cancel::Cancel;
 pub use crate::serial::Port;
@@ -166,7 +167,12 @@ pub enum SensorError {
         got: String,
     },
     /// A text line that is not a reading.
-    #[error("sensor {port} ({sensor}): garbage line '{line}': {reason}")]
+    /// (`line` is kept as it came; the message escapes its control characters.)
+    #[error(
+        "sensor {port} ({sensor}): garbage line '{}': {}",
+        printable(line),
+        printable(reason)
+    )]
     Garbage {
         sensor: SensorFormat,
         port: String,

@@ -1,9 +1,9 @@
 //! The cases of a batch job: one plan for a plain scenario, one per combination of a sweep's
 //! models, schemes, angles and axes; computing them in parallel, and a sweep case's CSV row.
 
-use super::progress::{append_progress, read_progress, start_progress};
-use super::{BatchOptions, Job};
-use crate::error::{Error, Result};
+use super::progress::{append_progress, start_progress};
+use super::{BatchOptions, Job, SWEEP_HEADER};
+use crate::error::{printable, Error, Result};
 use crate::io::output::write_atomic;
 use crate::io::planfile::write_plan;
 use crate::io::scenario::Scenario;
@@ -12,7 +12,6 @@ use crate::planning::commutation::{pivot_floor, StepModel};
 use crate::planning::plan::PlanRow;
 use crate::planning::planner::{max_axis_error_deg, plan, total_settle_time, PlanSettings};
 use rayon::prelude::*;
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
@@ -75,9 +74,11 @@ pub(super) struct Outcome {
     pub(super) error: Option<Error>,
 }
 
-pub(super) fn sweep_record(c: &Case, o: &Outcome, torques: &MagnetTorques) -> Vec<String> {
+/// The columns of a case's sweep row that its settings fix: case, scheme, model,
+/// pairs_per_step, the axis and the angle.
+fn case_columns(c: &Case) -> [String; 8] {
     let s = &c.settings;
-    vec![
+    [
         c.index.to_string(),
         s.scheme.name().to_string(),
         s.model.name().to_string(),
@@ -86,6 +87,13 @@ pub(super) fn sweep_record(c: &Case, o: &Outcome, torques: &MagnetTorques) -> Ve
         s.axis.y.to_string(),
         s.axis.z.to_string(),
         s.angle.0.to_degrees().to_string(),
+    ]
+}
+
+pub(super) fn sweep_record(c: &Case, o: &Outcome, torques: &MagnetTorques) -> Vec<String> {
+    let s = &c.settings;
+    let mut record = case_columns(c).to_vec();
+    record.extend([
         o.rows.len().saturating_sub(1).to_string(),
         o.rows
             .last()
@@ -96,7 +104,55 @@ pub(super) fn sweep_record(c: &Case, o: &Outcome, torques: &MagnetTorques) -> Ve
         o.reached.to_string(),
         total_settle_time(&o.rows).to_string(),
         pivot_floor(torques, &s.axis).0.to_degrees().to_string(),
-    ]
+    ]);
+    record
+}
+
+/// What is wrong with `record` as case `c`'s row of a sweep CSV (as [`sweep_record`] writes
+/// it), if anything: the columns its settings fix must be those, the others numbers (`steps`
+/// a whole one) and `reached` true or false.
+pub(super) fn sweep_row_problem(c: &Case, record: &[String]) -> Option<String> {
+    let got = |k: usize| format!("got \"{}\"", printable(&record[k]));
+    if record.len() != SWEEP_HEADER.len() {
+        return Some(format!(
+            "expected {} columns, got {}",
+            SWEEP_HEADER.len(),
+            record.len()
+        ));
+    }
+    for (k, want) in case_columns(c).iter().enumerate() {
+        if record[k] != *want {
+            return Some(format!(
+                "column `{}`: expected {want} (case {}), {}",
+                SWEEP_HEADER[k],
+                c.index,
+                got(k)
+            ));
+        }
+    }
+    if record[8].parse::<usize>().is_err() {
+        return Some(format!(
+            "column `steps`: expected a whole number, {}",
+            got(8)
+        ));
+    }
+    if let Some(k) = [9, 10, 12, 13]
+        .into_iter()
+        .find(|&k| record[k].parse::<f64>().is_err())
+    {
+        return Some(format!(
+            "column `{}`: expected a number, {}",
+            SWEEP_HEADER[k],
+            got(k)
+        ));
+    }
+    if !matches!(record[11].as_str(), "true" | "false") {
+        return Some(format!(
+            "column `reached`: expected true or false, {}",
+            got(11)
+        ));
+    }
+    None
 }
 
 /// Writes a kept plan of a sweep case (`[sweep] keep_plans`).
@@ -113,7 +169,16 @@ pub(super) fn write_kept_plan(job: &Job, c: &Case, rows: &[PlanRow], out: &Path)
     write_atomic(&p, &buf)
 }
 
-/// Computes a job's cases (those of a sweep found in its progress file with `--resume` are
+/// Whether a job saves its sweep's cases as they end (and `--resume` takes them back): a
+/// sweep's pictures of one axis draw every case's plan, so those need them all computed.
+pub(super) fn saves_progress(job: &Job, opts: &BatchOptions) -> bool {
+    job.scenario
+        .sweep
+        .as_ref()
+        .is_some_and(|sw| !(opts.plots && sw.axes.len() == 1))
+}
+
+/// Computes a job's cases (those of a sweep saved in its progress file, `job.saved`, are
 /// taken from there), saving each sweep case's row as it ends.
 pub(super) fn run_cases(
     job: &Job,
@@ -121,19 +186,9 @@ pub(super) fn run_cases(
     bar: &indicatif::ProgressBar,
 ) -> Vec<Outcome> {
     let keep_plans = job.scenario.sweep.as_ref().is_some_and(|sw| sw.keep_plans);
-    // A sweep's pictures of one axis draw every case's plan: those need them all computed.
-    let saves = job
-        .scenario
-        .sweep
-        .as_ref()
-        .is_some_and(|sw| !(opts.plots && sw.axes.len() == 1));
-    let done = if saves && opts.resume {
-        read_progress(&job.csv, &job.hash)
-    } else {
-        BTreeMap::new()
-    };
-    let progress = if saves {
-        start_progress(job, &done)
+    let done = &job.saved;
+    let progress = if saves_progress(job, opts) {
+        start_progress(job, done)
     } else {
         None
     };

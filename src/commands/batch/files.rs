@@ -1,13 +1,13 @@
 //! The files of a batch job: the result with its content hash (what `--resume` checks), the
 //! progress file of a sweep being computed, the merging of shard parts and the pictures.
 
-use super::cases::{case_label, Outcome};
+use super::cases::{case_label, cases, sweep_row_problem, Case, Outcome};
 use super::progress::progress_path;
 use super::{Job, Shard, SWEEP_HEADER};
 use crate::error::{Error, Result};
 use crate::figures::batch_pictures;
 use crate::io::output::write_atomic;
-use crate::io::planfile::write_plan;
+use crate::io::planfile::{parse_plan, write_plan};
 use crate::io::scenario::Scenario;
 use crate::io::table::{csv_bytes, Table};
 use crate::planning::plan::PlanRow;
@@ -32,15 +32,123 @@ pub(super) fn hash_path(csv: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
-pub(super) fn up_to_date(csv: &Path, hash: &str) -> bool {
-    csv.is_file() && std::fs::read_to_string(hash_path(csv)).is_ok_and(|h| h.trim() == hash)
+/// The SHA-256 of a result's bytes, as its `.hash` records it.
+fn digest(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
-/// Writes a result and then its hash (a killed run leaves at worst a result without a hash,
-/// which --resume recomputes).
+/// What `--resume` finds of a result.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Stored {
+    /// No result of this content: none, one without its `.hash` (a killed run), or one of
+    /// another scenario's content. Computed (again), silently.
+    Absent,
+    /// The result of this content, whole.
+    Current,
+    /// A `.hash` of this content beside a result that is not what was written (cut short,
+    /// edited, replaced): the message, after the file's name. Computed again, with a warning.
+    Damaged(String),
+}
+
+/// What is stored at `csv` for content `hash`. The `.hash` holds the content hash, then
+/// `sha256 DIGEST` of the result's bytes, and the bytes are checked against it; a `.hash` of an
+/// older spherestep (the content hash alone) has the result checked by `whole`, which says
+/// what is wrong with its text, if anything.
+pub(super) fn stored(csv: &Path, hash: &str, whole: impl FnOnce(&str) -> Option<String>) -> Stored {
+    let hash_file = hash_path(csv);
+    let Ok(recorded) = std::fs::read_to_string(&hash_file) else {
+        return Stored::Absent;
+    };
+    let mut lines = recorded.lines().map(str::trim);
+    if lines.next() != Some(hash) || !csv.is_file() {
+        return Stored::Absent;
+    }
+    let bytes = match std::fs::read(csv) {
+        Ok(b) => b,
+        Err(e) => return Stored::Damaged(format!("unreadable ({e})")),
+    };
+    let not_whole = |why: String| {
+        Stored::Damaged(format!(
+            "its contents are not those of a whole result ({why})"
+        ))
+    };
+    match lines.next() {
+        Some(line) => match line.strip_prefix("sha256 ") {
+            Some(d) if d == digest(&bytes) => Stored::Current,
+            _ => Stored::Damaged(format!(
+                "its contents are not those recorded in {} (cut short, edited or replaced)",
+                hash_file.display()
+            )),
+        },
+        None => match std::str::from_utf8(&bytes) {
+            Err(_) => not_whole("not UTF-8 text".into()),
+            Ok(text) => match whole(text) {
+                Some(why) => not_whole(why),
+                None => Stored::Current,
+            },
+        },
+    }
+}
+
+/// What is wrong with `text` as the result of `cases` of `sc` written to `csv` (a plan, or a
+/// sweep's rows of those cases in order), if anything: for results whose `.hash` records no
+/// digest.
+pub(super) fn result_problem(
+    sc: &Scenario,
+    cases: &[Case],
+    csv: &Path,
+    text: &str,
+) -> Option<String> {
+    if !text.ends_with('\n') {
+        return Some("no line end at its end: cut short".into());
+    }
+    if sc.sweep.is_none() {
+        return match parse_plan(text, csv) {
+            Ok(rows) if rows.is_empty() => Some("no plan rows".into()),
+            Ok(_) => None,
+            Err(e) => Some(e.to_string()),
+        };
+    }
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    let records: Vec<Vec<String>> = match rdr
+        .records()
+        .map(|r| r.map(|r| r.iter().map(str::to_string).collect()))
+        .collect::<std::result::Result<_, _>>()
+    {
+        Ok(r) => r,
+        Err(e) => return Some(format!("unreadable: {e}")),
+    };
+    let Some((head, rows)) = records.split_first() else {
+        return Some("empty".into());
+    };
+    if *head != SWEEP_HEADER {
+        return Some(format!("expected the header `{}`", SWEEP_HEADER.join(",")));
+    }
+    if rows.len() != cases.len() {
+        return Some(format!(
+            "expected {} case rows, got {}",
+            cases.len(),
+            rows.len()
+        ));
+    }
+    rows.iter()
+        .zip(cases)
+        .enumerate()
+        .find_map(|(k, (r, c))| sweep_row_problem(c, r).map(|p| format!("line {}: {p}", k + 2)))
+}
+
+/// Writes a result and then its hash, the content's and the result's (a killed run leaves at
+/// worst a result without a hash, which --resume recomputes).
 pub(super) fn write_with_hash(csv: &Path, bytes: &[u8], hash: &str) -> Result<()> {
     write_atomic(csv, bytes)?;
-    write_atomic(&hash_path(csv), format!("{hash}\n").as_bytes())
+    let recorded = format!("{hash}\nsha256 {}\n", digest(bytes));
+    write_atomic(&hash_path(csv), recorded.as_bytes())
 }
 
 pub(super) fn write_job(job: &Job, outcomes: &[Outcome]) -> Result<()> {
@@ -149,12 +257,14 @@ pub(super) fn draw_job(job: &Job, outcomes: &[Outcome], out: &Path) -> Result<()
     write_atomic(&pictures_path(&job.csv), list.as_bytes())
 }
 
-/// Merges the shard parts of a sweep, when a complete, up-to-date set of them is present.
+/// Merges the shard parts of a sweep, when a complete, up-to-date set of them is present; a
+/// damaged part (see [`stored`]) is named in `warnings` and its set not merged.
 pub(super) fn merge_parts(
     out: &Path,
     name: &str,
     sc: &Scenario,
     text: &str,
+    warnings: &mut Vec<String>,
 ) -> Result<Option<Vec<u8>>> {
     let prefix = format!("{name}.shard-");
     let mut counts: Vec<usize> = Vec::new();
@@ -180,10 +290,24 @@ pub(super) fn merge_parts(
                 (out.join(format!("{name}.{}.csv", sh.suffix())), sh)
             })
             .collect();
-        if !parts
-            .iter()
-            .all(|(p, sh)| up_to_date(p, &content_hash(sc, text, &sh.suffix())))
-        {
+        let all = cases(sc);
+        let mut complete = true;
+        for (p, sh) in &parts {
+            let mine: Vec<Case> = all.iter().filter(|c| sh.takes(c.index)).cloned().collect();
+            let hash = content_hash(sc, text, &sh.suffix());
+            match stored(p, &hash, |t| result_problem(sc, &mine, p, t)) {
+                Stored::Current => {}
+                Stored::Absent => complete = false,
+                Stored::Damaged(why) => {
+                    warnings.push(format!(
+                        "{}: {why}: not merged, the sweep is computed whole",
+                        p.display()
+                    ));
+                    complete = false;
+                }
+            }
+        }
+        if !complete {
             continue;
         }
         let mut rows: Vec<(usize, Vec<String>)> = Vec::new();

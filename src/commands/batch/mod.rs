@@ -12,11 +12,12 @@ mod progress;
 mod summary;
 
 use crate::error::{Error, Result};
-use crate::io::output::{remove_stale_temporaries, write_atomic};
+use crate::io::output::{check_not_input, remove_stale_temporaries, write_atomic};
 use crate::io::scenario::Scenario;
-use cases::{cases, run_cases, Case};
+use cases::{cases, run_cases, saves_progress, Case};
 use files::{
-    content_hash, draw_job, draws, merge_parts, pictures_ok, up_to_date, write_job, write_with_hash,
+    content_hash, draw_job, draws, merge_parts, pictures_ok, result_problem, stored, write_job,
+    write_with_hash, Stored,
 };
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -82,7 +83,13 @@ pub struct BatchReport {
     pub skipped: Vec<String>,
     /// (scenario file or name, error) for each failure.
     pub failed: Vec<(String, String)>,
+    /// Damaged state found and not trusted (a result or progress file that is not what was
+    /// written: its work is computed again), each naming the file.
+    pub warnings: Vec<String>,
 }
+
+/// The most worker threads a batch runs (`--jobs`).
+pub const MAX_JOBS: usize = 256;
 
 /// The header of a sweep CSV.
 pub const SWEEP_HEADER: [&str; 14] = [
@@ -177,20 +184,52 @@ struct Job {
     /// Where the result goes (the whole CSV or this shard's part).
     csv: PathBuf,
     hash: String,
+    /// With `--resume`, the sweep cases taken from its progress file (case index -> row).
+    saved: BTreeMap<usize, Vec<String>>,
 }
 
 /// Runs a batch. Progress goes to `progress` when set; the report says what ran and failed.
 pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport> {
+    if let Some(j) = opts.jobs.filter(|j| !(1..=MAX_JOBS).contains(j)) {
+        return Err(Error::Arg {
+            arg: "--jobs".into(),
+            expected: format!("a number of worker threads from 1 to {MAX_JOBS}, got {j}"),
+        });
+    }
     prepare_out(&opts.out)?;
     let mut report = BatchReport::default();
     let mut jobs: Vec<Job> = Vec::new();
     let mut plain_index = 0usize;
-    for (file, sc, text) in load_scenarios(inputs, &mut report) {
-        let Some(job) = job_for(file, sc, text, opts, &mut plain_index) else {
+    let loaded = load_scenarios(inputs, &mut report);
+    let read: Vec<PathBuf> = loaded
+        .iter()
+        .flat_map(|(file, sc, _)| std::iter::once(file.clone()).chain(sc.files.iter().cloned()))
+        .collect();
+    for name in ["summary.csv", "timing.csv"] {
+        check_not_input(&opts.out.join(name), &read)?;
+    }
+    for (file, sc, text) in loaded {
+        let Some(mut job) = job_for(file, sc, text, opts, &mut plain_index) else {
             continue;
         };
+        let written = [
+            job.csv.clone(),
+            files::hash_path(&job.csv),
+            progress::progress_path(&job.csv),
+        ];
+        if let Err(e) = written.iter().try_for_each(|w| check_not_input(w, &read)) {
+            report
+                .failed
+                .push((job.file.display().to_string(), e.to_string()));
+            continue;
+        }
         if opts.resume && resumed(&job, opts, &mut report)? {
             continue;
+        }
+        if opts.resume && saves_progress(&job, opts) {
+            let (saved, warning) = progress::read_progress(&job.csv, &job.hash, &job.cases);
+            job.saved = saved;
+            report.warnings.extend(warning);
         }
         jobs.push(job);
     }
@@ -313,6 +352,7 @@ fn job_for(
         cases: mine,
         csv,
         hash,
+        saved: BTreeMap::new(),
     })
 }
 
@@ -321,9 +361,19 @@ fn job_for(
 /// holds what they need (a sweep of one axis draws every plan, so it is computed again).
 fn resumed(job: &Job, opts: &BatchOptions, report: &mut BatchReport) -> Result<bool> {
     let (sc, csv, hash) = (&job.scenario, &job.csv, &job.hash);
-    let mut ready = up_to_date(csv, hash);
+    let mut ready = match stored(csv, hash, |t| result_problem(sc, &job.cases, csv, t)) {
+        Stored::Current => true,
+        Stored::Absent => false,
+        Stored::Damaged(why) => {
+            report
+                .warnings
+                .push(format!("{}: {why}: computed again", csv.display()));
+            false
+        }
+    };
     if !ready && opts.shard.is_none() && sc.sweep.is_some() {
-        if let Some(bytes) = merge_parts(&opts.out, &job.name, sc, &job.text)? {
+        let merged = merge_parts(&opts.out, &job.name, sc, &job.text, &mut report.warnings)?;
+        if let Some(bytes) = merged {
             write_with_hash(csv, &bytes, hash)?;
             ready = true;
         }

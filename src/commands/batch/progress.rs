@@ -1,8 +1,9 @@
 //! The progress file of a sweep being computed: each finished case's row appended as the case
 //! ends, so that a killed sweep is continued by `--resume` instead of starting over.
 
-use super::{Job, SWEEP_HEADER};
-use crate::error::{Error, Result};
+use super::cases::{sweep_row_problem, Case};
+use super::Job;
+use crate::error::{printable, Error, Result};
 use crate::io::output::write_atomic;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -17,33 +18,93 @@ pub(super) fn progress_path(csv: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
-/// The finished cases in `csv`'s progress file (case index -> row), when the file belongs to
-/// this `hash`; a row cut short by a kill (no line end, or not a whole row) counts for nothing.
-pub(super) fn read_progress(csv: &Path, hash: &str) -> BTreeMap<usize, Vec<String>> {
+/// The most damaged rows a warning lists.
+const LISTED: usize = 5;
+
+/// The finished cases in `csv`'s progress file (case index -> row) among `cases`, when the file
+/// belongs to this `hash` (else none, silently: it is of other content). The last row cut short
+/// by a kill (no line end) counts for nothing; every whole row is checked as this sweep writes
+/// it (`sweep_row_problem`), and those that are not (edited, of no case here, unreadable) are
+/// left out, their cases computed again, and named in the warning returned.
+pub(super) fn read_progress(
+    csv: &Path,
+    hash: &str,
+    cases: &[Case],
+) -> (BTreeMap<usize, Vec<String>>, Option<String>) {
     let mut done = BTreeMap::new();
-    let Ok(text) = std::fs::read_to_string(progress_path(csv)) else {
-        return done;
+    let path = progress_path(csv);
+    let Ok(bytes) = std::fs::read(&path) else {
+        return (done, None);
     };
-    let Some((first, rest)) = text.split_once('\n') else {
-        return done;
+    let Some(k) = bytes.iter().position(|&b| b == b'\n') else {
+        return (done, None);
     };
-    if first.strip_prefix("hash ") != Some(hash) {
-        return done;
+    if bytes[..k].strip_prefix(b"hash ") != Some(hash.as_bytes()) {
+        return (done, None);
     }
-    let whole = &rest[..rest.rfind('\n').map_or(0, |k| k + 1)];
+    let rest = &bytes[k + 1..];
+    let whole = &rest[..rest.iter().rposition(|&b| b == b'\n').map_or(0, |k| k + 1)];
+    let by_index: BTreeMap<usize, &Case> = cases.iter().map(|c| (c.index, c)).collect();
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
-        .from_reader(whole.as_bytes());
-    for rec in rdr.records().flatten() {
-        if rec.len() != SWEEP_HEADER.len() {
-            continue;
-        }
-        if let Ok(case) = rec[0].parse::<usize>() {
-            done.insert(case, rec.iter().map(str::to_string).collect());
-        }
+        .from_reader(whole);
+    let mut damaged = Vec::new();
+    for rec in rdr.byte_records() {
+        let (line, problem) = match rec {
+            Err(e) => {
+                let line = e.position().map_or(0, |p| p.line() as usize + 1);
+                (line, format!("unreadable: {e}"))
+            }
+            Ok(rec) => {
+                let line = rec.position().map_or(0, |p| p.line() as usize + 1);
+                let fields: Option<Vec<String>> = rec
+                    .iter()
+                    .map(|f| std::str::from_utf8(f).ok().map(str::to_string))
+                    .collect();
+                let Some(fields) = fields else {
+                    damaged.push((line, "not UTF-8 text".to_string()));
+                    continue;
+                };
+                let case = fields.first().and_then(|f| f.parse::<usize>().ok());
+                match case.and_then(|i| by_index.get(&i)) {
+                    None => (
+                        line,
+                        format!(
+                            "column `case`: expected a case of this sweep, got \"{}\"",
+                            printable(fields.first().map_or("", |f| f.as_str()))
+                        ),
+                    ),
+                    Some(c) => match sweep_row_problem(c, &fields) {
+                        Some(p) => (line, format!("case {}: {p}", c.index)),
+                        None => {
+                            done.insert(c.index, fields);
+                            continue;
+                        }
+                    },
+                }
+            }
+        };
+        damaged.push((line, problem));
     }
-    done
+    if damaged.is_empty() {
+        return (done, None);
+    }
+    let mut listed: Vec<String> = damaged
+        .iter()
+        .take(LISTED)
+        .map(|(line, p)| format!("line {line}: {p}"))
+        .collect();
+    if damaged.len() > LISTED {
+        listed.push(format!("and {} more", damaged.len() - LISTED));
+    }
+    let warning = format!(
+        "{}: {} damaged row(s) not taken, their cases computed again ({})",
+        path.display(),
+        damaged.len(),
+        listed.join("; ")
+    );
+    (done, Some(warning))
 }
 
 /// One CSV row as bytes (with its line end).
