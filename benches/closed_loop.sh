@@ -20,8 +20,9 @@ for axis in 0,0,1 0,1,0 1,0,0; do
   for n in "${noises[@]}"; do runs+=("closed $n"); done
   for r in "${runs[@]}"; do
     set -- $r
-    flags=(--sensor-noise-deg "$2")
-    [ "$1" = closed ] && flags+=(--closed-loop)
+    flags=()
+    # the sensor's options are the closed loop's (open loop measures without noise)
+    [ "$1" = closed ] && flags+=(--closed-loop --sensor-noise-deg "$2")
     "$bin" run "$model" --plant "$plant" --axis "$axis" --angle 90 "${flags[@]}" \
       --json --out "$out/run.csv" > "$out/run.json" || true
     python3 - "$axis" "$out/run.json" <<'PY'

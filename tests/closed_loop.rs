@@ -281,3 +281,176 @@ fn a_run_csv_is_drawn_by_plot() {
         "{stderr}"
     );
 }
+
+/// Issue item 6: the goal tolerance is twice the sensor's noise, so a noise of 45 degrees made
+/// a run "reached" 69 degrees from the goal. A noise beyond 10 degrees is refused, naming the
+/// option and the bound, before anything is planned; at the bound the tolerance is 20 degrees.
+#[test]
+fn a_sensor_noise_beyond_ten_degrees_is_refused_before_planning() {
+    let (code, stdout, stderr) = run(&[
+        "run",
+        "scenarios/prototype.toml",
+        "--plant",
+        "scenarios/prototype.toml",
+        "--closed-loop",
+        "--sensor-noise-deg",
+        "45",
+        "--axis",
+        "0,1,0",
+        "--angle",
+        "90",
+    ]);
+    assert_eq!(code, 1, "{stdout}{stderr}");
+    assert!(!stdout.contains("reached"), "{stdout}");
+    assert!(
+        stderr.contains("--sensor-noise-deg") && stderr.contains("[0, 10] degrees"),
+        "{stderr}"
+    );
+    let sc = load("scenarios/prototype.toml");
+    let s = plan_settings(&sc, &PlanOverrides::default()).unwrap();
+    let o = |noise_deg: f64| LoopOptions {
+        closed: true,
+        noise_deg,
+        seed: 1,
+        max_steps: None,
+        identify: true,
+    };
+    let (mut csv, mut note) = (Vec::new(), Vec::new());
+    let report = Report {
+        file: None,
+        json: false,
+        out: &mut csv,
+        note: &mut note,
+    };
+    let e = run_command(&sc, &sc, &s, &o(10.5), report).unwrap_err();
+    assert!(e.to_string().contains("--sensor-noise-deg"), "{e}");
+    let cl = spherestep::commands::closed_loop::loop_settings(&o(10.0), 6).unwrap();
+    assert!((cl.goal_tolerance.0.to_degrees() - 20.0).abs() < 1e-9);
+}
+
+/// Issue item 16: a bad loop option is refused before the plan is computed (the broad wells
+/// took 11 s to plan before `--sensor-noise-deg -1` was refused). A model in which no plan can
+/// be made tells the order: the error names the option, not the plan that failed.
+#[test]
+fn bad_loop_options_are_refused_before_the_plan_is_computed() {
+    let dir = tempfile::tempdir().unwrap();
+    // one coil: no initial commutation state, so planning fails at once
+    let one = dir.path().join("one-coil.toml");
+    std::fs::write(&one, "[stator]\npoints = [[0, 0, -1]]\n").unwrap();
+    let one = one.to_str().unwrap();
+    for (args, needle) in [
+        (vec!["--sensor-noise-deg=-1"], "--sensor-noise-deg"),
+        (vec!["--max-steps", "0"], "--max-steps"),
+    ] {
+        let mut all = vec!["run", one, "--plant", one, "--closed-loop"];
+        all.extend(args);
+        let (code, _, stderr) = run(&all);
+        assert_eq!(code, 1, "{all:?}: {stderr}");
+        assert!(
+            stderr.contains(needle) && !stderr.contains("--axis/--angle"),
+            "{all:?}: {stderr}"
+        );
+    }
+    // the closed loop's options without --closed-loop are refused (clap: usage error, 2)
+    let plan = dir.path().join("p.csv");
+    std::fs::write(
+        &plan,
+        "step,pivot_coil,pivot_magnet,new_coil,new_magnet,active,qx,qy,qz,qw,step_angle_deg,\
+         step_axis_error_deg,cum_angle_deg,cum_axis_error_deg,settle_time_s\n\
+         0,,,0,14,0:14,0,0,0,1,0,0,0,0,0.1\n",
+    )
+    .unwrap();
+    let plan = plan.to_str().unwrap();
+    for extra in [
+        &["--sensor-noise-deg", "1"][..],
+        &["--seed", "3"],
+        &["--max-steps", "4"],
+        &["--no-identify"],
+    ] {
+        for head in [
+            &[
+                "run",
+                "scenarios/prototype.toml",
+                "--plant",
+                "scenarios/prototype.toml",
+            ][..],
+            &[
+                "simulate",
+                plan,
+                "scenarios/prototype.toml",
+                "--plant",
+                "scenarios/prototype.toml",
+            ],
+        ] {
+            let mut all = head.to_vec();
+            all.extend(extra);
+            let (code, stdout, stderr) = run(&all);
+            assert_eq!(code, 2, "{all:?}: {stdout}{stderr}");
+            assert!(
+                stderr.contains("--closed-loop") && stdout.is_empty(),
+                "{all:?}: {stderr}"
+            );
+        }
+    }
+}
+
+/// Issue item 10: `run` took its worst axis error, 90 degrees, from step 0, a 0.6 degree offset
+/// of the plant's initial commutation from the model's, whose axis points anywhere. Rows that
+/// turned the ball less than `MIN_AXIS_ANGLE_DEG` are left out of the worst (the CSV keeps
+/// them).
+#[test]
+fn the_worst_axis_error_of_a_run_leaves_out_rotations_too_small_to_have_an_axis() {
+    use spherestep::planning::closed_loop::MIN_AXIS_ANGLE_DEG;
+    // the issue's command: before, a worst axis error of 90.00 degrees
+    let (_, stdout, stderr) = run(&[
+        "run",
+        "scenarios/sweep-500-axes.toml",
+        "--plant",
+        "scenarios/prototype.toml",
+        "--json",
+        "--out",
+        "/dev/null",
+    ]);
+    let j: serde_json::Value = serde_json::from_str(stdout.trim()).expect(&stderr);
+    assert!(j["max_axis_error_deg"].as_f64().unwrap() < 5.0, "{j}");
+    let sc = load("scenarios/sweep-500-axes.toml");
+    let plant = load("scenarios/prototype.toml");
+    let s = plan_settings(&sc, &PlanOverrides::default()).unwrap();
+    let o = LoopOptions {
+        closed: false,
+        noise_deg: 0.0,
+        seed: 1,
+        max_steps: None,
+        identify: true,
+    };
+    let (mut csv, mut note) = (Vec::new(), Vec::new());
+    let report = Report {
+        file: None,
+        json: false,
+        out: &mut csv,
+        note: &mut note,
+    };
+    let summary = run_command(&sc, &plant, &s, &o, report).unwrap();
+    let text = String::from_utf8(csv).unwrap();
+    let rows: Vec<(f64, f64)> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[15].parse().unwrap(), f[16].parse().unwrap())
+        })
+        .collect();
+    // step 0: the offset, its axis error meaningless (and kept in the CSV)
+    assert!(
+        rows[0].0 > 0.5 && rows[0].0 < MIN_AXIS_ANGLE_DEG,
+        "{rows:?}"
+    );
+    assert!(rows[0].1 > 89.0, "{rows:?}");
+    let worst = rows
+        .iter()
+        .filter(|r| r.0.abs() >= MIN_AXIS_ANGLE_DEG)
+        .map(|r| r.1)
+        .fold(0.0, f64::max);
+    assert_eq!(summary.run.max_axis_error_deg, worst);
+    assert!(worst < 5.0, "{worst}");
+}

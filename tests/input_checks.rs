@@ -164,3 +164,139 @@ fn replay_refuses_zero_baud_and_bad_plans() {
     assert_eq!(code, 1, "{err}");
     assert_has(&err, &["step 0"]);
 }
+
+/// The physical prototype's `[magnets]` with `from` replaced by `to` (a line of the file).
+fn physical_with(from: &str, to: &str) -> String {
+    let text = std::fs::read_to_string("scenarios/prototype-physical.toml").unwrap();
+    assert!(text.contains(from), "{from}");
+    text.replace(from, to)
+}
+
+/// Issue item 8: a well whose strongest torque is below `settle.torque_tol` passes the settle
+/// test everywhere at t = 0: every set "held", pivot plans with settle time 0 at every step.
+/// Such a scenario is refused at load, naming the field that makes the well and the tolerance.
+#[test]
+fn a_well_weaker_than_the_torque_tolerance_is_refused() {
+    let t = tempfile::tempdir().unwrap();
+    // the issue's case: before, "settled: yes at t = 0.000000 s", outcome held
+    let weak = t.path().join("weak.toml");
+    std::fs::write(&weak, "[magnets]\nstrength_j = 1e-6\n").unwrap();
+    let (code, out, err) = run(&["settle", weak.to_str().unwrap(), "--pairs", "0:14;3:24"]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(!out.contains("settled: yes"), "{out}");
+    assert_has(
+        &err,
+        &["weak.toml", "`magnets.strength_j`", "settle.torque_tol"],
+    );
+    let e = load(t.path(), "[magnets]\nstrength_j = 1e-6\n").unwrap_err();
+    assert_has(
+        &e,
+        &[
+            "motor.toml",
+            "`magnets.strength_j`",
+            "settle.torque_tol = 0.0001 N m",
+            "got 3.4751",
+        ],
+    );
+    // the dipole of a coil with next to no turns: its peak torque is 1e-304 N m
+    let e = load(
+        t.path(),
+        &physical_with("coil_turns = 2000", "coil_turns = 1e-300"),
+    )
+    .unwrap_err();
+    assert_has(&e, &["`magnets`", "settle.torque_tol", "e-304 N m"]);
+    // a tolerance above the peak is the same mistake, and a weak well under a tighter
+    // tolerance is a scenario like any other (its settle takes time)
+    let e = load(t.path(), "[settle]\ntorque_tol = 1.0\n").unwrap_err();
+    assert_has(&e, &["`magnets.strength_j`", "settle.torque_tol = 1 N m"]);
+    let sc = load(
+        t.path(),
+        "[magnets]\nstrength_j = 1e-6\n[settle]\ntorque_tol = 1e-9\nomega_tol = 1e-6\n",
+    )
+    .unwrap();
+    let q0 = nalgebra::UnitQuaternion::from_scaled_axis(nalgebra::Vector3::new(0.02, 0.0, 0.0));
+    let r = spherestep::physics::dynamics::settle(
+        &sc.torques,
+        &parse_pairs("0:14;3:24", "--pairs").unwrap(),
+        &q0,
+        sc.body,
+        sc.settle,
+    );
+    assert!(r.settle_time_s > 0.0, "{r:?}");
+}
+
+/// Issue item 15: messages that named the wrong cause.
+#[test]
+fn messages_name_the_cause() {
+    let t = tempfile::tempdir().unwrap();
+    // an infinite current was blamed on coil_ampere_turns, a negative one too
+    for (bad, got) in [("inf", "got inf"), ("-0.8", "got -0.8")] {
+        let e = load(
+            t.path(),
+            &physical_with("coil_current_a = 0.8", &format!("coil_current_a = {bad}")),
+        )
+        .unwrap_err();
+        assert_has(&e, &["`magnets.coil_current_a`", got]);
+        assert!(!e.contains("coil_ampere_turns"), "{e}");
+    }
+    // a huge disc was blamed on magnet_moment_am2, its volume spelt out in 300 digits
+    let e = load(
+        t.path(),
+        &physical_with("magnet_diameter_m = 0.01905", "magnet_diameter_m = 1e300"),
+    )
+    .unwrap_err();
+    assert_has(&e, &["`magnets.magnet_diameter_m`", "volume", "1e300"]);
+    assert!(!e.contains("magnet_moment_am2") && e.len() < 300, "{e}");
+    // "expected the parts attract nowhere" said the opposite of what was expected
+    let e = load(
+        t.path(),
+        &physical_with(
+            "coil_turns = 2000\ncoil_current_a = 0.8",
+            "coil_ampere_turns = 5e-324",
+        ),
+    )
+    .unwrap_err();
+    assert_has(
+        &e,
+        &["`magnets`: expected parts whose coil attracts a magnet"],
+    );
+    assert!(!e.contains("expected the parts attract nowhere"), "{e}");
+    // a missing rotor file named neither the scenario nor the field
+    let e = load(t.path(), "[rotor]\nfile = \"nope.csv\"\n").unwrap_err();
+    assert_has(&e, &["motor.toml", "`rotor.file`", "nope.csv"]);
+    // an empty board said "expected expected"
+    let e = load(t.path(), "[relay]\nboard = \"\"\n").unwrap_err();
+    assert_has(
+        &e,
+        &["`relay.board`: expected lcus, kmtronic, numato or modbus, got ''"],
+    );
+    let e = load(t.path(), "[[relay.boards]]\nboard = \"x\"\n").unwrap_err();
+    assert!(!e.contains("expected expected"), "{e}");
+    // more pairs per step than the supply powers: "no sequence within its budget", 0 settles
+    let (code, _, err) = run(&[
+        "plan",
+        "scenarios/prototype.toml",
+        "--pairs",
+        "5",
+        "--angle",
+        "30",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert_has(&err, &["--pairs", "5 pairs", "max_coils_on is 4"]);
+    assert!(!err.contains("budget"), "{err}");
+    let e = load(
+        t.path(),
+        "[plan]\npairs_per_step = 5\nmodel = \"dynamic\"\n",
+    )
+    .unwrap_err();
+    assert_has(&e, &["`plan.pairs_per_step`", "max_coils_on is 4"]);
+    // a well so strong that the motion overflows was "the step size collapsed"
+    let strong = t.path().join("strong.toml");
+    std::fs::write(&strong, "[magnets]\nstrength_j = 1e300\n").unwrap();
+    let (_, out, err) = run(&["settle", strong.to_str().unwrap(), "--pairs", "0:14;3:24"]);
+    assert_has(
+        &out,
+        &["overflowed double precision", "energy: -4.178940e299 J"],
+    );
+    assert!(!out.contains("collapsed") && out.len() < 600, "{out}{err}");
+}

@@ -279,3 +279,188 @@ fn pivot_plans_predict_each_steps_settle_time() {
         from = r.q;
     }
 }
+
+/// Issue item 7: near 180 degrees the cumulative angle wrapped (173.8 -> -175.1 -> -7.6, axis
+/// error 180), so the plan turned the ball some 352 degrees the long way round. It is tracked
+/// continuously: every step moves it by at most the step's own angle, it never runs backwards
+/// in these plans, and they stop where they pass the target, with the axis error of the turn.
+#[test]
+fn the_cumulative_angle_does_not_wrap_near_180_degrees() {
+    use spherestep::planning::planner::PlanSettings;
+    // the issue's command: before, exit 1 with a final angle of -7.62 and an axis error of 180
+    let (code, stdout, stderr) = common::run(&[
+        "plan",
+        "scenarios/prototype.toml",
+        "--model",
+        "pivot",
+        "--scheme",
+        "weighted",
+        "--angle",
+        "179",
+        "--json",
+        "--out",
+        "/dev/null",
+    ]);
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    let j: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    let last = j["final_angle_deg"].as_f64().unwrap();
+    assert!((178.5..209.0).contains(&last), "{j}");
+    assert!(j["max_axis_error_deg"].as_f64().unwrap() < 1e-9, "{j}");
+    let sc = load("scenarios/prototype.toml");
+    let with_angle = |axis: &str, scheme: &str, angle: f64| PlanSettings {
+        angle: Radians(angle.to_radians()),
+        ..settings(&sc, axis, scheme, "pivot", "2")
+    };
+    for (axis, scheme, angle, worst_bound) in [
+        ("0,0,1", "weighted", 179.0, 1e-9),
+        ("0,0,1", "weighted", 180.0, 1e-9),
+        ("0,0,1", "search", 180.0, 1e-9),
+        ("0,1,0", "max-angle", 175.0, 10.82),
+    ] {
+        let s = with_angle(axis, scheme, angle);
+        let p = plan(&sc.motor(), &s);
+        let what = format!("{axis} {scheme} {angle}");
+        assert!(p.reached, "{what}: {:?}", p.message);
+        for w in p.rows.windows(2) {
+            let (a, b) = (&w[0], &w[1]);
+            let moved = b.cum_angle_deg - a.cum_angle_deg;
+            assert!(
+                moved > 0.0 && moved <= b.step_angle_deg.abs() + 1e-6,
+                "{what}: step {} moved the cumulative angle by {moved} (step angle {})",
+                b.step,
+                b.step_angle_deg
+            );
+        }
+        let last = p.rows.last().unwrap();
+        assert!(
+            last.cum_angle_deg >= angle - 0.5 && last.cum_angle_deg < angle + 30.0,
+            "{what}: {}",
+            last.cum_angle_deg
+        );
+        assert!(
+            max_axis_error_deg(&p.rows) <= worst_bound,
+            "{what}: {}",
+            max_axis_error_deg(&p.rows)
+        );
+        // the plan stops at the first row past the target: no turn the long way round
+        let past = p
+            .rows
+            .iter()
+            .position(|r| r.cum_angle_deg >= angle - 0.5)
+            .unwrap();
+        assert_eq!(past, p.rows.len() - 1, "{what}");
+    }
+    // the measure itself: 185 degrees about Z, seen from 170, reads 185 with no axis error
+    use spherestep::model::geometry::rot_q;
+    use spherestep::planning::commutation::{cumulative, cumulative_from};
+    let z = unit(Vector3::z()).unwrap();
+    let q0 = nalgebra::UnitQuaternion::identity();
+    let q = rot_q(&z, Radians(185f64.to_radians()));
+    let (a, e) = cumulative(&q0, &q, &z);
+    assert!((a.0.to_degrees() + 175.0).abs() < 1e-9 && e.0.to_degrees() > 179.9);
+    let (a, e) = cumulative_from(&q0, &q, &z, 170f64.to_radians());
+    assert!((a.0.to_degrees() - 185.0).abs() < 1e-9, "{a:?}");
+    assert!(e.0.to_degrees() < 1e-9, "{e:?}");
+    // and unchanged away from the wrap
+    let q = rot_q(&z, Radians(40f64.to_radians()));
+    assert_eq!(cumulative_from(&q0, &q, &z, 0.3), cumulative(&q0, &q, &z));
+}
+
+/// Issue item 9: a step that never settles was written with the settle time t_max and nothing
+/// else; only `simulate` showed it. The plan row, the CSV (`settled`), the summary (JSON
+/// `unsettled_steps`, a warning line) and `replay` say so, and plan files without the column
+/// still read (as settled).
+#[test]
+fn a_step_that_never_settles_is_flagged_in_the_plan() {
+    use spherestep::io::planfile::parse_plan;
+    let sc = load("scenarios/prototype.toml");
+    let s = settings(&sc, "0,0,1", "weighted", "pivot", "2");
+    let p = plan(&sc.motor(), &s);
+    let flagged: Vec<usize> = p
+        .rows
+        .iter()
+        .filter(|r| !r.settled)
+        .map(|r| r.step)
+        .collect();
+    assert_eq!(flagged, vec![2]);
+    assert_eq!(p.rows[2].settle_time_s, sc.settle.t_max);
+    assert!(p
+        .rows
+        .iter()
+        .filter(|r| r.settled)
+        .all(|r| r.settle_time_s < sc.settle.t_max));
+    // the dynamics agrees: simulate leaves step 2 unsettled too
+    let sim = spherestep::planning::simulate::simulate(&sc.motor(), &p.rows);
+    assert!(!sim[2].settled);
+    assert_eq!(p.summary(&s).unsettled_steps, vec![2]);
+    // the CSV's last column, read back; a file without it reads as settled
+    let text = String::from_utf8(csv_bytes(&p)).unwrap();
+    assert!(text
+        .lines()
+        .next()
+        .unwrap()
+        .ends_with(",settle_time_s,settled"));
+    assert!(text.lines().nth(3).unwrap().ends_with(",5,false"), "{text}");
+    let back = parse_plan(&text, Path::new("p.csv")).unwrap();
+    let flags = |rows: &[spherestep::planning::plan::PlanRow]| -> Vec<(bool, f64)> {
+        rows.iter().map(|r| (r.settled, r.settle_time_s)).collect()
+    };
+    assert_eq!(flags(&back), flags(&p.rows));
+    let old: String = text
+        .lines()
+        .map(|l| &l[..l.rfind(',').unwrap()])
+        .collect::<Vec<_>>()
+        .join("\n");
+    let back = parse_plan(&old, Path::new("old.csv")).unwrap();
+    assert!(back.iter().all(|r| r.settled) && back.len() == p.rows.len());
+    let bad = text.replace(",5,false", ",5,maybe");
+    let e = parse_plan(&bad, Path::new("p.csv"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("line 4") && e.contains("`settled`"), "{e}");
+    // the command line: the warning line and the JSON key
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.csv");
+    let out = out.to_str().unwrap();
+    let args = [
+        "plan",
+        "scenarios/prototype.toml",
+        "--model",
+        "pivot",
+        "--scheme",
+        "weighted",
+        "--out",
+        out,
+    ];
+    let (code, stdout, stderr) = common::run(&args);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("warning: step 2 never settled within t_max (5 s)"),
+        "{stdout}"
+    );
+    let (code, stdout, _) = common::run(&[&args[..], &["--json"]].concat());
+    assert_eq!(code, 0);
+    let j: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(j["unsettled_steps"], serde_json::json!([2]));
+    // replay's dwell of that step says where it comes from
+    let relay = dir.path().join("relay.toml");
+    std::fs::write(
+        &relay,
+        "[relay]\nboard = \"numato\"\nchannels = 16\nmax_on_time_s = 86400\n",
+    )
+    .unwrap();
+    let (code, stdout, stderr) =
+        common::run(&["replay", out, relay.to_str().unwrap(), "--dry-run"]);
+    assert_eq!(code, 0, "{stderr}");
+    let dwell2 = stdout
+        .lines()
+        .find(|l| l.contains("    2 dwell"))
+        .unwrap_or_default();
+    assert!(
+        dwell2.ends_with("dwell 7500 ms (the step never settled in the plan: its settle time is t_max, not a settle)"),
+        "{stdout}"
+    );
+    assert!(!stdout
+        .lines()
+        .any(|l| l.contains("    3 dwell") && l.contains("never settled")));
+}

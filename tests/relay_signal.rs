@@ -80,6 +80,49 @@ fn sigterm_mid_replay_sends_all_off_and_fails() {
     signal_mid_replay("-TERM");
 }
 
+/// Issue item 16: `q` in step mode quits on purpose: every coil off, where to resume said, and
+/// exit status 0 (the README said non-zero; quitting is what was asked, not a failure).
+#[test]
+fn q_in_step_mode_quits_with_all_off_and_status_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = short_plan(dir.path());
+    let sc = scenario(dir.path(), "board = \"lcus\"\nchannels = 4");
+    let (mut board, computer) = pty();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_spherestep"))
+        .arg("replay")
+        .arg(&plan)
+        .arg(&sc)
+        .args(["--port", &path_of(&computer), "--mode", "step"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Enter for step 0, then q before step 1
+    let mut stdin = child.stdin.take().unwrap();
+    stdin.write_all(b"\nq\n").unwrap();
+    drop(stdin);
+    let off: Vec<u8> = (1..=4u8).flat_map(|c| [0xA0, c, 0x00, 0xA0 + c]).collect();
+    let mut expected = off.clone();
+    expected.extend([0xA0, 0x01, 0x01, 0xA2, 0xA0, 0x02, 0x01, 0xA3]);
+    expected.extend(&off);
+    assert_eq!(read_n(&mut board, expected.len()), expected);
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("quit before step 1; all coils off; resume with --from-step 1"),
+        "{stdout}"
+    );
+    assert!(leftover(&mut board).is_empty());
+    drop(computer);
+}
+
 #[test]
 fn dry_run_prints_frames_without_a_port() {
     let dir = tempfile::tempdir().unwrap();

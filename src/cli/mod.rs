@@ -37,20 +37,20 @@ pub struct LoopArgs {
     /// noise) and, where it strays from the plan, replan the rest towards the same goal.
     #[arg(long)]
     pub closed_loop: bool,
-    /// The sensor's noise, degrees: each measurement turned about a random axis by a normally
-    /// distributed angle of this standard deviation.
-    #[arg(long, default_value_t = 0.0)]
+    /// With --closed-loop: the sensor's noise, degrees (0 to 10): each measurement turned
+    /// about a random axis by a normally distributed angle of this standard deviation.
+    #[arg(long, default_value_t = 0.0, requires = "closed_loop")]
     pub sensor_noise_deg: f64,
-    /// Seed of the sensor's noise (the same seed, the same run).
-    #[arg(long, default_value_t = 1)]
+    /// With --closed-loop: seed of the sensor's noise (the same seed, the same run).
+    #[arg(long, default_value_t = 1, requires = "closed_loop")]
     pub seed: u64,
-    /// At most this many steps in closed loop (default: twice the planned steps).
-    #[arg(long)]
+    /// With --closed-loop: at most this many steps (default: twice the planned steps).
+    #[arg(long, requires = "closed_loop")]
     pub max_steps: Option<usize>,
-    /// Closed loop: do not fit the wells to the measured steps (by default, once the model's
-    /// predictions are off by more than the replan threshold, the loop steers with the wells
-    /// that predict the measured steps best).
-    #[arg(long)]
+    /// With --closed-loop: do not fit the wells to the measured steps (by default, once the
+    /// model's predictions are off by more than the replan threshold, the loop steers with the
+    /// wells that predict the measured steps best).
+    #[arg(long, requires = "closed_loop")]
     pub no_identify: bool,
 }
 

@@ -53,13 +53,21 @@ pub struct RunSummary {
     pub run: crate::planning::closed_loop::LoopSummary,
 }
 
-/// The loop's settings from the options, checked.
-pub fn loop_settings(o: &LoopOptions, planned_steps: usize) -> Result<LoopSettings> {
-    if !(o.noise_deg.is_finite() && (0.0..=45.0).contains(&o.noise_deg)) {
+/// The largest sensor noise accepted, degrees. The loop's thresholds grow with the noise
+/// (replan beyond, and done within, twice it): at 10 degrees of noise a run counts as reached
+/// within 20 degrees of the goal, and a noisier sensor cannot tell a step from the noise (the
+/// prototype's steps turn 10 to 30 degrees), so it is refused rather than reported as reached.
+pub const MAX_SENSOR_NOISE_DEG: f64 = 10.0;
+
+/// Checks the loop's options, before anything is computed: the noise within
+/// [0, [`MAX_SENSOR_NOISE_DEG`]] degrees, at least one step.
+pub fn check_loop_options(o: &LoopOptions) -> Result<()> {
+    if !(o.noise_deg.is_finite() && (0.0..=MAX_SENSOR_NOISE_DEG).contains(&o.noise_deg)) {
         return Err(Error::Arg {
             arg: "--sensor-noise-deg".into(),
             expected: format!(
-                "a noise in [0, 45] degrees, got {}",
+                "a noise in [0, {MAX_SENSOR_NOISE_DEG}] degrees (the goal tolerance is twice \
+                 it), got {}",
                 crate::error::shown(o.noise_deg)
             ),
         });
@@ -70,6 +78,12 @@ pub fn loop_settings(o: &LoopOptions, planned_steps: usize) -> Result<LoopSettin
             expected: "a whole number >= 1, got 0".into(),
         });
     }
+    Ok(())
+}
+
+/// The loop's settings from the options, checked.
+pub fn loop_settings(o: &LoopOptions, planned_steps: usize) -> Result<LoopSettings> {
+    check_loop_options(o)?;
     let noise = Radians(o.noise_deg.to_radians());
     Ok(if o.closed {
         let max = o.max_steps.unwrap_or(2 * planned_steps.max(1));
@@ -92,6 +106,7 @@ pub fn run_command(
     report: Report,
 ) -> Result<RunSummary> {
     sc.check_same_packings(plant, "--plant")?;
+    check_loop_options(o)?;
     let p = plan(&sc.motor(), settings);
     if p.rows.len() < 2 {
         return Err(Error::Arg {
@@ -118,6 +133,7 @@ pub fn simulate_closed_loop(
     report: Report,
 ) -> Result<RunSummary> {
     sc.check_same_packings(plant, "--plant")?;
+    check_loop_options(o)?;
     let f = plan_file_loop(sc, settings, read_plan(plan_path)?, plan_path)?;
     play(sc, plant, &f.settings, &f.plan, f.goal, o, report)
 }

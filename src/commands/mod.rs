@@ -11,7 +11,7 @@ use crate::error::{printable, Error, Result};
 use crate::io::output::emit_csv;
 use crate::io::planfile::{read_plan, write_plan};
 use crate::io::scenario::{
-    check_pairs_per_step, default_pairs_per_step, parse_axis, parse_orientation,
+    check_pairs_per_step, check_supply, default_pairs_per_step, parse_axis, parse_orientation,
     parse_pairs_per_step, Scenario,
 };
 use crate::io::table::write_csv;
@@ -198,10 +198,15 @@ pub fn settle_one(
             or_none(&h.not_held)
         )
         .map_err(&w)?;
+        // ordinary energies to the nanojoule, extreme ones (an overflowing well) in exponent form
+        let energy = match r.energy_j.abs() {
+            e if e.is_finite() && e < 1e15 => format!("{:.9}", r.energy_j),
+            _ => format!("{:.6e}", r.energy_j),
+        };
         writeln!(
             out,
-            "energy: {:.9} J  residual torque: {:.3e} N m",
-            r.energy_j, r.residual_torque_nm
+            "energy: {energy} J  residual torque: {:.3e} N m",
+            r.residual_torque_nm
         )
         .map_err(&w)?;
     }
@@ -328,6 +333,10 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
         arg: "--pairs".into(),
         expected: m,
     })?;
+    check_supply(s.pairs, s.limits.max_coils_on).map_err(|m| Error::Arg {
+        arg: "--pairs".into(),
+        expected: format!("{m} (in {})", sc.path.display()),
+    })?;
     if let Some(f) = &o.from {
         s.start = parse_orientation(f, "--from")?;
     }
@@ -381,8 +390,28 @@ pub fn plan_command(
             text.push_str(&format!(": {m}"));
         }
         writeln!(out, "{text}").map_err(&w)?;
+        if let Some(warning) = unsettled_warning(&s.unsettled_steps, sc.settle.t_max) {
+            writeln!(out, "{warning}").map_err(&w)?;
+        }
     }
     Ok(p)
+}
+
+/// The warning for a plan's steps that do not settle within t_max (`None` when all do).
+pub fn unsettled_warning(steps: &[usize], t_max: f64) -> Option<String> {
+    let (last, rest) = steps.split_last()?;
+    let list = match rest.is_empty() {
+        true => format!("step {last}"),
+        false => {
+            let rest: Vec<String> = rest.iter().map(|k| k.to_string()).collect();
+            format!("steps {} and {last}", rest.join(", "))
+        }
+    };
+    Some(format!(
+        "warning: {list} never settled within t_max ({} s): the settle time written is t_max, \
+         not a settle time (settled = false in the CSV); `simulate` shows where the ball goes",
+        crate::error::shown(t_max)
+    ))
 }
 
 /// Reads the plan at `plan_path`, checks its pairs against the scenario and replays it in the

@@ -117,7 +117,11 @@ fn csv_header(text: &str) -> Vec<String> {
 /// column, else an error naming what was found and what is expected.
 fn csv_kind(header: &[String], csv_path: &Path) -> Result<Kind> {
     let has = |c: &str| header.iter().any(|h| h == c);
-    if planfile::HEADER.iter().all(|c| has(c)) {
+    // a plan file from before the `settled` column is a plan file all the same
+    if planfile::HEADER[..planfile::REQUIRED]
+        .iter()
+        .all(|c| has(c))
+    {
         return Ok(Kind::Plan);
     }
     if SWEEP_COLUMNS.iter().all(|c| has(c)) {
@@ -137,7 +141,7 @@ fn csv_kind(header: &[String], csv_path: &Path) -> Result<Kind> {
             "not a plan, sweep or run CSV (found {found}); expected a plan CSV with the \
              columns {}, a sweep CSV with the columns {} (and optionally scheme), or a run CSV \
              with the columns {}",
-            planfile::HEADER.join(", "),
+            planfile::HEADER[..planfile::REQUIRED].join(", "),
             SWEEP_COLUMNS.join(", "),
             loopfile::HEADER.join(", ")
         ),

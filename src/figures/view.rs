@@ -359,6 +359,7 @@ mod tests {
                 cum_angle_deg: 5.73 * k as f64,
                 cum_axis_error_deg: 0.2,
                 settle_time_s: 0.3,
+                settled: true,
             })
             .collect()
     }

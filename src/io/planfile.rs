@@ -1,10 +1,14 @@
 //! The plan file: one CSV row per commutation step, written by `plan` and read by `simulate`,
 //! `replay` and `view`. Columns:
 //! `step, pivot_coil, pivot_magnet, new_coil, new_magnet, active, qx, qy, qz, qw,
-//!  step_angle_deg, step_axis_error_deg, cum_angle_deg, cum_axis_error_deg, settle_time_s`.
+//!  step_angle_deg, step_axis_error_deg, cum_angle_deg, cum_axis_error_deg, settle_time_s,
+//!  settled`.
 //! Step 0 is the initial commutation state (no pivot; its pairs are the "new" ones). `active`
 //! (pairs `coil:magnet` joined by `;`) is what is energised after the step and is authoritative;
 //! `new_coil`/`new_magnet` list the newly energised pairs, joined by `;` when there are several.
+//! `settled` (`true`/`false`) says whether the step settles in the dynamics within t_max (a
+//! pivot plan's geometric step may not: its `settle_time_s` is then t_max). Files written
+//! before the column was added read as settled throughout.
 
 use crate::error::{Error, Result};
 use crate::io::table::{write_csv, Row, Table};
@@ -14,7 +18,7 @@ use std::io::Write;
 use std::path::Path;
 
 /// The plan CSV header, in column order.
-pub const HEADER: [&str; 15] = [
+pub const HEADER: [&str; 16] = [
     "step",
     "pivot_coil",
     "pivot_magnet",
@@ -30,7 +34,12 @@ pub const HEADER: [&str; 15] = [
     "cum_angle_deg",
     "cum_axis_error_deg",
     "settle_time_s",
+    "settled",
 ];
+
+/// The columns every plan file has; the last of [`HEADER`] (`settled`) may be missing, in a
+/// file written before it was added.
+pub const REQUIRED: usize = 15;
 
 fn join(v: impl Iterator<Item = String>) -> String {
     v.collect::<Vec<_>>().join(";")
@@ -61,6 +70,7 @@ fn plan_record(r: &PlanRow) -> Vec<String> {
         r.cum_angle_deg.to_string(),
         r.cum_axis_error_deg.to_string(),
         r.settle_time_s.to_string(),
+        r.settled.to_string(),
     ]
 }
 
@@ -73,13 +83,14 @@ pub fn read_plan(path: &Path) -> Result<Vec<PlanRow>> {
 /// Parses plan CSV text (`path` names it in errors): steps 0, 1, 2, ... in order.
 pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
     let t = Table::parse(text, path)?;
-    let idx: Vec<usize> = HEADER
+    let idx: Vec<usize> = HEADER[..REQUIRED]
         .iter()
         .map(|h| t.require(h, ""))
         .collect::<Result<_>>()?;
+    let settled = t.column(HEADER[REQUIRED]);
     let mut rows: Vec<PlanRow> = Vec::new();
     for r in t.rows() {
-        let row = plan_row(&r, &idx)?;
+        let row = plan_row(&r, &idx, settled)?;
         let expected = rows.last().map_or(0, |p| p.step + 1);
         if row.step != expected {
             return Err(r.error(match rows.last() {
@@ -99,8 +110,9 @@ pub fn parse_plan(text: &str, path: &Path) -> Result<Vec<PlanRow>> {
     Ok(rows)
 }
 
-/// One row of a plan file; `idx` holds the columns of [`HEADER`].
-fn plan_row(r: &Row, idx: &[usize]) -> Result<PlanRow> {
+/// One row of a plan file; `idx` holds the required columns of [`HEADER`], `settled` the
+/// column `settled` if the file has it.
+fn plan_row(r: &Row, idx: &[usize], settled: Option<usize>) -> Result<PlanRow> {
     let num = |k: usize| r.finite(idx[k], HEADER[k]);
     let q = orientation_from_xyzw(num(6)?, num(7)?, num(8)?, num(9)?)
         .ok_or_else(|| r.error("columns `qx..qw`: expected a non-zero quaternion".into()))?;
@@ -122,6 +134,15 @@ fn plan_row(r: &Row, idx: &[usize]) -> Result<PlanRow> {
         cum_angle_deg: num(12)?,
         cum_axis_error_deg: num(13)?,
         settle_time_s,
+        settled: match settled.map(|c| r.get(c).trim()) {
+            None | Some("true") => true,
+            Some("false") => false,
+            Some(other) => {
+                return Err(r.error(format!(
+                    "column `settled`: expected true or false, got '{other}'"
+                )))
+            }
+        },
     })
 }
 
@@ -203,6 +224,7 @@ mod tests {
                 cum_angle_deg: 0.0,
                 cum_axis_error_deg: 0.0,
                 settle_time_s: 0.12,
+                settled: true,
             },
             PlanRow {
                 step: 1,
@@ -215,6 +237,7 @@ mod tests {
                 cum_angle_deg: 11.459,
                 cum_axis_error_deg: 0.5,
                 settle_time_s: 0.2,
+                settled: false,
             },
         ]
     }
@@ -233,6 +256,7 @@ mod tests {
         assert_eq!(back[1].active, rows[1].active);
         assert!((back[1].q.angle_to(&rows[1].q)) < 1e-15);
         assert_eq!(back[1].step_angle_deg, 11.459);
+        assert!(back[0].settled && !back[1].settled);
     }
 
     #[test]

@@ -304,6 +304,7 @@ impl Scenario {
             well: well_and_interaction.0,
             interaction: well_and_interaction.1,
         };
+        ck.well_scale(&torques.well, &settle)?;
         let plan = ck.plan(raw.plan.unwrap_or_default(), &torques)?;
         let sweep = match raw.sweep {
             None => None,
@@ -461,6 +462,21 @@ pub fn check_pairs_per_step(
             "2 to {limit} coils on after each step for the coil-set model, got {pairs}"
         )),
     }
+}
+
+/// Checks pairs (or coils) per step against the supply: a step's set is on after it, so a step
+/// of more than `max_coils_on` pairs can never be switched (the search would find no step
+/// and blame its budget).
+pub fn check_supply(pairs: PairsPerStep, max_coils_on: usize) -> std::result::Result<(), String> {
+    if pairs.min <= max_coils_on {
+        return Ok(());
+    }
+    Err(format!(
+        "pairs per step the supply can switch: {pairs} pairs (coils) on after a step need at \
+         least {} coils on at once, and plan.max_coils_on is {max_coils_on} (a step's new \
+         coils go on before the held ones go off)",
+        pairs.min
+    ))
 }
 
 /// Parses pairs per step written `K` (exactly K) or `2-K` (2 to K, chosen per step).
@@ -674,7 +690,15 @@ impl Checker<'_> {
             Packing { points: pts }
         } else if let Some(file) = raw.file {
             let path = self.relative(&file);
-            let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                self.err(
+                    &format!("{section}.file"),
+                    format!(
+                        "a readable CSV of x,y,z unit vectors, got {}: {e}",
+                        path.display()
+                    ),
+                )
+            })?;
             self.read.borrow_mut().push(path.clone());
             packing::parse_points_csv(&text).map_err(|m| {
                 self.err(
@@ -805,18 +829,55 @@ impl Checker<'_> {
                 Some(x) => self.positive(&field, Some(x), 0.0),
             }
         };
+        // a product of valid values may still overflow (or vanish): named by what was given
+        let finite = |field: &str, what: &str, v: f64, parts: String| {
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else {
+                Err(self.err(
+                    field,
+                    format!(
+                        "a magnet whose {what} is a finite number > 0, got {} from {parts}",
+                        crate::error::shown(v)
+                    ),
+                ))
+            }
+        };
         let moment = match (raw.magnet_moment_am2, raw.remanence_t) {
             (Some(m), None) => self.positive("magnets.magnet_moment_am2", Some(m), 0.0)?,
             (None, Some(br)) => {
                 let br = self.positive("magnets.remanence_t", Some(br), 0.0)?;
-                let volume = match raw.magnet_volume_m3 {
-                    Some(v) => self.positive("magnets.magnet_volume_m3", Some(v), 0.0)?,
-                    None => disc_volume(
-                        required("magnet_diameter_m", raw.magnet_diameter_m, "a disc's diameter (m), or magnet_volume_m3,")?,
-                        required("magnet_thickness_m", raw.magnet_thickness_m, "a disc's thickness (m), or magnet_volume_m3,")?,
+                let (volume, size) = match raw.magnet_volume_m3 {
+                    Some(v) => (
+                        self.positive("magnets.magnet_volume_m3", Some(v), 0.0)?,
+                        "magnets.magnet_volume_m3",
                     ),
+                    None => {
+                        let d = required("magnet_diameter_m", raw.magnet_diameter_m, "a disc's diameter (m), or magnet_volume_m3,")?;
+                        let t = required("magnet_thickness_m", raw.magnet_thickness_m, "a disc's thickness (m), or magnet_volume_m3,")?;
+                        let v = finite(
+                            "magnets.magnet_diameter_m",
+                            "volume (m^3)",
+                            disc_volume(d, t),
+                            format!(
+                                "magnet_diameter_m = {} and magnet_thickness_m = {}",
+                                crate::error::shown(d),
+                                crate::error::shown(t)
+                            ),
+                        )?;
+                        (v, "magnets.magnet_diameter_m")
+                    }
                 };
-                magnet_moment_from_remanence(br, volume)
+                finite(
+                    size,
+                    "moment Br V / mu0 (A m^2)",
+                    magnet_moment_from_remanence(br, volume),
+                    format!(
+                        "remanence_t = {} and a volume of {} m^3",
+                        crate::error::shown(br),
+                        crate::error::shown(volume)
+                    ),
+                )?
             }
             (Some(_), Some(_)) => {
                 return Err(self.err(
@@ -833,7 +894,31 @@ impl Checker<'_> {
         };
         let turns_amps = match (raw.coil_ampere_turns, raw.coil_turns, raw.coil_current_a) {
             (Some(ni), None, None) => ni,
-            (None, Some(n), Some(i)) => self.positive("magnets.coil_turns", Some(n), 0.0)? * i,
+            (None, Some(n), Some(i)) => {
+                let n = self.positive("magnets.coil_turns", Some(n), 0.0)?;
+                if !(i.is_finite() && i > 0.0) {
+                    return Err(self.err(
+                        "magnets.coil_current_a",
+                        format!(
+                            "a finite current > 0 (A; a well is a coil that attracts), got {}",
+                            crate::error::shown(i)
+                        ),
+                    ));
+                }
+                let ni = n * i;
+                if !(ni.is_finite() && ni > 0.0) {
+                    return Err(self.err(
+                        "magnets.coil_turns",
+                        format!(
+                            "coil_turns x coil_current_a finite and > 0, got {} x {} A = {} A",
+                            crate::error::shown(n),
+                            crate::error::shown(i),
+                            crate::error::shown(ni)
+                        ),
+                    ));
+                }
+                ni
+            }
             _ => {
                 return Err(self.err(
                     "magnets.coil_ampere_turns",
@@ -984,6 +1069,12 @@ impl Checker<'_> {
         let count = |field: &str, v: Option<usize>, default: usize| self.count(field, v, default);
         let angle_field =
             |field: &str, v: Option<f64>, default: Radians| self.small_angle(field, v, default);
+        let limits = self.step_limits(&raw)?;
+        let supply_field = match (raw.pairs_per_step, raw.max_pairs_per_step) {
+            (None, None) => "plan.max_coils_on",
+            _ => field,
+        };
+        check_supply(pairs, limits.max_coils_on).map_err(|m| self.err(supply_field, m))?;
         Ok(PlanSettings {
             axis,
             angle,
@@ -991,7 +1082,7 @@ impl Checker<'_> {
             model,
             pairs,
             start,
-            limits: self.step_limits(&raw)?,
+            limits,
             max_steps: count("plan.max_steps", raw.max_steps, 200)?,
             beam_width: count("plan.beam_width", raw.beam_width, 24)?,
             settle_budget: count(
@@ -1057,7 +1148,11 @@ impl Checker<'_> {
             "model",
             raw.models,
             vec![(plan.model, plan.pairs)],
-            |f, n| self.sweep_model(f, n),
+            |f, n| {
+                let m = self.sweep_model(f, n)?;
+                check_supply(m.1, plan.limits.max_coils_on).map_err(|e| self.err(f, e))?;
+                Ok(m)
+            },
         )?;
         Ok(Sweep {
             axes,
@@ -1117,6 +1212,31 @@ impl Checker<'_> {
         };
         check_pairs_per_step(m.0, m.1).map_err(|e| self.err(field, e))?;
         Ok(m)
+    }
+
+    /// The settle test holds wherever the torque is below `settle.torque_tol`: a well whose
+    /// strongest torque is below it would hold the ball anywhere at t = 0, so such a scenario
+    /// is refused, naming what makes the well (`strength_j`, the table, the parts).
+    fn well_scale(&self, well: &Well, settle: &SettleParams) -> Result<()> {
+        let peak = well.peak_torque();
+        if peak.is_finite() && peak > settle.torque_tol {
+            return Ok(());
+        }
+        let field = match well.shape() {
+            WellShape::Gaussian { .. } | WellShape::Cosine { .. } => "magnets.strength_j",
+            WellShape::Table(_) => "magnets.table",
+            WellShape::Dipole(_) => "magnets",
+        };
+        Err(self.err(
+            field,
+            format!(
+                "a well whose strongest torque (one coil on one magnet, within the cut-off) \
+                 is above settle.torque_tol = {} N m, got {} N m: weaker, every orientation \
+                 would pass the settle test at once and count as held",
+                crate::error::shown(settle.torque_tol),
+                crate::error::shown(peak)
+            ),
+        ))
     }
 
     fn settle(&self, raw: RawSettle) -> Result<SettleParams> {

@@ -125,6 +125,9 @@ pub enum Stop {
     StepLimit,
     /// The step size collapsed: the tolerances cannot be met in double precision.
     StepSizeUnderflow,
+    /// The motion overflowed double precision (a torque, speed or error estimate beyond
+    /// 1e308): the wells are far too strong for the body, not the tolerances too tight.
+    Overflow,
     /// No strict minimum holds the ball (a direction is free: a pair out of reach, a magnet at
     /// its well's cut-off), and [`SettleParams::follow_unheld`] said not to follow it.
     Unheld,
@@ -137,7 +140,14 @@ impl Stop {
             Stop::Settled => "settled",
             Stop::TimeLimit => "not settled by t_max",
             Stop::StepLimit => "stopped by the cap on integrator steps",
-            Stop::StepSizeUnderflow => "stopped: the step size collapsed (tolerances too tight?)",
+            Stop::StepSizeUnderflow => {
+                "stopped: the step size collapsed (tolerances too tight, or wells far too stiff \
+                 for the body's inertia?)"
+            }
+            Stop::Overflow => {
+                "stopped: the motion overflowed double precision (torques or speeds beyond \
+                 1e308: wells far too strong for the body; check the [magnets] values)"
+            }
             Stop::Unheld => "not held: no strict minimum holds the ball (not followed further)",
         }
     }
@@ -150,6 +160,7 @@ impl From<End> for Stop {
             End::TimeLimit => Stop::TimeLimit,
             End::StepLimit => Stop::StepLimit,
             End::StepSizeUnderflow => Stop::StepSizeUnderflow,
+            End::Overflow => Stop::Overflow,
         }
     }
 }
@@ -1188,13 +1199,21 @@ fn finish<M: TorqueModel>(
     let q = UnitQuaternion::from_quaternion(Quaternion::new(y[3], y[0], y[1], y[2]));
     let r = q.to_rotation_matrix();
     let (tau, energy) = model.torque_energy(r.matrix(), active);
+    let residual = tau.norm();
+    // a settle that stopped where the torque (or the state) is not finite overflowed, whatever
+    // the stepper took it for (Dopri5 reports a collapsed step)
+    let overflowed = !(residual.is_finite() && y.iter().all(|v| v.is_finite()));
+    let stop = match stop {
+        Stop::StepSizeUnderflow | Stop::StepLimit if overflowed => Stop::Overflow,
+        s => s,
+    };
     SettleResult {
         q,
         settle_time_s: t,
         evaluations,
         steps,
         energy_j: energy,
-        residual_torque_nm: tau.norm(),
+        residual_torque_nm: residual,
         settled: stop == Stop::Settled,
         stop,
     }

@@ -46,9 +46,11 @@ pub enum End {
     /// [`MAX_ATTEMPTS`] steps were tried: a bounded cost whatever the problem's stiffness or
     /// the tolerances asked (an inertia of 1e-12 needs steps of picoseconds).
     StepLimit,
-    /// The step size fell below 1e-14 t_max (or the error was not finite): the tolerances
-    /// cannot be met in double precision.
+    /// The step size fell below 1e-14 t_max: the tolerances cannot be met in double precision.
     StepSizeUnderflow,
+    /// The error estimate was not finite: the state or its rate overflowed double precision
+    /// (torques near 1e300 N m), which no smaller step mends.
+    Overflow,
 }
 
 /// The most steps (accepted or rejected) one integration tries: 3 evaluations each.
@@ -132,7 +134,7 @@ where
         }
         let err = (sum / N as f64).sqrt();
         if !err.is_finite() {
-            end = End::StepSizeUnderflow;
+            end = End::Overflow;
             break;
         }
         if err <= 1.0 {

@@ -569,7 +569,9 @@ impl DipoleWell {
         let (d, g) = well.find_peak();
         if g.is_nan() || g <= 0.0 {
             return Err(format!(
-                "the parts attract nowhere (largest torque {g} N m): check their values"
+                "parts whose coil attracts a magnet somewhere, got a largest pull of {} N m \
+                 (they attract nowhere): check their values",
+                crate::error::shown(g)
             ));
         }
         well.peak_d = d;

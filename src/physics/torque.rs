@@ -524,6 +524,32 @@ impl Well {
         self.pair_torque(&p, &s, -2.0).dot(&(pull / n))
     }
 
+    /// The largest |g(d)| within the cut-off (N m): the strongest torque one coil exerts on
+    /// one magnet, the scale of every torque of the well (a table's largest entry in reach, a
+    /// push included).
+    pub fn peak_torque(&self) -> f64 {
+        let d_max = self.max_attraction.0.min(std::f64::consts::PI);
+        let at = |d: f64| self.g_uncut(d.min(d_max)).abs();
+        match &self.shape {
+            WellShape::Gaussian { width, .. } => at(width.0),
+            WellShape::Cosine { .. } => at(std::f64::consts::FRAC_PI_2),
+            WellShape::Table(t) => {
+                t.d.iter()
+                    .filter(|&&d| d <= d_max)
+                    .map(|&d| at(d))
+                    .fold(at(d_max), f64::max)
+            }
+            WellShape::Dipole(w) => {
+                let (d, g) = w.peak();
+                if d <= d_max {
+                    g.abs().max(at(d_max))
+                } else {
+                    at(d_max)
+                }
+            }
+        }
+    }
+
     /// Stiffness dg/dd at d = 0 (N m / rad): how hard a single aligned pair holds.
     pub fn stiffness(&self) -> f64 {
         match &self.shape {

@@ -9,7 +9,7 @@ use crate::model::geometry::{rot_q, rotation_angle, rotation_axis, Orientation};
 use crate::model::geometry::{Pair, Radians, UnitVec};
 use crate::physics::dynamics::settle;
 use crate::planning::coilsets::{coils_of, label};
-use crate::planning::commutation::{cumulative, CommutationState, Motor, Step};
+use crate::planning::commutation::{cumulative, cumulative_from, CommutationState, Motor, Step};
 use crate::planning::identify::{Candidate, Identifier, Observation};
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::planner::plan_from;
@@ -102,7 +102,8 @@ pub struct LoopSummary {
     /// The true orientation's angle from the goal at the end, degrees.
     pub final_error_deg: f64,
     pub final_angle_deg: f64,
-    /// Worst true cumulative axis error over the steps, degrees.
+    /// Worst true cumulative axis error over the steps that turned the ball at least
+    /// [`MIN_AXIS_ANGLE_DEG`], degrees.
     pub max_axis_error_deg: f64,
     pub replans: usize,
     /// Within the goal tolerance by the measurement at the end.
@@ -367,6 +368,7 @@ impl<'a> Controller<'a> {
         let axis = &self.settings.axis;
         let mut rows = vec![first_row(&root)];
         let mut from = &root;
+        let mut cum = 0.0;
         for to in &path.states {
             let (angle, axis_error) = cumulative(&from.q, &to.q, axis);
             let step = Step {
@@ -381,11 +383,9 @@ impl<'a> Controller<'a> {
                 angle,
                 axis_error,
             };
-            rows.push(step_row(
-                rows.len(),
-                &step,
-                cumulative(measured, &to.q, axis),
-            ));
+            let c = cumulative_from(measured, &to.q, axis, cum);
+            cum = c.0 .0;
+            rows.push(step_row(rows.len(), &step, c));
             from = to;
         }
         Ok(Plan {
@@ -614,6 +614,22 @@ fn no_run(message: &str) -> LoopRun {
     }
 }
 
+/// A cumulative rotation smaller than this (degrees) has no axis worth the name: its axis error
+/// is left out of a run's worst (the row keeps it). The ball held by the plant's initial set
+/// sits a fraction of a degree from where the model put it, and the axis of that offset
+/// points anywhere (a 0.6 degree offset 90 degrees off the axis); at 2 degrees such an offset
+/// still swings the axis by up to some 17 degrees, beyond 2 degrees less and less.
+pub const MIN_AXIS_ANGLE_DEG: f64 = 2.0;
+
+/// The worst true cumulative axis error over a run's rows, degrees, of the rows that have
+/// turned the ball at least [`MIN_AXIS_ANGLE_DEG`] either way (0 when none has).
+pub fn worst_axis_error_deg(rows: &[LoopRow]) -> f64 {
+    rows.iter()
+        .filter(|r| r.cum_angle_deg.abs() >= MIN_AXIS_ANGLE_DEG)
+        .map(|r| r.cum_axis_error_deg)
+        .fold(0.0, f64::max)
+}
+
 /// The rows of a simulated run as they come.
 struct Loop<'a> {
     settings: &'a PlanSettings,
@@ -630,7 +646,11 @@ impl Loop<'_> {
         res: &crate::physics::dynamics::SettleResult,
         replanned: bool,
     ) {
-        let (angle, err) = cumulative(&self.q0, &res.q, &self.settings.axis);
+        let before = self
+            .rows
+            .last()
+            .map_or(0.0, |r| r.cum_angle_deg.to_radians());
+        let (angle, err) = cumulative_from(&self.q0, &res.q, &self.settings.axis, before);
         self.rows.push(LoopRow {
             step: self.rows.len(),
             active: row.active.clone(),
@@ -652,11 +672,7 @@ impl Loop<'_> {
             steps: self.rows.len().saturating_sub(1),
             final_error_deg: last.map(|r| r.error_to_goal_deg).unwrap_or(f64::NAN),
             final_angle_deg: last.map(|r| r.cum_angle_deg).unwrap_or(0.0),
-            max_axis_error_deg: self
-                .rows
-                .iter()
-                .map(|r| r.cum_axis_error_deg)
-                .fold(0.0, f64::max),
+            max_axis_error_deg: worst_axis_error_deg(&self.rows),
             replans,
             reached,
             message,

@@ -202,6 +202,7 @@ impl StepSource for CoilSets<'_> {
             state,
             q0: state.q,
             worst: 0.0,
+            cum: 0.0,
         };
         self.weigh(&at, &self.ranked_sets(&at)).1
     }

@@ -795,9 +795,39 @@ pub fn initial_states(
         .collect()
 }
 
-/// Angle of the cumulative rotation R_k R_0^T (signed about `n`) and its axis error.
+/// Angle of the cumulative rotation R_k R_0^T (signed about `n`, in (-pi, pi]) and its axis
+/// error.
 pub fn cumulative(q0: &Orientation, qk: &Orientation, n: &UnitVec) -> (Radians, Radians) {
     step_measure(q0, qk, n)
+}
+
+/// The cumulative rotation R_k R_0^T of a motion whose cumulative angle about `n` was `before`
+/// (rad) one step earlier, tracked continuously along the steps: its angle is the one of the
+/// rotation's angles about `n` (the signed angle of [`cumulative`] plus a multiple of 2 pi)
+/// nearest `before`, so that a motion turning on past 180 degrees reads 185, not -175 (a step
+/// turns the cumulative angle by at most its own angle, under 180 degrees). Its axis error is
+/// measured against the axis the rotation turns positively about at that angle: unchanged
+/// where the angle is [`cumulative`]'s, else, when the sign changes, pi minus it (a turn of 185
+/// degrees about n is one of 175 about -n).
+pub fn cumulative_from(
+    q0: &Orientation,
+    qk: &Orientation,
+    n: &UnitVec,
+    before: f64,
+) -> (Radians, Radians) {
+    let (a, e) = cumulative(q0, qk, n);
+    let tau = std::f64::consts::TAU;
+    let m = ((before - a.0) / tau).round();
+    if m == 0.0 || !m.is_finite() {
+        return (a, e);
+    }
+    let c = a.0 + tau * m;
+    let e = if (a.0 >= 0.0) == (c >= 0.0) {
+        e.0
+    } else {
+        std::f64::consts::PI - e.0
+    };
+    (Radians(c), Radians(e))
 }
 
 /// The rotation axis of a step's rotation ΔR (`None` for no rotation).

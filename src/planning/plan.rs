@@ -23,8 +23,12 @@ pub struct PlanRow {
     pub step_axis_error_deg: f64,
     pub cum_angle_deg: f64,
     pub cum_axis_error_deg: f64,
-    /// Predicted settle time of the step, s.
+    /// Predicted settle time of the step, s (t_max where it does not settle).
     pub settle_time_s: f64,
+    /// Whether the step settles in the dynamics within t_max: a pivot plan's steps are the
+    /// geometry's, and one of them may not settle (its settle time is then t_max, not a settle
+    /// time). Plan files written before the column read as settled.
+    pub settled: bool,
 }
 
 /// The dynamic search's default budget, in settles.
@@ -78,10 +82,11 @@ impl Scheme {
 }
 
 /// The largest target angle a plan may ask for, degrees.
-/// A plan's progress is the angle of the cumulative rotation R_k R_0^T about the axis, which
-/// lies in (-180, 180] degrees: a turn of more than 180 degrees about an axis ends where one of
-/// less than 180 about the opposite axis does, and at 360 the cumulative rotation has no axis
-/// to measure an error against.
+/// A plan's progress is the angle of the cumulative rotation R_k R_0^T about the axis, tracked
+/// continuously along the steps (a plan that turns on past 180 degrees reads 185, not -175:
+/// [`crate::planning::commutation::cumulative_from`]); but a turn of more than 180 degrees
+/// about an axis ends where one of less than 180 about the opposite axis does, and at 360 the
+/// cumulative rotation has no axis to measure an error against.
 pub const MAX_TARGET_DEG: f64 = 180.0;
 
 /// A target angle given in degrees, checked to lie in (0, [`MAX_TARGET_DEG`]], or what was
@@ -155,6 +160,8 @@ pub struct PlanSummary {
     pub message: Option<String>,
     /// See [`Plan::settles`].
     pub settles: usize,
+    /// The steps that do not settle within t_max (their settle time is t_max).
+    pub unsettled_steps: Vec<usize>,
 }
 
 impl Plan {
@@ -170,8 +177,14 @@ impl Plan {
             pairs_per_step: s.pairs.max,
             message: self.message.clone(),
             settles: self.settles,
+            unsettled_steps: unsettled_steps(&self.rows),
         }
     }
+}
+
+/// The steps of a plan that do not settle within t_max.
+pub fn unsettled_steps(rows: &[PlanRow]) -> Vec<usize> {
+    rows.iter().filter(|r| !r.settled).map(|r| r.step).collect()
 }
 
 /// Sum of a plan's predicted settle times, s (0, not -0, for no rows).

@@ -97,7 +97,8 @@ impl StepSource for FromState<'_> {
 
 /// The settle time of each step of a geometric (pivot) plan, which its model does not predict:
 /// the dynamics' settle of the step's active set from the orientation the plan predicts before
-/// it (`start` for step 0), all steps in parallel. `replay` waits this long (times its factor).
+/// it (`start` for step 0), all steps in parallel, and whether it settles (a step that does not
+/// has t_max). `replay` waits this long (times its factor).
 fn predict_settle_times(motor: &Motor, rows: &mut [PlanRow], start: &Orientation) {
     if motor.cancel.is_cancelled() {
         return;
@@ -106,14 +107,15 @@ fn predict_settle_times(motor: &Motor, rows: &mut [PlanRow], start: &Orientation
         .chain(rows.iter().map(|r| r.q))
         .take(rows.len())
         .collect();
-    let times: Vec<f64> = rows
+    let times: Vec<(f64, bool)> = rows
         .par_iter()
         .zip(&froms)
         .map(|(r, from)| settle(motor.torques, &r.active, from, motor.body, motor.settle))
-        .map(|res| res.settle_time_s)
+        .map(|res| (res.settle_time_s, res.settled))
         .collect();
-    for (r, t) in rows.iter_mut().zip(times) {
+    for (r, (t, settled)) in rows.iter_mut().zip(times) {
         r.settle_time_s = t;
+        r.settled = settled;
     }
 }
 

@@ -5,7 +5,9 @@
 //! which steps lead on from a state and which states are one; the searches decide the rest.
 
 use crate::model::geometry::{Orientation, Pair, Radians};
-use crate::planning::commutation::{cumulative, CommutationState, Step, StepLimits};
+use crate::planning::commutation::{
+    cumulative, cumulative_from, CommutationState, Step, StepLimits,
+};
 use crate::planning::plan::PlanRow;
 use crate::planning::plan::{max_axis_error_deg, Plan, PlanSettings, Scheme};
 use rayon::prelude::*;
@@ -19,6 +21,9 @@ pub struct Frontier<'a> {
     pub q0: Orientation,
     /// Its worst cumulative axis error so far, rad.
     pub worst: f64,
+    /// Its cumulative angle about the axis so far, rad (tracked continuously: see
+    /// [`cumulative_from`]).
+    pub cum: f64,
 }
 
 /// A step model as the searches see it.
@@ -55,7 +60,7 @@ pub(crate) struct Node {
 
 impl Node {
     fn extend(&self, step: &Step, q0: &Orientation, s: &PlanSettings) -> Node {
-        let (ca, ce) = cumulative(q0, &step.to.q, &s.axis);
+        let (ca, ce) = cumulative_from(q0, &step.to.q, &s.axis, self.cum);
         let mut rows = self.rows.clone();
         let row = step_row(rows.len(), step, (ca, ce));
         rows.push(row);
@@ -72,6 +77,7 @@ impl Node {
             state: &self.state,
             q0: self.rows[0].q,
             worst: self.worst,
+            cum: self.cum,
         }
     }
 }
@@ -114,6 +120,7 @@ pub(crate) fn step_row(index: usize, step: &Step, cum: (Radians, Radians)) -> Pl
         cum_angle_deg: cum.0 .0.to_degrees(),
         cum_axis_error_deg: cum.1 .0.to_degrees(),
         settle_time_s: step.to.settle_time_s,
+        settled: true,
     }
 }
 
@@ -130,6 +137,7 @@ pub(crate) fn first_row(init: &CommutationState) -> PlanRow {
         cum_angle_deg: 0.0,
         cum_axis_error_deg: 0.0,
         settle_time_s: init.settle_time_s,
+        settled: true,
     }
 }
 
@@ -386,7 +394,7 @@ pub fn predicted_rank(at: &Frontier, qp: &Orientation, s: &PlanSettings) -> Opti
     if advance.0 <= 0.0 {
         return None;
     }
-    let (ca, ce) = cumulative(&at.q0, qp, &s.axis);
+    let (ca, ce) = cumulative_from(&at.q0, qp, &s.axis, at.cum);
     Some(rank(at.worst.max(ce.0), ca.0, s.angle.0))
 }
 

@@ -73,7 +73,8 @@ fn check_board(f: &Fields, i: usize, raw: BoardConfig) -> Result<BoardSpec> {
         }
         Some(s) => s
             .parse::<BoardKind>()
-            .map_err(|m| f.err(&field("board"), m))?,
+            // the parse error reads "expected ...": the field error says "expected" itself
+            .map_err(|m| f.err(&field("board"), m.trim_start_matches("expected ").into()))?,
     };
     let max = kind.max_channels();
     let channels = match raw.channels {

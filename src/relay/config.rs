@@ -217,7 +217,11 @@ struct SingleBoard {
 fn single_board(raw: &RelayConfig, f: &Fields) -> Result<SingleBoard> {
     let board = match raw.board.as_deref() {
         None => None,
-        Some(s) => Some(s.parse::<BoardKind>().map_err(|m| f.err("board", m))?),
+        // the parse error reads "expected ...": the field error says "expected" itself
+        Some(s) => Some(
+            s.parse::<BoardKind>()
+                .map_err(|m| f.err("board", m.trim_start_matches("expected ").to_string()))?,
+        ),
     };
     let max_channels = i64::from(super::modbus::MAX_CHANNELS);
     let channels = f

@@ -78,6 +78,9 @@ pub struct Entry {
     pub peak: usize,
     /// Time to wait after switching (realtime).
     pub dwell: Duration,
+    /// The dwell comes from a settle time that is no settle: the step never settled in the
+    /// plan (`settled = false`, its settle time t_max), so the replay says so when it waits.
+    pub unsettled: bool,
 }
 
 /// The whole replay, worked out and checked before anything is sent.
@@ -217,6 +220,7 @@ pub(super) fn entries_from(
             on_after: target.clone(),
             peak,
             dwell: dwell(row, settings, dwell_override),
+            unsettled: !row.settled && dwell_override.is_none(),
         });
         prev = target;
     }
@@ -367,12 +371,24 @@ pub(super) fn check_on_time(
             let held = on.entry(slot).or_insert((coil, e.step, Duration::ZERO));
             held.2 += e.dwell;
             if held.2 > max {
+                let unsettled: Vec<String> = entries
+                    .iter()
+                    .filter(|x| x.unsettled && (held.1..=e.step).contains(&x.step))
+                    .map(|x| x.step.to_string())
+                    .collect();
+                let unsettled = match unsettled.is_empty() {
+                    true => String::new(),
+                    false => format!(
+                        " (step {} never settled in the plan: its settle time is t_max)",
+                        unsettled.join(", ")
+                    ),
+                };
                 return Err(RelayError::OnTooLong {
                     coil,
                     board: listed.then_some(slot.board),
                     channel: slot.channel,
                     when: format!(
-                        "would stay on from step {} through step {} for",
+                        "would stay on from step {} through step {}{unsettled} for",
                         held.1, e.step
                     ),
                     on: held.2,
@@ -1408,7 +1424,11 @@ impl Runner<'_> {
     pub(super) fn dwell(&mut self, e: &Entry) -> Result<(), RelayError> {
         let t = format!("{:.3}", self.now().as_secs_f64());
         let ms = e.dwell.as_millis();
-        self.say(&format!("{t:>9} {:>5} dwell {ms} ms", e.step))?;
+        let why = match e.unsettled {
+            true => " (the step never settled in the plan: its settle time is t_max, not a settle)",
+            false => "",
+        };
+        self.say(&format!("{t:>9} {:>5} dwell {ms} ms{why}", e.step))?;
         self.wait(e.dwell)
     }
 
@@ -1508,6 +1528,7 @@ mod tests {
             cum_angle_deg: 0.0,
             cum_axis_error_deg: 0.0,
             settle_time_s: settle,
+            settled: true,
         }
     }
 
