@@ -196,9 +196,11 @@ pub fn signed_angle_about(q: &Orientation, n: &UnitVec) -> Radians {
     }
 }
 
-/// Axis error of a rotation relative to the desired axis `n`: the angle between n(R) and n.
-/// For a rotation that turns backwards the error is measured against -n (so it is at most pi/2
-/// for a rotation about the right line); the identity has no axis and an error of 0.
+/// Axis error of a rotation relative to the desired axis `n`: the angle between n(R) (the
+/// direction of its positive rotation, angle in [0, pi]) and n. A rotation that turns backwards
+/// about n has n(R) = -n and an error near pi: callers that follow the turn's sign along a plan
+/// (the cumulative angle) measure such a turn against -n themselves. The identity has no axis
+/// and an error of 0.
 pub fn axis_error(q: &Orientation, n: &UnitVec) -> Radians {
     match rotation_axis(q) {
         None => Radians(0.0),
