@@ -16,8 +16,8 @@
 //! computation through the [`Cancel`] token they were given, and ends the replay.
 
 use super::replay::{
-    check_on_time, entries_from, stdout_error, Drive, Entry, LogKind, Mode, OnTimes, Prepared,
-    Resume, Runner,
+    check_on_time, entries_from, stdout_error, Drive, Entry, LogKind, Mode, Prepared, Resume,
+    Runner,
 };
 use super::{Link, RelayError};
 use crate::model::geometry::Orientation;
@@ -39,10 +39,18 @@ use std::time::Duration;
 pub const OFF_MARGIN: Duration = Duration::from_millis(150);
 
 /// What the worker of a watched phase sends: the reading as soon as it is taken, then the
-/// decision.
+/// orientation read and the decision made from it.
 enum Worked {
     Read(Reading),
-    Decided(Decision),
+    Decided(Orientation, Decision),
+}
+
+/// An error of the watched phase that only a bug can cause.
+fn internal(step: usize, what: &str) -> RelayError {
+    RelayError::Stuck {
+        step,
+        message: format!("{what} (an internal error)"),
+    }
 }
 
 /// The phases of the watched part of a step, for messages.
@@ -118,12 +126,11 @@ pub fn refuse_options(drive: &Drive, dry_run: bool) -> Result<(), RelayError> {
 pub fn execute_closed(
     prep: &Prepared,
     links: Vec<Link>,
-    sensing: Sensing,
+    mut sensing: Sensing,
     stop: Arc<AtomicBool>,
     out: &mut dyn Write,
 ) -> Result<ClosedSummary, RelayError> {
     refuse_options(&prep.drive, links.iter().all(Link::is_dry_run))?;
-    let mut sensing = sensing;
     sensing.sensor.set_cancel(sensing.cancel.clone());
     // before any byte goes to a board: a sensor that cannot measure yet is refused
     if let Some(c) = sensing.sensor.ready()? {
@@ -205,8 +212,7 @@ impl Hardware<'_, '_, '_> {
 
     /// Reads the sensor and has the controller decide on a worker thread, while this one
     /// watches the stop flag and the on-time limit (see the module comment): the reading and
-    /// the decision, or why the coils were switched off first.
-    /// The reading is printed and logged as soon as it arrives (the decision may take long).
+    /// the decision, or why the coils were switched off first. The reading is printed and logged as soon as it arrives (the decision may take long).
     fn sense_and_decide(
         &mut self,
         step: usize,
@@ -220,7 +226,6 @@ impl Hardware<'_, '_, '_> {
         let goal = self.goal;
         let last = &mut self.last;
         let sensor = &mut self.sensor;
-        let mut measured_q = None;
         let (tx, rx) = mpsc::channel();
         std::thread::scope(|scope| {
             let work = || read_and_decide(sensor.as_mut(), decide, &phase, tx);
@@ -233,9 +238,8 @@ impl Hardware<'_, '_, '_> {
                 })?;
             let outcome = loop {
                 match rx.recv_timeout(super::replay::POLL) {
-                    Ok(Ok(Worked::Decided(d))) => break Ok(d),
+                    Ok(Ok(Worked::Decided(q, d))) => break Ok((q, d)),
                     Ok(Ok(Worked::Read(reading))) => {
-                        measured_q = Some(reading.orientation);
                         match measured(r, step, &reading, planned, &goal) {
                             Ok(to_goal) => *last = Some(to_goal),
                             Err(e) => {
@@ -247,10 +251,7 @@ impl Hardware<'_, '_, '_> {
                     Ok(Err(e)) => break Err(e.into()),
                     Err(RecvTimeoutError::Timeout) => {}
                     Err(RecvTimeoutError::Disconnected) => {
-                        break Err(RelayError::Stuck {
-                            step,
-                            message: "the closed loop's decision failed (an internal error)".into(),
-                        })
+                        break Err(internal(step, "the closed loop's decision failed"))
                     }
                 }
                 if let Some(e) = fired(r, margin, phase.load(Ordering::SeqCst)) {
@@ -262,17 +263,9 @@ impl Hardware<'_, '_, '_> {
                 }
             };
             if worker.join().is_err() && outcome.is_ok() {
-                return Err(RelayError::Stuck {
-                    step,
-                    message: "the closed loop's decision failed (an internal error)".into(),
-                });
+                return Err(internal(step, "the closed loop's decision failed"));
             }
-            let decision = outcome?;
-            let q = measured_q.ok_or_else(|| RelayError::Stuck {
-                step,
-                message: "the closed loop decided without a reading (an internal error)".into(),
-            })?;
-            Ok((q, decision))
+            outcome
         })
     }
 }
@@ -312,10 +305,8 @@ impl Plant for Hardware<'_, '_, '_> {
     /// The controller replanned after the entry switched last: checks the new plan from what
     /// is on now and makes it the plan in force, or refuses it (nothing of it switched).
     fn replanned(&mut self, step: usize, ctl: &Controller) -> Result<(), RelayError> {
-        let e = self.current.clone().ok_or_else(|| RelayError::Stuck {
-            step,
-            message: "a replan before any step was switched (an internal error)".into(),
-        })?;
+        let e = (self.current.clone())
+            .ok_or_else(|| internal(step, "a replan before any step was switched"))?;
         let r = &mut *self.r;
         let replan = ctl.replans();
         let mut rows: Vec<PlanRow> = ctl.plan().get(1..).unwrap_or_default().to_vec();
@@ -337,11 +328,7 @@ impl Plant for Hardware<'_, '_, '_> {
         let entries = entries_from(&rows, &prep.settings, &prep.boards, stator, dwell, from)
             .map_err(refused)?;
         let now = r.now();
-        let on: OnTimes = r
-            .on_since
-            .iter()
-            .map(|(&slot, &(coil, since, step))| (slot, (coil, step, now.saturating_sub(since))))
-            .collect();
+        let on = r.on_times(now);
         check_on_time(&entries, prep.settings.max_on_time, prep.listed(), on).map_err(refused)?;
         let t = format!("{:.3}", now.as_secs_f64());
         let fitted = ctl
@@ -375,7 +362,7 @@ fn read_and_decide(
             phase.store(DECIDING, Ordering::SeqCst);
             let q = reading.orientation;
             let _ = tx.send(Ok(Worked::Read(reading)));
-            let _ = tx.send(Ok(Worked::Decided(decide(&q))));
+            let _ = tx.send(Ok(Worked::Decided(q, decide(&q))));
         }
         Err(e) => {
             let _ = tx.send(Err(e));

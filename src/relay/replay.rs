@@ -1227,12 +1227,18 @@ impl Runner<'_> {
         Ok(())
     }
 
-    /// The coil on longest now (with its slot, the step since which it is on, and how long).
-    pub(super) fn longest_on(&self) -> Option<(Slot, CoilId, usize, Duration)> {
-        let now = self.now();
+    /// Every relay on at `now`: its coil, the step since which it is on, and for how long.
+    pub(super) fn on_times(&self, now: Duration) -> OnTimes {
         self.on_since
             .iter()
-            .map(|(&slot, &(coil, since, step))| (slot, coil, step, now.saturating_sub(since)))
+            .map(|(&slot, &(coil, since, step))| (slot, (coil, step, now.saturating_sub(since))))
+            .collect()
+    }
+
+    /// The coil on longest now (with its slot, the step since which it is on, and how long).
+    pub(super) fn longest_on(&self) -> Option<(Slot, CoilId, usize, Duration)> {
+        (self.on_times(self.now()).into_iter())
+            .map(|(slot, (coil, step, on))| (slot, coil, step, on))
             .max_by_key(|&(_, _, _, on)| on)
     }
 
