@@ -8,13 +8,13 @@
 use crate::model::geometry::{rot_q, rotation_angle, rotation_axis, Orientation};
 use crate::model::geometry::{Pair, Radians, UnitVec};
 use crate::physics::dynamics::settle;
+use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{coils_of, label};
 use crate::planning::commutation::{cumulative, cumulative_from, CommutationState, Motor, Step};
-use crate::planning::identify::{Candidate, Identifier, Observation};
+use crate::planning::identify::{Identifier, Observation};
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
-use crate::planning::planner::plan_from;
 use crate::planning::search::{first_row, step_row};
-use crate::planning::seek::{self, Seek};
+use crate::planning::seek::Seek;
 use nalgebra::Vector3;
 use serde::Serialize;
 
@@ -28,34 +28,31 @@ pub struct LoopSettings {
     pub noise: Radians,
     /// The noise generator's seed.
     pub seed: u64,
-    /// Replan when the measurement is farther than this from the plan's prediction.
+    /// Replan when the measurement is farther than this from the plan's prediction and the
+    /// physics steering does not explain it (see [`Controller::observe`]).
     pub replan_beyond: Radians,
-    /// Done when the measured orientation is within this of the goal.
+    /// Done when the ball is estimated within this of the goal.
     pub goal_tolerance: Radians,
     /// Give up after this many steps.
     pub max_steps: usize,
-    /// Fit the wells to the measured steps ([`crate::planning::identify`]) and, once the
-    /// model's own predictions are off by more than `fit_beyond` (their median), steer with
-    /// the best fit.
+    /// Fit the wells to the measured steps ([`crate::planning::identify`]) and steer with the
+    /// candidate that explains them clearly better than the model, once one does.
     pub identify: bool,
-    pub fit_beyond: Radians,
 }
 
 impl LoopSettings {
-    /// Settings for a sensor noise of `noise`: replan beyond twice the noise (at least 1
-    /// degree), done within twice the noise (at least 1.5 degrees), at most `max_steps` steps;
-    /// the wells fitted once the model predicts the steps no better than three times the noise
-    /// (at least 1.5 degrees: a prediction from one noisy measurement compared with another).
+    /// Settings for a sensor noise of `noise`: replan beyond three times the noise (at least 1
+    /// degree: a normal's three deviations, which one measurement in 370 exceeds), done within
+    /// twice the noise (at least 1.5 degrees), at most `max_steps` steps, the wells fitted.
     pub fn for_noise(noise: Radians, seed: u64, max_steps: usize) -> LoopSettings {
         LoopSettings {
             replan: true,
             noise,
             seed,
-            replan_beyond: Radians((2.0 * noise.0).max(1f64.to_radians())),
+            replan_beyond: Radians((3.0 * noise.0).max(1f64.to_radians())),
             goal_tolerance: Radians((2.0 * noise.0).max(1.5f64.to_radians())),
             max_steps,
             identify: true,
-            fit_beyond: Radians((3.0 * noise.0).max(1.5f64.to_radians())),
         }
     }
 
@@ -68,7 +65,24 @@ impl LoopSettings {
             ..LoopSettings::for_noise(noise, seed, 0)
         }
     }
+
+    /// The least improvement a step must promise to be worth taking once the plan is played
+    /// out: the noise (at least 0.25 degrees).
+    fn worth(&self) -> f64 {
+        self.noise.0.max(TRACK_DEG.to_radians())
+    }
 }
+
+/// The ball is where the plan said when the physics steering puts the measurement's
+/// equilibrium within this (degrees) of the plan's prediction: the same equilibrium, to the
+/// settle's tolerance and the plan's rounding.
+pub const TRACK_DEG: f64 = 0.25;
+
+/// The replan's search (see [`crate::planning::seek`]): the states nearest the goal kept at
+/// each depth, and how deep it looks at most (fewer where fewer steps are left). A replan is
+/// made while the coils hold the ball: on 2 cores it takes tens of milliseconds.
+pub const REPLAN_BEAM: usize = 8;
+pub const REPLAN_DEPTH: usize = 6;
 
 /// One step played on the plant.
 #[derive(Debug, Clone, PartialEq)]
@@ -115,6 +129,10 @@ pub struct LoopSummary {
     pub fitted_after_step: Option<usize>,
     /// Settles spent fitting the wells.
     pub fit_settles: usize,
+    /// The wall time of the replans (the whole decision after a measurement: the fit and the
+    /// search), median and largest, ms (0 without replans). Reported, never decided on.
+    pub replan_ms_median: f64,
+    pub replan_ms_max: f64,
 }
 
 /// A closed-loop run: the rows and its summary.
@@ -171,6 +189,15 @@ pub enum Decision {
 /// The closed loop's decisions, whatever measures the ball (a simulated plant and sensor, or
 /// the hardware's): which row to switch next, and after each measurement whether the plan in
 /// force goes on, is replanned, or is done.
+///
+/// A measurement is first explained: the set that was switched, settled in the physics that
+/// steers (the model, or the fitted wells) from the measured orientation, gives the
+/// equilibrium the ball is in. Where it lies within the noise of the measurement it is the
+/// estimate (the noise filtered out: an equilibrium does not depend on where the ball came
+/// from within its basin), else the measurement is. The plan goes on while the estimate is the
+/// equilibrium it predicted; it is replanned from the estimate when the ball is elsewhere, when
+/// the physics that steers changes, and when it is played out short of the goal (then only if
+/// a step promises more than the noise).
 pub struct Controller<'a> {
     model: &'a Motor<'a>,
     settings: PlanSettings,
@@ -184,12 +211,13 @@ pub struct Controller<'a> {
     last: Orientation,
     /// The fit of the wells to the measured steps (with `cl.identify`) ...
     identifier: Option<Identifier>,
-    /// ... the candidate steering now (`None`: the model), and the step it took over.
-    fitted: Option<usize>,
+    /// ... the step its candidate took over (after that step's measurement).
     fitted_at: Option<usize>,
     /// The candidate the plan in force was made with (`None`: the model).
     planned_with: Option<usize>,
     steps: usize,
+    /// Wall time of each decision that searched (a replan), ms: reported, never decided on.
+    replan_ms: Vec<f64>,
 }
 
 impl<'a> Controller<'a> {
@@ -212,11 +240,12 @@ impl<'a> Controller<'a> {
             next: 0,
             replans: 0,
             last: first.q,
-            identifier: (cl.replan && cl.identify).then(|| Identifier::new(model.torques)),
-            fitted: None,
+            identifier: (cl.replan && cl.identify)
+                .then(|| Identifier::new(model.torques, cl.noise)),
             fitted_at: None,
             planned_with: None,
             steps: 0,
+            replan_ms: Vec::new(),
         })
     }
 
@@ -230,7 +259,7 @@ impl<'a> Controller<'a> {
     }
 
     /// The plan in force: the open plan, or after a replan the new one, whose row 0 is the
-    /// state it was made from (the measurement, the coils on then) and whose row 1 is switched
+    /// state it was made from (the estimate, the coils on then) and whose row 1 is switched
     /// next.
     pub fn plan(&self) -> &[PlanRow] {
         &self.rows
@@ -238,6 +267,11 @@ impl<'a> Controller<'a> {
 
     pub fn replans(&self) -> usize {
         self.replans
+    }
+
+    /// The wall time of each replan so far (the whole decision: the fit and the search), ms.
+    pub fn replan_ms(&self) -> &[f64] {
+        &self.replan_ms
     }
 
     /// The most steps after the initial state the loop plays.
@@ -253,6 +287,16 @@ impl<'a> Controller<'a> {
     /// The measurement after [`Controller::next_row`]'s set was switched and the ball settled:
     /// what to do next.
     pub fn observe(&mut self, measured: &Orientation) -> Decision {
+        let started = std::time::Instant::now();
+        let replans = self.replans;
+        let d = self.decide(measured);
+        if self.replans > replans || matches!(d, Decision::Stuck(_)) {
+            self.replan_ms.push(started.elapsed().as_secs_f64() * 1e3);
+        }
+        d
+    }
+
+    fn decide(&mut self, measured: &Orientation) -> Decision {
         let row = self.next_row().clone();
         let last = self.next + 1 >= self.rows.len();
         if !self.cl.replan {
@@ -264,29 +308,81 @@ impl<'a> Controller<'a> {
             };
         }
         self.learn(&row.active, measured);
-        if self.at_goal(measured) {
-            return Decision::Done;
-        }
-        let strayed = angular(measured, &row.q) > self.cl.replan_beyond.0;
-        // a fit taking over (or changing) replans at once: the plan in force is another model's
-        let refit = self.fitted.is_some() && self.fitted != self.planned_with;
-        if !(strayed || last || refit) {
-            self.next += 1;
-            return Decision::Continue;
-        }
-        self.planned_with = self.fitted;
-        let fit = (self.fitted.zip(self.identifier.as_ref())).map(|(k, id)| id.candidate(k));
-        let plan = match fit {
-            Some(c) => self.seek(c, measured, &row.active),
-            None => self.replan(measured, &row.active),
-        };
-        match plan {
-            Ok(p) => self.take(p),
-            Err(m) => Decision::Stuck(m),
+        loop {
+            let steer = self.steering();
+            let (est, explained) = self.estimate(steer, &row.active, measured);
+            let distance = angular(&est, &self.goal);
+            if distance <= self.cl.goal_tolerance.0 {
+                return Decision::Done;
+            }
+            let track = if explained {
+                TRACK_DEG.to_radians()
+            } else {
+                self.cl.replan_beyond.0
+            };
+            let on_track = self.planned_with == steer && angular(&est, &row.q) <= track;
+            if on_track && !last {
+                self.next += 1;
+                return Decision::Continue;
+            }
+            // played out on track: only a step that promises more than the noise is taken
+            let worth = if on_track { self.cl.worth() } else { 0.0 };
+            self.planned_with = steer;
+            match self.search(steer, &est, &row.active) {
+                Ok(p) if p.1 < distance - worth => return self.take(p.0),
+                Ok(p) => {
+                    return Decision::Stuck(format!(
+                        "no step is expected to bring the ball nearer the goal than its {:.2} deg \
+                         (by more than {:.2} deg; the nearest found {:.2} deg)",
+                        distance.to_degrees(),
+                        worth.to_degrees(),
+                        p.1.to_degrees()
+                    ))
+                }
+                // a fitted physics that leads nowhere steers no more: the next one tries
+                Err(_) if steer.is_some() => {
+                    if let (Some(k), Some(id)) = (steer, self.identifier.as_mut()) {
+                        id.reject(k);
+                    }
+                }
+                Err(m) => return Decision::Stuck(m),
+            }
         }
     }
 
-    /// The plan `p` (made from the measurement) in force from now on.
+    /// The physics that steers now: `None` for the model, else the fitted candidate's index.
+    fn steering(&self) -> Option<usize> {
+        self.identifier.as_ref().and_then(|id| id.steer())
+    }
+
+    fn torques_of(&self, steer: Option<usize>) -> &MagnetTorques {
+        match (steer, self.identifier.as_ref()) {
+            (Some(k), Some(id)) => &id.candidate(k).torques,
+            _ => self.model.torques,
+        }
+    }
+
+    /// Where the ball is, by the measurement and the physics `steer`: the equilibrium `active`
+    /// holds it in, settled from the measurement, when it lies within the replan threshold of
+    /// the measurement (`true`: explained); else the measurement itself.
+    fn estimate(
+        &self,
+        steer: Option<usize>,
+        active: &[Pair],
+        measured: &Orientation,
+    ) -> (Orientation, bool) {
+        let torques = self.torques_of(steer);
+        let pairs = label(torques, &coils_of(active), measured);
+        let m = self.model;
+        let r = settle(torques, &pairs, measured, m.body, m.weighing());
+        if r.settled && angular(&r.q, measured) <= self.cl.replan_beyond.0 {
+            (r.q, true)
+        } else {
+            (*measured, false)
+        }
+    }
+
+    /// The plan `p` (made from the estimate) in force from now on.
     fn take(&mut self, p: Plan) -> Decision {
         self.rows = p.rows;
         self.next = 1;
@@ -295,7 +391,7 @@ impl<'a> Controller<'a> {
     }
 
     /// One more measured step for the fit of the wells (the ball was at `self.last`, `active`
-    /// went on, it was measured at `measured`), and the candidate that steers from now on.
+    /// went on, it was measured at `measured`).
     fn learn(&mut self, active: &[Pair], measured: &Orientation) {
         let from = std::mem::replace(&mut self.last, *measured);
         self.steps += 1;
@@ -307,19 +403,18 @@ impl<'a> Controller<'a> {
             active: active.to_vec(),
             to: *measured,
         };
+        let before = id.steer();
         id.observe(self.model, &o);
-        let choice = id.choice(self.cl.fit_beyond);
-        if choice.is_some() && self.fitted.is_none() {
+        if id.steer().is_some() && id.steer() != before {
             self.fitted_at = Some(self.steps - 1);
         }
-        self.fitted = choice.or(self.fitted);
     }
 
     /// What steers the loop: `None` for the model's own wells, else the fitted candidate's
     /// description and the step (0: the initial commutation) after which it took over.
     pub fn fitted(&self) -> Option<(String, usize)> {
         let id = self.identifier.as_ref()?;
-        Some((id.candidate(self.fitted?).name.clone(), self.fitted_at?))
+        Some((id.candidate(id.steer()?).name.clone(), self.fitted_at?))
     }
 
     /// Settles spent fitting the wells.
@@ -327,17 +422,18 @@ impl<'a> Controller<'a> {
         self.identifier.as_ref().map_or(0, |id| id.settles())
     }
 
-    /// The rest of the motion in the fitted candidate `fit`'s physics, from the measurement
-    /// held by the coils on now: the search of [`Seek`] straight for the goal (a fitted model
-    /// promises no axis; the steps left are counted against `max_steps`). Row 0 of the plan
-    /// is the measured state.
-    fn seek(
+    /// The rest of the motion in the physics `steer`, from the estimate `est` held by the
+    /// coils on now: the search of [`Seek`] straight for the goal, [`REPLAN_BEAM`] wide and at
+    /// most [`REPLAN_DEPTH`] deep (the steps left are counted against `max_steps`). Row 0 of
+    /// the plan is the estimated state. The plan and the distance to the goal of its end; an
+    /// error when no state is nearer the goal than the estimate.
+    fn search(
         &self,
-        fit: &Candidate,
-        measured: &Orientation,
+        steer: Option<usize>,
+        est: &Orientation,
         active: &[Pair],
-    ) -> Result<Plan, String> {
-        let torques = &fit.torques;
+    ) -> Result<(Plan, f64), String> {
+        let torques = self.torques_of(steer);
         let seek = Seek {
             motor: self.model,
             torques,
@@ -346,25 +442,29 @@ impl<'a> Controller<'a> {
             goal: self.goal,
         };
         let root = CommutationState {
-            q: *measured,
-            active: label(torques, &coils_of(active), measured),
+            q: *est,
+            active: label(torques, &coils_of(active), est),
             settle_time_s: 0.0,
         };
         let left = self
             .cl
             .max_steps
             .saturating_sub(self.steps - 1)
-            .clamp(1, seek::DEPTH);
-        let path = seek.search(&root, left, seek::BEAM, self.cl.goal_tolerance.0);
-        if path.states.is_empty() {
+            .clamp(1, REPLAN_DEPTH);
+        let path = seek.search(&root, left, REPLAN_BEAM, self.cl.goal_tolerance.0);
+        let Some(end) = path.states.last() else {
+            let name = match steer {
+                Some(_) => format!("the fitted {}", self.fitted().map(|f| f.0).unwrap_or_default()),
+                None => "the model".into(),
+            };
             return Err(format!(
                 "no coil set leads the ball nearer the goal than its {:.2} deg within {left} \
-                 steps ({} settles in the fitted {})",
-                angular(measured, &self.goal).to_degrees(),
+                 steps ({} settles in {name})",
+                angular(est, &self.goal).to_degrees(),
                 path.settles,
-                fit.name
             ));
-        }
+        };
+        let reached = angular(&end.q, &self.goal);
         let axis = &self.settings.axis;
         let mut rows = vec![first_row(&root)];
         let mut from = &root;
@@ -383,55 +483,18 @@ impl<'a> Controller<'a> {
                 angle,
                 axis_error,
             };
-            let c = cumulative_from(measured, &to.q, axis, cum);
+            let c = cumulative_from(est, &to.q, axis, cum);
             cum = c.0 .0;
             rows.push(step_row(rows.len(), &step, c));
             from = to;
         }
-        Ok(Plan {
+        let plan = Plan {
             rows,
-            reached: true,
+            reached: reached <= self.cl.goal_tolerance.0,
             message: None,
             settles: path.settles,
-        })
-    }
-
-    /// The rest of the motion from the measured orientation, held by the coils now on (each
-    /// with the magnet nearest it there), towards the goal: a plan in the model's physics whose
-    /// row 0 is that state.
-    fn replan(&self, measured: &Orientation, active: &[Pair]) -> Result<Plan, String> {
-        let rest = self.goal * measured.inverse();
-        let angle = rotation_angle(&rest);
-        let axis = rotation_axis(&rest).ok_or("no rotation left to plan")?;
-        let mut coils = Vec::new();
-        for p in active {
-            if !coils.contains(&p.coil) {
-                coils.push(p.coil);
-            }
-        }
-        let state = CommutationState {
-            q: *measured,
-            active: label(self.model.torques, &coils, measured),
-            settle_time_s: 0.0,
         };
-        let s = PlanSettings {
-            axis,
-            angle,
-            start: *measured,
-            ..self.settings.clone()
-        };
-        let p = plan_from(self.model, &s, state);
-        if p.rows.len() < 2 {
-            return Err(format!(
-                "replanning {:.2} deg about [{:.3}, {:.3}, {:.3}] found no step{}",
-                angle.0.to_degrees(),
-                axis.x,
-                axis.y,
-                axis.z,
-                p.message.map(|m| format!(": {m}")).unwrap_or_default()
-            ));
-        }
-        Ok(p)
+        Ok((plan, reached))
     }
 }
 
@@ -575,7 +638,18 @@ pub fn run_closed_loop(
         run.summary.fitted_after_step = Some(step);
     }
     run.summary.fit_settles = ctl.fit_settles();
+    (run.summary.replan_ms_median, run.summary.replan_ms_max) = median_max(ctl.replan_ms());
     run
+}
+
+/// The median (the upper of the middle two) and the largest of `ms` (0 and 0 for none).
+pub fn median_max(ms: &[f64]) -> (f64, f64) {
+    let mut v = ms.to_vec();
+    v.sort_by(f64::total_cmp);
+    (
+        v.get(v.len() / 2).copied().unwrap_or(0.0),
+        v.last().copied().unwrap_or(0.0),
+    )
 }
 
 /// The goal of a plan made for `settings`: ROT[axis, angle] applied to its start (row 0).
@@ -610,6 +684,8 @@ fn no_run(message: &str) -> LoopRun {
             fitted: None,
             fitted_after_step: None,
             fit_settles: 0,
+            replan_ms_median: 0.0,
+            replan_ms_max: 0.0,
         },
     }
 }
@@ -679,6 +755,8 @@ impl Loop<'_> {
             fitted: None,
             fitted_after_step: None,
             fit_settles: 0,
+            replan_ms_median: 0.0,
+            replan_ms_max: 0.0,
         };
         LoopRun {
             rows: self.rows,

@@ -1,13 +1,20 @@
 //! Identification for the closed loop: which wells the motor really has, judged by the steps it
-//! was measured to take. A fixed family of candidate models (the model's own wells first, then
-//! gaussian wells of several widths and cosine wells, each at several reaches, each with the
-//! pair interaction and with every coil pulling) predicts every measured step (the ball at rest
-//! where it was measured, the step's set switched on, settled); a candidate is scored by the
-//! median of its prediction errors. Equilibria depend on the wells' shape, not their
-//! strength; the strength (against the model's body: its inertia and damping) decides only
-//! which basin a step ends in, so each shape is tried at a few fractions of the model's
-//! single-pair stiffness. Everything is counted, nothing timed: the same measurements give the
-//! same choice on any machine and thread count.
+//! was measured to take. Each candidate model of the wells (the model's own first, then a grid
+//! of gaussian and cosine wells of several widths, reaches and stiffnesses, with the pair
+//! interaction and with every coil pulling) predicts every measured step: the ball at rest
+//! where it was measured, the step's set switched on, settled. A prediction is scored under
+//! the sensor's known noise: the squared error in units of the noise, capped where a step
+//! ends in another basin than predicted (the dynamics, not the wells, decide those), the cap
+//! too for a prediction that does not settle (a physics in which nothing holds the ball
+//! explains no step). The sums are log-likelihoods: the model steers until a candidate
+//! explains the steps clearly better (by [`SWITCH_MARGIN`]), and then that candidate until
+//! another is clearly better than it.
+//!
+//! The grid only starts the fit: while the model is not the best, the best few candidates are
+//! refined in their continuous parameters (width, reach, stiffness) by a pattern search on all
+//! the steps measured, so that a plant between the grid's points (cosine wells reaching 35
+//! degrees) is found as it is. Everything is counted, nothing timed: the same measurements
+//! give the same choice on any machine and thread count.
 
 use crate::model::geometry::{Degrees, Orientation, Pair, Radians};
 use crate::physics::dynamics::settle;
@@ -15,13 +22,30 @@ use crate::physics::torque::{Interaction, MagnetTorques, Well, WellShape};
 use crate::planning::commutation::Motor;
 use rayon::prelude::*;
 
-/// Widths (degrees) of the gaussian candidates.
-pub const GAUSSIAN_WIDTHS_DEG: [f64; 7] = [5.0, 7.0, 10.0, 14.0, 20.0, 28.0, 40.0];
-/// Reaches (maximum attraction distances, degrees) of the candidates; a gaussian's reach is at
-/// least its width (where its pull peaks).
+/// Widths (degrees) of the grid's gaussian candidates.
+pub const GAUSSIAN_WIDTHS_DEG: [f64; 6] = [5.0, 7.0, 10.0, 14.0, 20.0, 28.0];
+/// Reaches (maximum attraction distances, degrees) of the grid's candidates; a gaussian's reach
+/// is at least its width (where its pull peaks).
 pub const REACHES_DEG: [f64; 7] = [15.0, 20.0, 25.0, 30.0, 40.0, 50.0, 60.0];
-/// Stiffnesses of the candidates, as fractions of the model's single-pair stiffness.
-pub const STIFFNESS_FRACTIONS: [f64; 5] = [0.125, 0.25, 0.5, 1.0, 2.0];
+/// Stiffnesses of the grid's candidates, as fractions of the model's single-pair stiffness.
+pub const STIFFNESS_FRACTIONS: [f64; 4] = [0.25, 0.5, 1.0, 2.0];
+/// A measured step costs at most this (a squared error of 3 noise units): a step that ended in
+/// another basin than predicted, or a prediction that does not settle.
+pub const CAP: f64 = 9.0;
+/// A candidate takes over from the one steering when its summed cost is lower by this much (a
+/// likelihood ratio of e^4.5, about 90): one step it explains and the other clearly does not,
+/// or several steps each explained somewhat better.
+pub const SWITCH_MARGIN: f64 = 9.0;
+/// The noise unit of the costs is the sensor's noise, but not below this (radians: 0.2
+/// degrees): a noiseless sensor still meets the settle's tolerance and the model's small
+/// errors.
+pub const MIN_SCALE: f64 = 0.2 * std::f64::consts::PI / 180.0;
+/// How many of the best candidates are refined after each step, and how many polls each
+/// refinement makes at most.
+pub const REFINED: usize = 3;
+pub const POLLS: usize = 12;
+/// At most this many refined candidates are kept (the worst dropped first).
+pub const KEPT_REFINED: usize = 24;
 
 /// One measured step: the ball at rest at `from`, `active` switched on, measured at `to`.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,15 +55,131 @@ pub struct Observation {
     pub to: Orientation,
 }
 
+/// The shape of a candidate's wells.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shape {
+    /// Gaussian wells of this width (degrees).
+    Gaussian { width_deg: f64 },
+    Cosine,
+}
+
+/// A candidate's continuous parameters (the model's own wells have none: they may be of any
+/// shape the scenario allows).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WellParams {
+    pub shape: Shape,
+    /// The maximum attraction distance, degrees.
+    pub reach_deg: f64,
+    /// The single-pair stiffness at alignment, N m/rad.
+    pub stiffness: f64,
+    pub interaction: Interaction,
+}
+
+impl WellParams {
+    /// The torques of these wells on `model`'s packings.
+    pub fn torques(&self, model: &MagnetTorques) -> MagnetTorques {
+        let shape = match self.shape {
+            Shape::Gaussian { width_deg } => {
+                let w = Degrees(width_deg).to_radians();
+                WellShape::Gaussian {
+                    strength_j: self.stiffness * w.0 * w.0,
+                    width: w,
+                }
+            }
+            Shape::Cosine => WellShape::Cosine {
+                strength_j: self.stiffness,
+            },
+        };
+        MagnetTorques {
+            well: Well::new(shape, Degrees(self.reach_deg).to_radians()),
+            interaction: self.interaction,
+            ..model.clone()
+        }
+    }
+
+    /// In words: "cosine wells reaching 35.0 deg, every coil pulls every magnet in reach,
+    /// stiffness 4.000 N m/rad".
+    pub fn name(&self) -> String {
+        let shape = match self.shape {
+            Shape::Gaussian { width_deg } => format!("gaussian wells of {width_deg:.1} deg"),
+            Shape::Cosine => "cosine wells".into(),
+        };
+        let pulls = match self.interaction {
+            Interaction::Pairs => "each coil pulls its pair's magnet",
+            Interaction::Coils => "every coil pulls every magnet in reach",
+        };
+        format!(
+            "{shape} reaching {:.1} deg, {pulls}, stiffness {:.3} N m/rad",
+            self.reach_deg, self.stiffness
+        )
+    }
+
+    /// Within the bounds a refinement keeps to: widths of 3 to 45 degrees, reaches from the
+    /// width (at least 8 degrees) to 75, stiffnesses from 1/16 to 4 times the model's `k`.
+    fn within(&self, k: f64) -> bool {
+        let width = match self.shape {
+            Shape::Gaussian { width_deg } => width_deg,
+            Shape::Cosine => 0.0,
+        };
+        (width == 0.0 || (3.0..=45.0).contains(&width))
+            && self.reach_deg >= width.max(8.0)
+            && self.reach_deg <= 75.0
+            && (k / 16.0..=4.0 * k).contains(&self.stiffness)
+    }
+
+    /// The neighbours a poll of the pattern search tries at step level `level` (0 the
+    /// coarsest): each parameter up and down.
+    fn neighbours(&self, level: usize) -> Vec<WellParams> {
+        let f = 0.5f64.powi(level as i32);
+        let width = 1.25f64.powf(f);
+        let reach = 4.0 * f;
+        let stiff = 1.6f64.powf(f);
+        let mut out = Vec::new();
+        if let Shape::Gaussian { width_deg } = self.shape {
+            for w in [width_deg * width, width_deg / width] {
+                out.push(WellParams {
+                    shape: Shape::Gaussian { width_deg: w },
+                    ..*self
+                });
+            }
+        }
+        for r in [self.reach_deg + reach, self.reach_deg - reach] {
+            out.push(WellParams {
+                reach_deg: r,
+                ..*self
+            });
+        }
+        for s in [self.stiffness * stiff, self.stiffness / stiff] {
+            out.push(WellParams {
+                stiffness: s,
+                ..*self
+            });
+        }
+        out
+    }
+}
+
 /// A candidate model of the wells.
 #[derive(Debug, Clone)]
 pub struct Candidate {
     pub torques: MagnetTorques,
-    /// What it is, in words ("cosine wells reaching 40 deg, every coil pulls").
+    /// What it is, in words ("cosine wells reaching 40.0 deg, every coil pulls ...").
     pub name: String,
+    /// Its parameters (`None`: the model's own wells).
+    pub params: Option<WellParams>,
 }
 
-/// The family of candidates for `model`'s motor: its own wells (index 0), then the gaussian and
+impl Candidate {
+    fn of(params: WellParams, model: &MagnetTorques) -> Candidate {
+        Candidate {
+            torques: params.torques(model),
+            name: params.name(),
+            params: Some(params),
+        }
+    }
+}
+
+/// The grid of candidates for `model`'s motor: its own wells (index 0), then the gaussian and
 /// cosine wells of [`GAUSSIAN_WIDTHS_DEG`] and [`REACHES_DEG`], with the pair interaction and
 /// with every coil pulling, each at [`STIFFNESS_FRACTIONS`] of the model's single-pair
 /// stiffness.
@@ -47,44 +187,29 @@ pub fn family(model: &MagnetTorques) -> Vec<Candidate> {
     let mut out = vec![Candidate {
         torques: model.clone(),
         name: "the model's own wells".into(),
+        params: None,
     }];
+    let k = model.well.stiffness();
+    let shapes: Vec<Shape> = GAUSSIAN_WIDTHS_DEG
+        .iter()
+        .map(|&w| Shape::Gaussian { width_deg: w })
+        .chain([Shape::Cosine])
+        .collect();
     for fraction in STIFFNESS_FRACTIONS {
-        let k = fraction * model.well.stiffness();
-        let mut shapes: Vec<(WellShape, String, f64)> = GAUSSIAN_WIDTHS_DEG
-            .iter()
-            .map(|&w| {
-                let width = Degrees(w).to_radians();
-                let shape = WellShape::Gaussian {
-                    strength_j: k * width.0 * width.0,
-                    width,
-                };
-                (shape, format!("gaussian wells of {w} deg"), w)
-            })
-            .collect();
-        shapes.push((
-            WellShape::Cosine { strength_j: k },
-            "cosine wells".into(),
-            0.0,
-        ));
         for interaction in [Interaction::Pairs, Interaction::Coils] {
-            for (shape, shape_name, width) in &shapes {
-                for &reach in REACHES_DEG.iter().filter(|&&r| r >= *width) {
-                    let well = Well::new(shape.clone(), Degrees(reach).to_radians());
-                    let pulls = match interaction {
-                        Interaction::Pairs => "each coil pulls its pair's magnet",
-                        Interaction::Coils => "every coil pulls every magnet in reach",
+            for &shape in &shapes {
+                let width = match shape {
+                    Shape::Gaussian { width_deg } => width_deg,
+                    Shape::Cosine => 0.0,
+                };
+                for &reach in REACHES_DEG.iter().filter(|&&r| r >= width) {
+                    let p = WellParams {
+                        shape,
+                        reach_deg: reach,
+                        stiffness: fraction * k,
+                        interaction,
                     };
-                    out.push(Candidate {
-                        torques: MagnetTorques {
-                            well,
-                            interaction,
-                            ..model.clone()
-                        },
-                        name: format!(
-                            "{shape_name} reaching {reach} deg, {pulls}, stiffness {:.3} N m/rad",
-                            k
-                        ),
-                    });
+                    out.push(Candidate::of(p, model));
                 }
             }
         }
@@ -92,48 +217,197 @@ pub fn family(model: &MagnetTorques) -> Vec<Candidate> {
     out
 }
 
-/// The candidates and how well each has predicted the steps measured so far.
+/// The cost of a prediction `predicted` (settled or not) of a step measured at `to`, the
+/// noise unit `scale`: see the module's comment.
+fn cost(predicted: &Orientation, settled: bool, to: &Orientation, scale: f64) -> (f64, f64) {
+    let e = predicted.angle_to(to);
+    let c = if settled {
+        (e / scale).powi(2).min(CAP)
+    } else {
+        CAP
+    };
+    (c, e)
+}
+
+/// The candidates and how well each has explained the steps measured so far.
 pub struct Identifier {
+    model: MagnetTorques,
     candidates: Vec<Candidate>,
-    /// Per candidate, its prediction error (rad) of each measured step.
+    /// Per candidate, the cost and the prediction error (rad) of each measured step.
+    costs: Vec<Vec<f64>>,
     errors: Vec<Vec<f64>>,
+    observations: Vec<Observation>,
+    scale: f64,
+    /// The candidate steering now (0: the model).
+    steer: usize,
     settles: usize,
 }
 
 impl Identifier {
-    /// The [`family`] of `model`'s wells, nothing measured yet.
-    pub fn new(model: &MagnetTorques) -> Identifier {
+    /// The [`family`] of `model`'s wells, nothing measured yet, for a sensor of noise `noise`.
+    pub fn new(model: &MagnetTorques, noise: Radians) -> Identifier {
         let candidates = family(model);
         Identifier {
+            model: model.clone(),
+            costs: vec![Vec::new(); candidates.len()],
             errors: vec![Vec::new(); candidates.len()],
             candidates,
+            observations: Vec::new(),
+            scale: noise.0.max(MIN_SCALE),
+            steer: 0,
             settles: 0,
         }
     }
 
     /// Scores every candidate on one more measured step, settled with the model's body and
-    /// weighing settle (`motor`'s; its torques are not used).
+    /// weighing settle (`motor`'s; its torques are not used), refines the best while the model
+    /// is not the best, and chooses the candidate that steers from now on.
     pub fn observe(&mut self, motor: &Motor, o: &Observation) {
         if motor.cancel.is_cancelled() {
             return;
         }
-        let errors: Vec<f64> = self
+        let scale = self.scale;
+        let scored: Vec<(f64, f64)> = self
             .candidates
             .par_iter()
             .map(|c| {
                 let r = settle(&c.torques, &o.active, &o.from, motor.body, motor.weighing());
-                r.q.angle_to(&o.to)
+                cost(&r.q, r.settled, &o.to, scale)
             })
             .collect();
-        for (e, x) in self.errors.iter_mut().zip(errors) {
-            e.push(x);
+        for (k, (c, e)) in scored.into_iter().enumerate() {
+            self.costs[k].push(c);
+            self.errors[k].push(e);
         }
         self.settles += self.candidates.len();
+        self.observations.push(o.clone());
+        if self.best() != 0 {
+            self.refine(motor);
+        }
+        let best = self.best();
+        if self.score(best) + SWITCH_MARGIN < self.score(self.steer) {
+            self.steer = best;
+        }
+    }
+
+    /// The summed cost of candidate `k` over the steps measured (a negative log-likelihood, up
+    /// to a constant).
+    pub fn score(&self, k: usize) -> f64 {
+        self.costs[k].iter().sum()
+    }
+
+    /// The candidate with the lowest score (the first of equals: the model before any other).
+    pub fn best(&self) -> usize {
+        (0..self.candidates.len())
+            .min_by(|&a, &b| self.score(a).total_cmp(&self.score(b)).then(a.cmp(&b)))
+            .unwrap_or(0)
+    }
+
+    /// The candidate that steers: `None` while the model does.
+    pub fn steer(&self) -> Option<usize> {
+        (self.steer != 0).then_some(self.steer)
+    }
+
+    /// Candidate `k` no longer steers (its physics gave no way on): the model, or the best of
+    /// the others, steers instead, and `k` is dropped from the choice.
+    pub fn reject(&mut self, k: usize) {
+        if k == 0 {
+            return;
+        }
+        for c in &mut self.costs[k] {
+            *c = f64::INFINITY;
+        }
+        if self.steer == k {
+            let best = self.best();
+            self.steer = if self.score(best) + SWITCH_MARGIN < self.score(0) {
+                best
+            } else {
+                0
+            };
+        }
+    }
+
+    /// The summed costs of `params` over every step measured, and the prediction errors.
+    fn evaluate(&self, motor: &Motor, params: &WellParams) -> (f64, Vec<f64>, Vec<f64>) {
+        let torques = params.torques(&self.model);
+        let scale = self.scale;
+        let scored: Vec<(f64, f64)> = self
+            .observations
+            .par_iter()
+            .map(|o| {
+                let r = settle(&torques, &o.active, &o.from, motor.body, motor.weighing());
+                cost(&r.q, r.settled, &o.to, scale)
+            })
+            .collect();
+        let costs: Vec<f64> = scored.iter().map(|s| s.0).collect();
+        let errors = scored.iter().map(|s| s.1).collect();
+        (costs.iter().sum(), costs, errors)
+    }
+
+    /// Refines the [`REFINED`] best candidates with parameters by a pattern search: from each,
+    /// every neighbour is scored on all the steps; the best that improves is taken, else the
+    /// steps are halved (twice), for at most [`POLLS`] polls. The ends join the candidates.
+    fn refine(&mut self, motor: &Motor) {
+        let k = self.model.well.stiffness();
+        let mut order: Vec<usize> = (0..self.candidates.len()).collect();
+        order.sort_by(|&a, &b| self.score(a).total_cmp(&self.score(b)).then(a.cmp(&b)));
+        let starts: Vec<WellParams> = order
+            .iter()
+            .filter_map(|&i| self.candidates[i].params)
+            .take(REFINED)
+            .collect();
+        for start in starts {
+            let mut at = start;
+            let mut score = self.evaluate(motor, &at).0;
+            let mut level = 0;
+            for _ in 0..POLLS {
+                let tries: Vec<WellParams> =
+                    at.neighbours(level).into_iter().filter(|p| p.within(k)).collect();
+                let scored: Vec<f64> = tries.iter().map(|p| self.evaluate(motor, p).0).collect();
+                self.settles += tries.len() * self.observations.len();
+                let best = (0..tries.len())
+                    .min_by(|&a, &b| scored[a].total_cmp(&scored[b]).then(a.cmp(&b)));
+                match best {
+                    Some(b) if scored[b] < score - 1e-9 => {
+                        at = tries[b];
+                        score = scored[b];
+                    }
+                    _ if level < 2 => level += 1,
+                    _ => break,
+                }
+            }
+            if self.candidates.iter().any(|c| c.params == Some(at)) {
+                continue;
+            }
+            let (_, costs, errors) = self.evaluate(motor, &at);
+            self.settles += self.observations.len();
+            self.candidates.push(Candidate::of(at, &self.model));
+            self.costs.push(costs);
+            self.errors.push(errors);
+        }
+        self.prune();
+    }
+
+    /// Keeps at most [`KEPT_REFINED`] refined candidates (after the grid): the worst go first,
+    /// never the one steering.
+    fn prune(&mut self) {
+        let grid = family_len(&self.model);
+        while self.candidates.len() > grid + KEPT_REFINED {
+            let worst = (grid..self.candidates.len())
+                .filter(|&i| i != self.steer)
+                .max_by(|&a, &b| self.score(a).total_cmp(&self.score(b)).then(b.cmp(&a)));
+            let Some(w) = worst else { break };
+            self.candidates.remove(w);
+            self.costs.remove(w);
+            self.errors.remove(w);
+            if self.steer > w {
+                self.steer -= 1;
+            }
+        }
     }
 
     /// Candidate `k`'s median prediction error (the upper of the middle two; 0 before any
-    /// measurement). A median, not a mean: a step that ends in another basin than predicted
-    /// (where the dynamics, not the wells, decide) does not outweigh the steps predicted well.
+    /// measurement).
     pub fn median(&self, k: usize) -> Radians {
         let mut e = self.errors[k].clone();
         e.sort_by(f64::total_cmp);
@@ -144,32 +418,6 @@ impl Identifier {
     pub fn rms(&self, k: usize) -> Radians {
         let e = &self.errors[k];
         Radians((e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt())
-    }
-
-    /// The candidate that predicted the steps best: the smallest median error, then the
-    /// smallest root mean square, then the first.
-    pub fn best(&self) -> usize {
-        let scores: Vec<(f64, f64)> = (0..self.candidates.len())
-            .map(|k| (self.median(k).0, self.rms(k).0))
-            .collect();
-        (0..scores.len())
-            .min_by(|&a, &b| {
-                let (sa, sb) = (scores[a], scores[b]);
-                sa.0.total_cmp(&sb.0).then(sa.1.total_cmp(&sb.1))
-            })
-            .unwrap_or(0)
-    }
-
-    /// Which candidate to plan with: `None` (the model itself) while the model's median
-    /// prediction error is within `trusted`, or no candidate's is under half the model's;
-    /// else the best.
-    pub fn choice(&self, trusted: Radians) -> Option<usize> {
-        let model = self.median(0).0;
-        if model <= trusted.0 {
-            return None;
-        }
-        let k = self.best();
-        (k != 0 && self.median(k).0 < 0.5 * model).then_some(k)
     }
 
     pub fn candidate(&self, k: usize) -> &Candidate {
@@ -187,5 +435,81 @@ impl Identifier {
     /// Settles spent so far.
     pub fn settles(&self) -> usize {
         self.settles
+    }
+}
+
+/// How many candidates [`family`] makes for `model` (without making them).
+fn family_len(model: &MagnetTorques) -> usize {
+    let _ = model;
+    let per_shape: usize = GAUSSIAN_WIDTHS_DEG
+        .iter()
+        .map(|&w| REACHES_DEG.iter().filter(|&&r| r >= w).count())
+        .sum::<usize>()
+        + REACHES_DEG.len();
+    1 + STIFFNESS_FRACTIONS.len() * 2 * per_shape
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    fn torques() -> MagnetTorques {
+        let w = Degrees(10.0).to_radians();
+        MagnetTorques {
+            rotor: vec![Vector3::z(), Vector3::x()],
+            stator: vec![-Vector3::z()],
+            well: Well::new(
+                WellShape::Gaussian {
+                    strength_j: 0.25,
+                    width: w,
+                },
+                Degrees(30.0).to_radians(),
+            ),
+            interaction: Interaction::Pairs,
+        }
+    }
+
+    #[test]
+    fn the_family_has_the_counted_size_and_the_model_first() {
+        let t = torques();
+        let f = family(&t);
+        assert_eq!(f.len(), family_len(&t));
+        assert!(f[0].params.is_none());
+        let k = t.well.stiffness();
+        assert!(f[1..].iter().all(|c| c.params.is_some_and(|p| p.within(k))));
+    }
+
+    #[test]
+    fn a_parameter_set_makes_the_wells_it_names() {
+        let p = WellParams {
+            shape: Shape::Gaussian { width_deg: 12.0 },
+            reach_deg: 25.0,
+            stiffness: 8.0,
+            interaction: Interaction::Coils,
+        };
+        let t = p.torques(&torques());
+        assert!((t.well.stiffness() - 8.0).abs() < 1e-12);
+        assert!((t.well.max_attraction().0.to_degrees() - 25.0).abs() < 1e-12);
+        assert_eq!(t.interaction, Interaction::Coils);
+        assert!(p
+            .name()
+            .starts_with("gaussian wells of 12.0 deg reaching 25.0 deg, every coil"));
+    }
+
+    #[test]
+    fn a_prediction_costs_its_squared_error_in_noise_units_up_to_the_cap() {
+        let a = Orientation::identity();
+        let turn = |deg: f64| {
+            crate::model::geometry::rot_q(
+                &crate::model::geometry::UnitVec::new_normalize(Vector3::x()),
+                Degrees(deg).to_radians(),
+            )
+        };
+        let s = 1f64.to_radians();
+        assert!((cost(&turn(2.0), true, &a, s).0 - 4.0).abs() < 1e-9);
+        assert_eq!(cost(&turn(5.0), true, &a, s).0, CAP);
+        // a prediction that does not settle explains nothing, however near it stopped
+        assert_eq!(cost(&a, false, &a, s).0, CAP);
     }
 }
