@@ -87,6 +87,7 @@ fn main() -> Result<()> {
                 per_step: settings.pairs,
                 max_coils_on: settings.limits.max_coils_on,
                 goal,
+        ranked: None,
             };
             let ahead = seek.search(&root, 12, 32, WITHIN_DEG.to_radians());
             let best = ahead

@@ -77,6 +77,7 @@ fn main() -> Result<()> {
         per_step: settings.pairs,
         max_coils_on: settings.limits.max_coils_on,
         goal,
+        ranked: None,
     };
     println!(
         "start {:.2} deg from the goal after {played} of the plan's steps; beam {beam}",

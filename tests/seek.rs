@@ -32,6 +32,7 @@ fn the_search_reaches_the_goal_through_steps_the_physics_takes() {
         per_step: s.pairs,
         max_coils_on: s.limits.max_coils_on,
         goal,
+        ranked: None,
     };
     let tolerance = Degrees(2.0).to_radians().0;
     let path = seek.search(&root, 8, 8, tolerance);

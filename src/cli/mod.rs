@@ -44,7 +44,7 @@ pub struct LoopArgs {
     /// With --closed-loop: seed of the sensor's noise (the same seed, the same run).
     #[arg(long, default_value_t = 1, requires = "closed_loop")]
     pub seed: u64,
-    /// With --closed-loop: at most this many steps (default: twice the planned steps).
+    /// With --closed-loop: at most this many steps (default: 3 x the planned steps + 6).
     #[arg(long, requires = "closed_loop")]
     pub max_steps: Option<usize>,
     /// With --closed-loop: do not fit the wells to the measured steps (by default, once the

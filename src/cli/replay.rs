@@ -73,7 +73,7 @@ pub struct Args {
     /// from the plan, done within max(1.5, 2 x noise) degrees of the goal.
     #[arg(long, requires = "sensor", default_value_t = 0.0)]
     pub sensor_noise_deg: f64,
-    /// With --sensor: at most this many steps (default: twice the plan's).
+    /// With --sensor: at most this many steps (default: 3 x the plan's steps + 6).
     #[arg(long, requires = "sensor")]
     pub max_steps: Option<usize>,
     /// With --sensor: do not fit the wells to the measured steps (by default, once the

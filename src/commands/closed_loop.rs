@@ -24,7 +24,8 @@ pub struct LoopOptions {
     pub noise_deg: f64,
     /// The noise's seed (`--seed`).
     pub seed: u64,
-    /// At most this many steps (`--max-steps`; default twice the open-loop plan's).
+    /// At most this many steps (`--max-steps`; default [`default_max_steps`] of the open-loop
+    /// plan's).
     pub max_steps: Option<usize>,
     /// Fit the wells to the measurements and steer with the fit where the model is wrong
     /// (`--no-identify` turns it off).
@@ -81,12 +82,19 @@ pub fn check_loop_options(o: &LoopOptions) -> Result<()> {
     Ok(())
 }
 
+/// The closed loop's step budget when `--max-steps` is not given: three times the plan's steps
+/// plus six. It must not hang on the plan's length alone: a plan made in a wrong model may be
+/// much shorter than the plant needs, and a fit of the wells takes a step or two.
+pub fn default_max_steps(planned_steps: usize) -> usize {
+    3 * planned_steps + 6
+}
+
 /// The loop's settings from the options, checked.
 pub fn loop_settings(o: &LoopOptions, planned_steps: usize) -> Result<LoopSettings> {
     check_loop_options(o)?;
     let noise = Radians(o.noise_deg.to_radians());
     Ok(if o.closed {
-        let max = o.max_steps.unwrap_or(2 * planned_steps.max(1));
+        let max = o.max_steps.unwrap_or(default_max_steps(planned_steps));
         LoopSettings {
             identify: o.identify,
             ..LoopSettings::for_noise(noise, o.seed, max)

@@ -38,7 +38,7 @@ pub struct SensorOptions {
     pub timeout_ms: Option<u64>,
     /// `--sensor-noise-deg`: the sensor's expected noise; sets the replan and goal thresholds.
     pub noise_deg: f64,
-    /// `--max-steps` (default: twice the plan's steps).
+    /// `--max-steps` (default: 3 x the plan's steps + 6).
     pub max_steps: Option<usize>,
     /// Fit the wells to the measured steps and steer with the fit where the scenario's model
     /// is wrong (`--no-identify` turns it off).

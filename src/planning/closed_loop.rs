@@ -81,8 +81,11 @@ pub const TRACK_DEG: f64 = 0.25;
 /// The replan's search (see [`crate::planning::seek`]): the states nearest the goal kept at
 /// each depth, and how deep it looks at most (fewer where fewer steps are left). A replan is
 /// made while the coils hold the ball: on 2 cores it takes tens of milliseconds.
-pub const REPLAN_BEAM: usize = 8;
+pub const REPLAN_BEAM: usize = 6;
 pub const REPLAN_DEPTH: usize = 6;
+/// The replan's search settles this many of each state's coil sets, those whose cheap
+/// prediction lies nearest the goal.
+pub const REPLAN_SETS: usize = 12;
 
 /// One step played on the plant.
 #[derive(Debug, Clone, PartialEq)]
@@ -218,6 +221,8 @@ pub struct Controller<'a> {
     steps: usize,
     /// Wall time of each decision that searched (a replan), ms: reported, never decided on.
     replan_ms: Vec<f64>,
+    /// The last measurement was at the goal (see [`Controller::arrived`]).
+    arrived: bool,
 }
 
 impl<'a> Controller<'a> {
@@ -246,6 +251,7 @@ impl<'a> Controller<'a> {
             planned_with: None,
             steps: 0,
             replan_ms: Vec::new(),
+            arrived: false,
         })
     }
 
@@ -284,6 +290,13 @@ impl<'a> Controller<'a> {
         angular(measured, &self.goal) <= self.cl.goal_tolerance.0
     }
 
+    /// Whether the last measurement put the ball within the goal tolerance, as the loop
+    /// estimated it (the measurement's equilibrium in the physics that steers, see
+    /// [`Controller`]); open loop, by the measurement itself.
+    pub fn arrived(&self) -> bool {
+        self.arrived
+    }
+
     /// The measurement after [`Controller::next_row`]'s set was switched and the ball settled:
     /// what to do next.
     pub fn observe(&mut self, measured: &Orientation) -> Decision {
@@ -300,6 +313,7 @@ impl<'a> Controller<'a> {
         let row = self.next_row().clone();
         let last = self.next + 1 >= self.rows.len();
         if !self.cl.replan {
+            self.arrived = self.at_goal(measured);
             self.next += 1;
             return if last {
                 Decision::Done
@@ -312,15 +326,23 @@ impl<'a> Controller<'a> {
             let steer = self.steering();
             let (est, explained) = self.estimate(steer, &row.active, measured);
             let distance = angular(&est, &self.goal);
-            if distance <= self.cl.goal_tolerance.0 {
+            self.arrived = distance <= self.cl.goal_tolerance.0;
+            if self.arrived {
                 return Decision::Done;
             }
-            let track = if explained {
-                TRACK_DEG.to_radians()
-            } else {
-                self.cl.replan_beyond.0
-            };
-            let on_track = self.planned_with == steer && angular(&est, &row.q) <= track;
+            // the plan's prediction is the equilibrium the ball is in, or lies within the noise
+            // of the measurement
+            let near = (explained && angular(&est, &row.q) <= TRACK_DEG.to_radians())
+                || angular(measured, &row.q) <= self.cl.replan_beyond.0;
+            let on_track = self.planned_with == steer && near;
+            if std::env::var_os("SS_DEBUG").is_some() {
+                eprintln!(
+                    "   est {:.2} from plan, measured {:.2}, explained {explained}, to goal {:.2}",
+                    angular(&est, &row.q).to_degrees(),
+                    angular(measured, &row.q).to_degrees(),
+                    distance.to_degrees()
+                );
+            }
             if on_track && !last {
                 self.next += 1;
                 return Decision::Continue;
@@ -374,7 +396,7 @@ impl<'a> Controller<'a> {
         let torques = self.torques_of(steer);
         let pairs = label(torques, &coils_of(active), measured);
         let m = self.model;
-        let r = settle(torques, &pairs, measured, m.body, m.weighing());
+        let r = settle(torques, &pairs, measured, m.body, m.settle);
         if r.settled && angular(&r.q, measured) <= self.cl.replan_beyond.0 {
             (r.q, true)
         } else {
@@ -404,7 +426,24 @@ impl<'a> Controller<'a> {
             to: *measured,
         };
         let before = id.steer();
+        let t0 = std::time::Instant::now();
+        let s0 = id.settles();
         id.observe(self.model, &o);
+        if std::env::var_os("SS_DEBUG").is_some() {
+            eprintln!("   fit: {} settles {:.0} ms", id.settles() - s0, t0.elapsed().as_secs_f64() * 1e3);
+        }
+        if std::env::var_os("SS_DEBUG").is_some() {
+            let b = id.best();
+            eprintln!(
+                "step {}: model {:.2}, best {} {:.2} ({}), steer {:?}",
+                self.steps - 1,
+                id.score(0),
+                b,
+                id.score(b),
+                id.candidate(b).name,
+                id.steer()
+            );
+        }
         if id.steer().is_some() && id.steer() != before {
             self.fitted_at = Some(self.steps - 1);
         }
@@ -423,8 +462,8 @@ impl<'a> Controller<'a> {
     }
 
     /// The rest of the motion in the physics `steer`, from the estimate `est` held by the
-    /// coils on now: the search of [`Seek`] straight for the goal, [`REPLAN_BEAM`] wide and at
-    /// most [`REPLAN_DEPTH`] deep (the steps left are counted against `max_steps`). Row 0 of
+    /// coils on now: the search of [`Seek`] straight for the goal, [`REPLAN_BEAM`] wide, at most
+    /// [`REPLAN_DEPTH`] deep, [`REPLAN_SETS`] sets settled per state (the steps left are counted against `max_steps`). Row 0 of
     /// the plan is the estimated state. The plan and the distance to the goal of its end; an
     /// error when no state is nearer the goal than the estimate.
     fn search(
@@ -440,6 +479,7 @@ impl<'a> Controller<'a> {
             per_step: self.settings.pairs,
             max_coils_on: self.settings.limits.max_coils_on,
             goal: self.goal,
+            ranked: Some(REPLAN_SETS),
         };
         let root = CommutationState {
             q: *est,
@@ -451,7 +491,16 @@ impl<'a> Controller<'a> {
             .max_steps
             .saturating_sub(self.steps - 1)
             .clamp(1, REPLAN_DEPTH);
+        let t0 = std::time::Instant::now();
         let path = seek.search(&root, left, REPLAN_BEAM, self.cl.goal_tolerance.0);
+        if std::env::var_os("SS_DEBUG").is_some() {
+            eprintln!(
+                "   search: {} settles, {:.0} ms, depth {left}, {} states",
+                path.settles,
+                t0.elapsed().as_secs_f64() * 1e3,
+                path.states.len()
+            );
+        }
         let Some(end) = path.states.last() else {
             let name = match steer {
                 Some(_) => format!("the fitted {}", self.fitted().map(|f| f.0).unwrap_or_default()),
@@ -631,7 +680,7 @@ pub fn run_closed_loop(
         Ending::MaxSteps => Some(format!("stopped after {} steps", cl.max_steps)),
     };
     let lp = sim.rows;
-    let reached = lp.rows.last().is_some_and(|r| ctl.at_goal(&r.measured));
+    let reached = ctl.arrived();
     let mut run = lp.finish(message, reached, ctl.replans());
     if let Some((name, step)) = ctl.fitted() {
         run.summary.fitted = Some(name);

@@ -24,11 +24,18 @@ use rayon::prelude::*;
 
 /// Widths (degrees) of the grid's gaussian candidates.
 pub const GAUSSIAN_WIDTHS_DEG: [f64; 6] = [5.0, 7.0, 10.0, 14.0, 20.0, 28.0];
-/// Reaches (maximum attraction distances, degrees) of the grid's candidates; a gaussian's reach
-/// is at least its width (where its pull peaks).
-pub const REACHES_DEG: [f64; 7] = [15.0, 20.0, 25.0, 30.0, 40.0, 50.0, 60.0];
-/// Stiffnesses of the grid's candidates, as fractions of the model's single-pair stiffness.
-pub const STIFFNESS_FRACTIONS: [f64; 4] = [0.25, 0.5, 1.0, 2.0];
+/// Reaches (maximum attraction distances, degrees) of the grid's candidates, 15 to 60 by 2.5
+/// (with every coil pulling, which magnets a coil reaches decides the equilibria: a coarser
+/// grid leaves the fit in the wrong basin of its refinement); a gaussian's reach is at least
+/// its width (where its pull peaks).
+pub const REACHES_DEG: [f64; 19] = [
+    15.0, 17.5, 20.0, 22.5, 25.0, 27.5, 30.0, 32.5, 35.0, 37.5, 40.0, 42.5, 45.0, 47.5, 50.0,
+    52.5, 55.0, 57.5, 60.0,
+];
+/// Stiffnesses of the grid's candidates, as fractions of the model's single-pair stiffness
+/// (the equilibria do not depend on it, only which basin a step ends in: the refinement
+/// finds it).
+pub const STIFFNESS_FRACTIONS: [f64; 2] = [0.4, 1.0];
 /// A measured step costs at most this (a squared error of 3 noise units): a step that ended in
 /// another basin than predicted, or a prediction that does not settle.
 pub const CAP: f64 = 9.0;
@@ -40,10 +47,15 @@ pub const SWITCH_MARGIN: f64 = 9.0;
 /// degrees): a noiseless sensor still meets the settle's tolerance and the model's small
 /// errors.
 pub const MIN_SCALE: f64 = 0.2 * std::f64::consts::PI / 180.0;
-/// How many of the best candidates are refined after each step, and how many polls each
-/// refinement makes at most.
-pub const REFINED: usize = 3;
+/// How many candidates are refined after each step (the best of each kind: gaussian or cosine,
+/// pairs or every coil), and how many polls each refinement makes at most.
+pub const REFINED: usize = 4;
 pub const POLLS: usize = 12;
+/// A candidate whose summed cost exceeds the best's by more than this is dropped.
+pub const UNLIKELY: f64 = 2.0 * CAP;
+/// A candidate whose cost averages at most this per step explains the steps as well as the
+/// noise allows (the true wells average 1): no refinement is made.
+pub const EXPLAINED: f64 = 2.0;
 /// At most this many refined candidates are kept (the worst dropped first).
 pub const KEPT_REFINED: usize = 24;
 
@@ -167,14 +179,17 @@ pub struct Candidate {
     pub name: String,
     /// Its parameters (`None`: the model's own wells).
     pub params: Option<WellParams>,
+    /// Made by a refinement (not one of the grid's).
+    pub refined: bool,
 }
 
 impl Candidate {
-    fn of(params: WellParams, model: &MagnetTorques) -> Candidate {
+    fn of(params: WellParams, model: &MagnetTorques, refined: bool) -> Candidate {
         Candidate {
             torques: params.torques(model),
             name: params.name(),
             params: Some(params),
+            refined,
         }
     }
 }
@@ -188,6 +203,7 @@ pub fn family(model: &MagnetTorques) -> Vec<Candidate> {
         torques: model.clone(),
         name: "the model's own wells".into(),
         params: None,
+        refined: false,
     }];
     let k = model.well.stiffness();
     let shapes: Vec<Shape> = GAUSSIAN_WIDTHS_DEG
@@ -209,7 +225,7 @@ pub fn family(model: &MagnetTorques) -> Vec<Candidate> {
                         stiffness: fraction * k,
                         interaction,
                     };
-                    out.push(Candidate::of(p, model));
+                    out.push(Candidate::of(p, model, false));
                 }
             }
         }
@@ -260,7 +276,8 @@ impl Identifier {
     }
 
     /// Scores every candidate on one more measured step, settled with the model's body and
-    /// weighing settle (`motor`'s; its torques are not used), refines the best while the model
+    /// settle (`motor`'s; its torques are not used: a set that holds no strict minimum is
+    /// followed to where the ball stops, as the plant does), refines the best while the model
     /// is not the best, and chooses the candidate that steers from now on.
     pub fn observe(&mut self, motor: &Motor, o: &Observation) {
         if motor.cancel.is_cancelled() {
@@ -271,7 +288,7 @@ impl Identifier {
             .candidates
             .par_iter()
             .map(|c| {
-                let r = settle(&c.torques, &o.active, &o.from, motor.body, motor.weighing());
+                let r = settle(&c.torques, &o.active, &o.from, motor.body, motor.settle);
                 cost(&r.q, r.settled, &o.to, scale)
             })
             .collect();
@@ -281,7 +298,10 @@ impl Identifier {
         }
         self.settles += self.candidates.len();
         self.observations.push(o.clone());
-        if self.best() != 0 {
+        self.drop_unlikely();
+        let best = self.best();
+        let explained = self.score(best) <= EXPLAINED * self.observations.len() as f64;
+        if best != 0 && !explained {
             self.refine(motor);
         }
         let best = self.best();
@@ -335,7 +355,7 @@ impl Identifier {
             .observations
             .par_iter()
             .map(|o| {
-                let r = settle(&torques, &o.active, &o.from, motor.body, motor.weighing());
+                let r = settle(&torques, &o.active, &o.from, motor.body, motor.settle);
                 cost(&r.q, r.settled, &o.to, scale)
             })
             .collect();
@@ -351,11 +371,18 @@ impl Identifier {
         let k = self.model.well.stiffness();
         let mut order: Vec<usize> = (0..self.candidates.len()).collect();
         order.sort_by(|&a, &b| self.score(a).total_cmp(&self.score(b)).then(a.cmp(&b)));
-        let starts: Vec<WellParams> = order
-            .iter()
-            .filter_map(|&i| self.candidates[i].params)
-            .take(REFINED)
-            .collect();
+        // the best of each kind (shape and interaction): a local search from the best alone
+        // stays with its kind
+        let mut starts: Vec<WellParams> = Vec::new();
+        for p in order.iter().filter_map(|&i| self.candidates[i].params) {
+            let kind = |q: &WellParams| (matches!(q.shape, Shape::Cosine), q.interaction);
+            if !starts.iter().any(|s| kind(s) == kind(&p)) {
+                starts.push(p);
+            }
+            if starts.len() == REFINED {
+                break;
+            }
+        }
         for start in starts {
             let mut at = start;
             let mut score = self.evaluate(motor, &at).0;
@@ -381,19 +408,45 @@ impl Identifier {
             }
             let (_, costs, errors) = self.evaluate(motor, &at);
             self.settles += self.observations.len();
-            self.candidates.push(Candidate::of(at, &self.model));
+            self.candidates.push(Candidate::of(at, &self.model, true));
             self.costs.push(costs);
             self.errors.push(errors);
         }
         self.prune();
     }
 
+    /// Drops the candidates that explain the steps worse than the best by more than
+    /// [`UNLIKELY`] (a likelihood ratio below e^-9: two steps it cannot make that the best
+    /// makes), never the model nor the one steering: the grid only starts the fit, and after a
+    /// few steps the few that are left are scored on each further step.
+    fn drop_unlikely(&mut self) {
+        let bound = self.score(self.best()) + UNLIKELY;
+        let keep: Vec<bool> = (0..self.candidates.len())
+            .map(|k| k == 0 || k == self.steer || self.score(k) <= bound)
+            .collect();
+        let steer = self.candidates[self.steer].params;
+        let mut k = 0;
+        self.candidates.retain(|_| (keep[k], k += 1).0);
+        let mut k = 0;
+        self.costs.retain(|_| (keep[k], k += 1).0);
+        let mut k = 0;
+        self.errors.retain(|_| (keep[k], k += 1).0);
+        self.steer = if self.steer == 0 {
+            0
+        } else {
+            (1..self.candidates.len())
+                .find(|&k| self.candidates[k].params == steer)
+                .unwrap_or(0)
+        };
+    }
+
     /// Keeps at most [`KEPT_REFINED`] refined candidates (after the grid): the worst go first,
     /// never the one steering.
     fn prune(&mut self) {
-        let grid = family_len(&self.model);
+        let grid = self.candidates.iter().filter(|c| !c.refined).count();
         while self.candidates.len() > grid + KEPT_REFINED {
-            let worst = (grid..self.candidates.len())
+            let worst = (0..self.candidates.len())
+                .filter(|&i| self.candidates[i].refined)
                 .filter(|&i| i != self.steer)
                 .max_by(|&a, &b| self.score(a).total_cmp(&self.score(b)).then(b.cmp(&a)));
             let Some(w) = worst else { break };
@@ -438,17 +491,6 @@ impl Identifier {
     }
 }
 
-/// How many candidates [`family`] makes for `model` (without making them).
-fn family_len(model: &MagnetTorques) -> usize {
-    let _ = model;
-    let per_shape: usize = GAUSSIAN_WIDTHS_DEG
-        .iter()
-        .map(|&w| REACHES_DEG.iter().filter(|&&r| r >= w).count())
-        .sum::<usize>()
-        + REACHES_DEG.len();
-    1 + STIFFNESS_FRACTIONS.len() * 2 * per_shape
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -474,7 +516,6 @@ mod tests {
     fn the_family_has_the_counted_size_and_the_model_first() {
         let t = torques();
         let f = family(&t);
-        assert_eq!(f.len(), family_len(&t));
         assert!(f[0].params.is_none());
         let k = t.well.stiffness();
         assert!(f[1..].iter().all(|c| c.params.is_some_and(|p| p.within(k))));

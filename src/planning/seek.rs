@@ -10,7 +10,7 @@ use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{
     coil_sets, coils_in_reach, coils_of, label, settle_following, FOLLOWED_PER_STATE,
 };
-use crate::planning::commutation::{CommutationState, Motor, PairsPerStep};
+use crate::planning::commutation::{predicted_orientation, CommutationState, Motor, PairsPerStep};
 
 /// How many states nearest the goal the closed loop's search keeps at each depth, and how deep
 /// it looks at most. For scale (`examples/fewest_steps.rs` on `scenarios/broad-wells.toml`,
@@ -30,6 +30,10 @@ pub struct Seek<'a> {
     pub per_step: PairsPerStep,
     pub max_coils_on: usize,
     pub goal: Orientation,
+    /// Settle only this many of a state's coil sets, those whose cheap prediction (the
+    /// least-squares alignment of each coil with its nearest magnet,
+    /// [`predicted_orientation`]) lies nearest the goal; `None`: every set.
+    pub ranked: Option<usize>,
 }
 
 /// What a search found.
@@ -130,8 +134,20 @@ impl Seek<'_> {
         let torques = self.torques;
         let held = coils_of(&from.active);
         let reach = coils_in_reach(torques, &from.q);
-        let sets = coil_sets(&held, &reach, self.per_step, self.max_coils_on);
-        let pairs: Vec<Vec<Pair>> = sets.iter().map(|c| label(torques, c, &from.q)).collect();
+        let mut sets = coil_sets(&held, &reach, self.per_step, self.max_coils_on);
+        let mut pairs: Vec<Vec<Pair>> = sets.iter().map(|c| label(torques, c, &from.q)).collect();
+        if let Some(k) = self.ranked.filter(|&k| k < sets.len()) {
+            let mut keyed: Vec<(f64, usize)> = pairs
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (self.distance(&predicted_orientation(torques, &from.q, p)), i))
+                .collect();
+            keyed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            keyed.truncate(k);
+            keyed.sort_by_key(|&(_, i)| i);
+            sets = keyed.iter().map(|&(_, i)| sets[i].clone()).collect();
+            pairs = keyed.iter().map(|&(_, i)| pairs[i].clone()).collect();
+        }
         let rank = |q: &Orientation| self.distance(q);
         let follow = FOLLOWED_PER_STATE;
         let (results, spent) = settle_following(torques, &pairs, &from.q, self.motor, follow, rank);
