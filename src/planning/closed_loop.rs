@@ -172,7 +172,7 @@ pub enum Decision {
 /// the hardware's): which row to switch next, and after each measurement whether the plan in
 /// force goes on, is replanned, or is done.
 pub struct Controller<'a> {
-    model: &'a Motor<'a>,
+    model: &'a Motor,
     settings: PlanSettings,
     cl: LoopSettings,
     goal: Orientation,
@@ -196,7 +196,7 @@ impl<'a> Controller<'a> {
     /// A controller that plays `open` (made with `model` for `settings`, row 0 its initial
     /// state) towards `goal`; `None` for a plan without rows.
     pub fn new(
-        model: &'a Motor<'a>,
+        model: &'a Motor,
         settings: &PlanSettings,
         open: &Plan,
         goal: Orientation,
@@ -212,7 +212,7 @@ impl<'a> Controller<'a> {
             next: 0,
             replans: 0,
             last: first.q,
-            identifier: (cl.replan && cl.identify).then(|| Identifier::new(model.torques)),
+            identifier: (cl.replan && cl.identify).then(|| Identifier::new(&model.torques)),
             fitted: None,
             fitted_at: None,
             planned_with: None,
@@ -411,7 +411,7 @@ impl<'a> Controller<'a> {
         }
         let state = CommutationState {
             q: *measured,
-            active: label(self.model.torques, &coils, measured),
+            active: label(&self.model.torques, &coils, measured),
             settle_time_s: 0.0,
         };
         let s = PlanSettings {
@@ -497,7 +497,7 @@ pub fn drive<P: Plant>(ctl: &mut Controller, plant: &mut P) -> Result<(Ending, u
 /// The simulated plant: the plant's physics settles each set from where the last left the
 /// ball, a seeded sensor measures it; every step is kept as a [`LoopRow`].
 struct Simulated<'a> {
-    plant: &'a Motor<'a>,
+    plant: &'a Motor,
     noise: Noise,
     truth: Orientation,
     rows: Loop<'a>,
@@ -513,7 +513,7 @@ impl Plant for Simulated<'_> {
         decide: &mut Decide<'_>,
     ) -> Result<(Orientation, Decision), Self::Error> {
         let p = self.plant;
-        let res = settle(p.torques, &row.active, &self.truth, p.body, p.settle);
+        let res = settle(&p.torques, &row.active, &self.truth, p.body, p.settle);
         self.truth = res.q;
         let measured = self.noise.measure(&self.truth);
         let decision = decide(&measured);
