@@ -425,49 +425,7 @@ impl RelayError {
                 "{board} board: {reason}; replay without {}",
                 w.name(Setting::Verify)
             ),
-            RelayError::OnTooLong {
-                coil,
-                board,
-                channel,
-                when,
-                on,
-                max,
-                advice,
-            } => {
-                let advice = match advice {
-                    OnTimeAdvice::None => String::new(),
-                    OnTimeAdvice::Dwell => format!(
-                        "; the dwells are the plan's settle times x relay.dwell_factor: give a \
-                         shorter {}, or raise relay.max_on_time_s if the coils can take the heat",
-                        w.name(Setting::Dwell)
-                    ),
-                };
-                format!(
-                    "coil {coil} ({}) {when} {:.3} s, over the limit of {:.3} s \
-                     (relay.max_on_time_s){advice}",
-                    where_on(*board, *channel),
-                    on.as_secs_f64(),
-                    max.as_secs_f64()
-                )
-            }
-            RelayError::OnTimeReached {
-                coil,
-                board,
-                channel,
-                phase,
-                on,
-                max,
-            } => format!(
-                "coil {coil} ({}) had been on {:.3} s, near its limit of {:.3} s \
-                 (relay.max_on_time_s), while the closed loop was {phase}: every coil was \
-                 switched off before the limit (a shorter {} or {}, or a higher \
-                 relay.max_on_time_s, leaves it more time)",
-                where_on(*board, *channel),
-                on.as_secs_f64(),
-                max.as_secs_f64(),
-                w.name(Setting::Dwell),
-                w.name(Setting::SensorTimeout)
-            ),
+            RelayError::OnTooLong { .. } | RelayError::OnTimeReached { .. } => self.on_time(w),
             RelayError::Stopped { cause, resume } => format!(
                 "{}; all coils switched off; resume with {} {resume}",
                 cause.worded(w),
@@ -521,6 +479,56 @@ impl RelayError {
                 failed,
                 switched_off,
             } => boards_off_failed(cause.as_deref(), failed, switched_off, w),
+            e => e.to_string(),
+        }
+    }
+
+    /// The messages of the on-time errors, worded by `w`.
+    fn on_time(&self, w: &dyn Wording) -> String {
+        match self {
+            RelayError::OnTooLong {
+                coil,
+                board,
+                channel,
+                when,
+                on,
+                max,
+                advice,
+            } => {
+                let advice = match advice {
+                    OnTimeAdvice::None => String::new(),
+                    OnTimeAdvice::Dwell => format!(
+                        "; the dwells are the plan's settle times x relay.dwell_factor: give a \
+                         shorter {}, or raise relay.max_on_time_s if the coils can take the heat",
+                        w.name(Setting::Dwell)
+                    ),
+                };
+                format!(
+                    "coil {coil} ({}) {when} {:.3} s, over the limit of {:.3} s \
+                     (relay.max_on_time_s){advice}",
+                    where_on(*board, *channel),
+                    on.as_secs_f64(),
+                    max.as_secs_f64()
+                )
+            }
+            RelayError::OnTimeReached {
+                coil,
+                board,
+                channel,
+                phase,
+                on,
+                max,
+            } => format!(
+                "coil {coil} ({}) had been on {:.3} s, near its limit of {:.3} s \
+                 (relay.max_on_time_s), while the closed loop was {phase}: every coil was \
+                 switched off before the limit (a shorter {} or {}, or a higher \
+                 relay.max_on_time_s, leaves it more time)",
+                where_on(*board, *channel),
+                on.as_secs_f64(),
+                max.as_secs_f64(),
+                w.name(Setting::Dwell),
+                w.name(Setting::SensorTimeout)
+            ),
             e => e.to_string(),
         }
     }
