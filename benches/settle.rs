@@ -25,7 +25,6 @@ use spherestep::physics::dynamics::{settle, settle_many, Method, RotorDynamics, 
 use spherestep::physics::integrator::OdeSystem;
 use spherestep::physics::torque::{Interaction, MagnetTorques, TorqueModel};
 use spherestep::planning::commutation::nearest_magnet;
-use spherestep::planning::commutation::Motor;
 use spherestep::planning::planner::plan;
 use std::hint::black_box;
 use std::path::Path;
@@ -180,12 +179,7 @@ fn bench_threads(c: &mut Criterion) {
 
 fn bench_planner(c: &mut Criterion) {
     let sc = load("scenarios/paper-fig8-y-dynamic3.toml");
-    let motor = Motor {
-        torques: &sc.torques,
-        body: sc.body,
-        settle: sc.settle,
-        cancel: spherestep::planning::cancel::Cancel::never(),
-    };
+    let motor = sc.motor();
     let mut g = c.benchmark_group("plan_y_dynamic3");
     g.sample_size(10);
     g.measurement_time(Duration::from_secs(8));

@@ -75,7 +75,7 @@ fn main() -> Result<()> {
             let p = plan(&mm, &settings);
             let goal = goal_of(&settings, &p.rows).context("no plan")?;
             // the plant's own fewest steps from where the model's initial set leaves the ball
-            let r0 = settle(pm.torques, &p.rows[0].active, &p.rows[0].q, pm.body, pm.settle);
+            let r0 = settle(&pm.torques, &p.rows[0].active, &p.rows[0].q, pm.body, pm.settle);
             let root = CommutationState {
                 q: r0.q,
                 active: p.rows[0].active.clone(),
@@ -83,7 +83,7 @@ fn main() -> Result<()> {
             };
             let seek = Seek {
                 motor: &pm,
-                torques: pm.torques,
+                torques: &pm.torques,
                 per_step: settings.pairs,
                 max_coils_on: settings.limits.max_coils_on,
                 goal,

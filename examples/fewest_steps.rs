@@ -63,7 +63,7 @@ fn main() -> Result<()> {
         settle_time_s: 0.0,
     };
     for row in p.rows.iter().take(played + 1) {
-        let r = settle(m.torques, &row.active, &root.q, m.body, m.settle);
+        let r = settle(&m.torques, &row.active, &root.q, m.body, m.settle);
         root = CommutationState {
             q: r.q,
             active: row.active.clone(),
@@ -73,7 +73,7 @@ fn main() -> Result<()> {
     let goal = rot_q(&axis, angle) * row0.q;
     let seek = Seek {
         motor: &m,
-        torques: m.torques,
+        torques: &m.torques,
         per_step: settings.pairs,
         max_coils_on: settings.limits.max_coils_on,
         goal,

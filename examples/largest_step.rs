@@ -49,10 +49,10 @@ fn main() -> Result<()> {
     let mut k = 0;
     while k < pool.len().min(states) {
         let q = pool[k];
-        let reach = coils_in_reach(m.torques, &q);
+        let reach = coils_in_reach(&m.torques, &q);
         let sets = sets_of(&reach, 4);
-        let pairs: Vec<_> = sets.iter().map(|c| label(m.torques, c, &q)).collect();
-        let rs = settle_many(m.torques, &pairs, &q, m.body, m.settle);
+        let pairs: Vec<_> = sets.iter().map(|c| label(&m.torques, c, &q)).collect();
+        let rs = settle_many(&m.torques, &pairs, &q, m.body, m.settle);
         let mut angles: Vec<(f64, usize)> = rs
             .iter()
             .enumerate()

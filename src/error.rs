@@ -1,10 +1,15 @@
-//! The library's typed errors. Every message names where the problem is (file, field or
-//! argument) and what was expected, so the binary can print it as it is.
+//! The library's one error type, [`Error`], with the relay boards' and the sensors' errors as
+//! variants. Every message names where the problem is (file, field, setting or argument) and
+//! what was expected; the library names a replay's settings by their fields, and the command
+//! line words them as its flags ([`Error::worded`]).
 
+use crate::relay::{RelayError, Wording};
+use crate::sensor::SensorError;
 use std::path::PathBuf;
 
 /// Errors of the spherestep library.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
     /// A scenario file's field holds a value that is not allowed.
     #[error("{file}: field `{field}`: expected {expected}")]
@@ -58,12 +63,28 @@ pub enum Error {
         path: PathBuf,
         cause: std::io::Error,
     },
+    /// A relay board, or a replay on the boards, failed (the message says whether the coils
+    /// were switched off).
+    #[error(transparent)]
+    Relay(#[from] RelayError),
+    /// An orientation sensor failed (the message names the sensor and its port).
+    #[error(transparent)]
+    Sensor(#[from] SensorError),
 }
 
 /// Result with the library's error.
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
+    /// The message with a replay's settings named by `w` (the command line's flags); the
+    /// same as `Display` for errors about no setting.
+    pub fn worded(&self, w: &dyn Wording) -> String {
+        match self {
+            Error::Relay(e) => e.worded(w),
+            e => e.to_string(),
+        }
+    }
+
     pub fn field(file: impl Into<PathBuf>, field: &str, expected: impl Into<String>) -> Self {
         Error::Field {
             file: file.into(),

@@ -21,14 +21,14 @@ fn steps_in(plant: &Motor, q0: Orientation) -> Vec<Observation> {
     let mut out = Vec::new();
     let mut q = q0;
     for k in 0..4 {
-        let reach = coils_in_reach(plant.torques, &q);
+        let reach = coils_in_reach(&plant.torques, &q);
         let coils: Vec<CoilId> = [k, k + 2, k + 5]
             .iter()
             .take(2 + k % 2)
             .map(|&i| reach[i % reach.len()])
             .collect();
-        let active = label(plant.torques, &coils, &q);
-        let r = settle(plant.torques, &active, &q, plant.body, plant.weighing());
+        let active = label(&plant.torques, &coils, &q);
+        let r = settle(&plant.torques, &active, &q, plant.body, plant.weighing());
         out.push(Observation {
             from: q,
             active,

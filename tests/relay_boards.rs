@@ -149,10 +149,10 @@ fn verify_mismatch_stops_with_all_off() {
     let (got, _board) = slave.join().unwrap();
     let e = r.unwrap_err();
     assert!(
-        matches!(e.root(), RelayError::Mismatch { step: 0, .. }),
+        matches!(relay(&e).root(), RelayError::Mismatch { step: 0, .. }),
         "{e}"
     );
-    let msg = e.to_string();
+    let msg = flagged(&e);
     assert!(
         msg.contains("expected channels on [1, 2]") && msg.contains("[1, 2, 3]"),
         "{msg}"
@@ -173,7 +173,10 @@ fn verify_refused_where_the_board_cannot_read_back() {
     opts.verify = true;
     let (mut board, computer) = pty();
     let (r, _) = run(&opts, link(&computer));
-    assert!(matches!(r, Err(RelayError::NoReadBack { .. })));
+    assert!(matches!(
+        r.as_ref().map_err(relay),
+        Err(RelayError::NoReadBack { .. })
+    ));
     assert!(leftover(&mut board).is_empty());
 }
 
@@ -336,9 +339,7 @@ done: 2 step(s) replayed; all coils off
     let far = plan_with(dir.path(), &["0:10;6:11"]);
     let mut opts = options(&far, &sc);
     opts.dry_run = true;
-    let e = spherestep::commands::replay::prepare(&opts)
-        .unwrap_err()
-        .to_string();
+    let e = flagged(&spherestep::commands::replay::prepare(&opts).unwrap_err());
     assert!(
         e.contains("coil 6, which lies past the 6 channels of the 2 boards"),
         "{e}"
@@ -354,9 +355,7 @@ fn refusal(relay: &str, ports: &[&str]) -> String {
     let dir = tempfile::tempdir().unwrap();
     let mut opts = options(&short_plan(dir.path()), &scenario(dir.path(), relay));
     opts.ports = ports.iter().map(|p| p.to_string()).collect();
-    let e = spherestep::commands::replay::prepare(&opts)
-        .unwrap_err()
-        .to_string();
+    let e = flagged(&spherestep::commands::replay::prepare(&opts).unwrap_err());
     assert!(
         e.contains("scenario.toml") || e.starts_with("argument"),
         "{e}"
@@ -442,21 +441,17 @@ fn board_and_baud_options_are_refused_with_several_boards() {
     let sc = scenario(dir.path(), TWO_LCUS);
     let mut opts = options(&short_plan(dir.path()), &sc);
     opts.board = Some(spherestep::relay::BoardKind::Numato);
-    let e = spherestep::commands::replay::prepare(&opts)
-        .unwrap_err()
-        .to_string();
+    let e = flagged(&spherestep::commands::replay::prepare(&opts).unwrap_err());
     assert!(
-        e.contains("argument --board: expected no --board with [[relay.boards]]")
+        e.contains("argument --board: expected none with [[relay.boards]]")
             && e.contains("single-board form only"),
         "{e}"
     );
     opts.board = None;
     opts.baud = Some(19200);
-    let e = spherestep::commands::replay::prepare(&opts)
-        .unwrap_err()
-        .to_string();
+    let e = flagged(&spherestep::commands::replay::prepare(&opts).unwrap_err());
     assert!(
-        e.contains("argument --baud: expected no --baud with [[relay.boards]]")
+        e.contains("argument --baud: expected none with [[relay.boards]]")
             && e.contains("each entry gives its board's `baud`"),
         "{e}"
     );
@@ -470,7 +465,7 @@ fn board_and_baud_options_are_refused_with_several_boards() {
     let e = spherestep::commands::replay::prepare(&options(&plan, &sc)).unwrap_err();
     assert!(
         matches!(
-            e,
+            relay(&e),
             RelayError::TooManyOn {
                 step: 0,
                 count: 3,
@@ -575,10 +570,10 @@ fn verify_mismatch_on_one_board_names_it_and_switches_both_off() {
     let (got1, mut board1) = listener.join().unwrap();
     let e = r.unwrap_err();
     assert!(
-        matches!(e.root(), RelayError::Mismatch { step: 0, .. }),
+        matches!(relay(&e).root(), RelayError::Mismatch { step: 0, .. }),
         "{e}"
     );
-    let msg = e.to_string();
+    let msg = flagged(&e);
     let p0 = path_of(&computer0);
     assert!(
         msg.contains(&format!(

@@ -10,7 +10,7 @@ mod relay_support;
 use relay_support::{lcus_all_off, path_of, pty, GUARD};
 use serialport::{SerialPort, TTYPort};
 use spherestep::commands::closed_replay::{execute, prepare_closed, ClosedInputs, SensorOptions};
-use spherestep::commands::replay::ReplayOptions;
+use spherestep::commands::replay::{Flagged, ReplayOptions};
 use spherestep::io::scenario::Scenario;
 use spherestep::model::geometry::{rot_q, Orientation, Radians, UnitVec};
 use spherestep::planning::closed_loop::{run_closed_loop, Controller, Decision, LoopSettings};
@@ -377,7 +377,10 @@ fn run_with(
     // no log when the replay was refused before it began
     let log = std::fs::read_to_string(inputs.prep.drive.log.as_ref().unwrap()).unwrap_or_default();
     Ran {
-        result,
+        result: result.map_err(|e| match e {
+            spherestep::Error::Relay(r) => r,
+            other => panic!("expected a relay error, got: {other}"),
+        }),
         text: String::from_utf8_lossy(&out).into_owned(),
         frames,
         received,
@@ -540,10 +543,10 @@ fn closed_loop_refuses_dry_run_and_bad_sensor_options() {
     let mut opts = options(dir.path(), &plan);
     let so = SensorOptions::new("/dev/ttyACM0", SensorFormat::QuatCsv);
     let err = |opts: &ReplayOptions, so: &SensorOptions| {
-        prepare_closed(opts, so).err().expect("refused").to_string()
+        Flagged(prepare_closed(opts, so).err().expect("refused")).to_string()
     };
     opts.dry_run = true;
-    assert!(err(&opts, &so).starts_with("argument --dry-run: expected no --dry-run with --sensor"));
+    assert!(err(&opts, &so).starts_with("argument --dry-run: expected none with a sensor"));
     opts.dry_run = false;
     opts.ports = vec!["/dev/ttyUSB0".into(), "/dev/ttyACM0".into()];
     assert_eq!(

@@ -19,7 +19,7 @@ fn too_many_coils_refused_before_any_byte() {
     let e = r.unwrap_err();
     assert!(
         matches!(
-            e,
+            relay(&e),
             RelayError::TooManyOn {
                 step: 1,
                 count: 3,
@@ -42,7 +42,7 @@ fn make_before_break_counts_the_overlap() {
     let (mut board, computer) = pty();
     let (r, _) = run(&options(&plan, &sc), link(&computer));
     assert!(matches!(
-        r,
+        r.as_ref().map_err(relay),
         Err(RelayError::TooManyOn {
             step: 1,
             count: 3,
@@ -72,8 +72,8 @@ fn on_time_refused_before_any_byte() {
     let (mut board, computer) = pty();
     let (r, _) = run(&opts, link(&computer));
     let e = r.unwrap_err();
-    assert!(matches!(e, RelayError::OnTooLong { .. }), "{e}");
-    let msg = e.to_string();
+    assert!(matches!(relay(&e), RelayError::OnTooLong { .. }), "{e}");
+    let msg = flagged(&e);
     assert!(
         msg.contains("coil 0 (channel 1) would stay on from step 0 through step 2 for 6.000 s"),
         "{msg}"
@@ -97,7 +97,7 @@ fn unmapped_or_missing_channel_refused_before_any_byte() {
     let sc = scenario(dir.path(), "board = \"lcus\"");
     let (mut board, computer) = pty();
     let (r, _) = run(&options(&plan, &sc), link(&computer));
-    let msg = r.unwrap_err().to_string();
+    let msg = flagged(&r.unwrap_err());
     assert!(
         msg.contains("coil 9, which is mapped to channel 10, but the lcus board has 8 channels")
             && msg.contains("at most 8"),
@@ -109,7 +109,7 @@ fn unmapped_or_missing_channel_refused_before_any_byte() {
     let mut opts = options(&plan, &sc);
     opts.map = Some(map);
     let (r, _) = run(&opts, link(&computer));
-    let msg = r.unwrap_err().to_string();
+    let msg = flagged(&r.unwrap_err());
     assert!(
         msg.contains("coil 9, which no relay channel drives"),
         "{msg}"
@@ -141,12 +141,12 @@ fn board_closing_mid_replay_is_a_clear_error_and_the_log_resumes() {
     // control); either way the all-off after it finds the port closed and says so.
     assert!(
         matches!(
-            e.root(),
+            relay(&e).root(),
             RelayError::Closed { .. } | RelayError::Port { .. }
         ),
         "{e}"
     );
-    let msg = e.to_string();
+    let msg = flagged(&e);
     assert!(
         msg.contains(
             "switching all coils off FAILED: serial port pty: the board end closed the connection"
@@ -264,12 +264,12 @@ fn one_board_closing_mid_replay_names_its_port_and_the_other_board_goes_off() {
     let e = r.unwrap_err();
     assert!(
         matches!(
-            e.root(),
+            relay(&e).root(),
             RelayError::Closed { .. } | RelayError::Port { .. }
         ),
         "{e}"
     );
-    let msg = e.to_string();
+    let msg = flagged(&e);
     assert!(
         msg.starts_with(&format!("board 0 ({p0}): serial port {p0}: ")),
         "{msg}"
@@ -341,7 +341,7 @@ fn a_log_that_is_not_a_replay_log_is_refused_before_any_port_is_opened() {
     let mut opts = options(&plan, &sc);
     opts.log = Some(plan.clone());
     let e = replay::prepare(&opts).unwrap_err();
-    assert!(matches!(e, RelayError::Log { .. }), "{e}");
+    assert!(matches!(relay(&e), RelayError::Log { .. }), "{e}");
     assert!(
         e.to_string()
             .contains("its first line is `step,pivot_coil,"),

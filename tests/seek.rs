@@ -28,7 +28,7 @@ fn the_search_reaches_the_goal_through_steps_the_physics_takes() {
     let s: &PlanSettings = &sc.plan;
     let seek = Seek {
         motor: &m,
-        torques: m.torques,
+        torques: &m.torques,
         per_step: s.pairs,
         max_coils_on: s.limits.max_coils_on,
         goal,
@@ -50,7 +50,7 @@ fn the_search_reaches_the_goal_through_steps_the_physics_takes() {
     // each step, replayed as `simulate` settles it, lands where the search said
     let mut from = root.q;
     for st in &path.states {
-        let r = settle(m.torques, &st.active, &from, m.body, m.settle);
+        let r = settle(&m.torques, &st.active, &from, m.body, m.settle);
         assert!(r.settled);
         assert!(r.q.angle_to(&st.q) < 1e-6, "{}", r.q.angle_to(&st.q));
         from = st.q;

@@ -4,7 +4,7 @@
 
 use anyhow::{Context, Result};
 use spherestep::commands::closed_replay::{self, SensorOptions};
-use spherestep::commands::replay::{self, ReplayOptions};
+use spherestep::commands::replay::{self, Flagged, ReplayOptions};
 use spherestep::relay::replay::{stdin_lines, Mode};
 use spherestep::sensor::SensorFormat;
 use std::io::Write;
@@ -121,11 +121,11 @@ impl Args {
         ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
             .context("installing the Ctrl-C/SIGTERM handler")?;
         if let Some(so) = self.sensor_options() {
-            closed_replay::run(&self.options(), &so, stop, out)?;
+            closed_replay::run(&self.options(), &so, stop, out).map_err(Flagged)?;
             return Ok(());
         }
         let input = (self.mode == Mode::Step && !self.dry_run).then(stdin_lines);
-        replay::run(&self.options(), stop, input, out)?;
+        replay::run(&self.options(), stop, input, out).map_err(Flagged)?;
         Ok(())
     }
 }

@@ -6,7 +6,7 @@
 
 use super::closed_loop::{loop_settings, plan_file_loop, LoopOptions};
 use super::replay::{inputs, ReplayOptions};
-use crate::error::Error;
+use crate::error::{Error, Result};
 use crate::io::scenario::Scenario;
 use crate::model::geometry::Orientation;
 use crate::planning::cancel::Cancel;
@@ -15,7 +15,7 @@ use crate::planning::commutation::Motor;
 use crate::planning::plan::{Plan, PlanSettings};
 use crate::relay::closed::{execute_closed, refuse_options, ClosedSummary, Sensing};
 use crate::relay::replay::{check_log, open_ports, Prepared};
-use crate::relay::{Link, RelayError};
+use crate::relay::Link;
 use crate::sensor::bno055::FusionMode;
 use crate::sensor::{self, OrientationSensor, SensorFormat};
 use std::io::Write;
@@ -90,10 +90,7 @@ pub struct ClosedInputs {
 
 /// Reads the plan, scenario and map, checks the options and the schedule of the plan, and
 /// works out the controller's settings; opens nothing.
-pub fn prepare_closed(
-    opts: &ReplayOptions,
-    so: &SensorOptions,
-) -> Result<ClosedInputs, RelayError> {
+pub fn prepare_closed(opts: &ReplayOptions, so: &SensorOptions) -> Result<ClosedInputs> {
     refuse_options(&opts.drive(), opts.dry_run)?;
     check_sensor_options(so)?;
     let (rows, scenario, relay) = inputs(opts)?;
@@ -115,7 +112,7 @@ pub fn prepare_closed(
         .iter()
         .position(|b| b.port.as_deref() == Some(so.device.as_str()))
     {
-        return Err(RelayError::Arg {
+        return Err(Error::Arg {
             arg: "--sensor".into(),
             expected: format!(
                 "the sensor's own serial device, got {}, board {i}'s port",
@@ -139,7 +136,7 @@ pub const MAX_SENSOR_TIMEOUT: Duration = Duration::from_secs(60);
 /// The sensor is awaited with the step's coils on: its timeout must leave them room under the
 /// on-time limit (the replay also switches everything off before the limit whatever the
 /// timeout, see `relay::closed`), and is at most [`MAX_SENSOR_TIMEOUT`].
-fn check_sensor_timeout(so: &SensorOptions, max_on_time: Duration) -> Result<(), RelayError> {
+fn check_sensor_timeout(so: &SensorOptions, max_on_time: Duration) -> Result<()> {
     let t = so.timeout();
     let bound = max_on_time.min(MAX_SENSOR_TIMEOUT);
     if t >= bound {
@@ -151,7 +148,7 @@ fn check_sensor_timeout(so: &SensorOptions, max_on_time: Duration) -> Result<(),
         } else {
             format!("at most {} ms", MAX_SENSOR_TIMEOUT.as_millis() - 1)
         };
-        return Err(RelayError::Arg {
+        return Err(Error::Arg {
             arg: "--sensor-timeout-ms".into(),
             expected: format!("a timeout {why}, got {} ms", t.as_millis()),
         });
@@ -159,21 +156,21 @@ fn check_sensor_timeout(so: &SensorOptions, max_on_time: Duration) -> Result<(),
     Ok(())
 }
 
-fn check_sensor_options(so: &SensorOptions) -> Result<(), RelayError> {
+fn check_sensor_options(so: &SensorOptions) -> Result<()> {
     if let Some(b) = so.baud.filter(|b| !(1..=4_000_000).contains(b)) {
-        return Err(RelayError::Arg {
+        return Err(Error::Arg {
             arg: "--sensor-baud".into(),
             expected: format!("a baud rate from 1 to 4000000, got {b}"),
         });
     }
     if so.timeout_ms == Some(0) {
-        return Err(RelayError::Arg {
+        return Err(Error::Arg {
             arg: "--sensor-timeout-ms".into(),
             expected: "a timeout of at least 1 ms, got 0".into(),
         });
     }
     if let (Some(m), SensorFormat::QuatCsv) = (so.mode, so.format) {
-        return Err(RelayError::Arg {
+        return Err(Error::Arg {
             arg: "--sensor-mode".into(),
             expected: format!(
                 "no --sensor-mode with a quat-csv sensor (the mode is the BNO055's; the sketch behind a quat-csv port chooses its own fusion), got {}",
@@ -182,7 +179,7 @@ fn check_sensor_options(so: &SensorOptions) -> Result<(), RelayError> {
         });
     }
     if so.device.trim().is_empty() {
-        return Err(RelayError::Arg {
+        return Err(Error::Arg {
             arg: "--sensor".into(),
             expected: "a serial device such as /dev/ttyACM0, got an empty string".into(),
         });
@@ -198,7 +195,7 @@ pub fn execute(
     sensor: Box<dyn OrientationSensor>,
     stop: Arc<AtomicBool>,
     out: &mut dyn Write,
-) -> Result<ClosedSummary, RelayError> {
+) -> Result<ClosedSummary> {
     // the replans can be abandoned when the coils must go off (relay::closed)
     let cancel = Cancel::new();
     let motor = Motor {
@@ -223,7 +220,7 @@ pub fn execute(
         stator_coils: inputs.scenario.stator.len(),
         cancel,
     };
-    execute_closed(&inputs.prep, links, sensing, stop, out)
+    Ok(execute_closed(&inputs.prep, links, sensing, stop, out)?)
 }
 
 /// `spherestep replay ... --sensor DEV`: prepares, opens the sensor (a failure there touches no
@@ -233,7 +230,7 @@ pub fn run(
     so: &SensorOptions,
     stop: Arc<AtomicBool>,
     out: &mut dyn Write,
-) -> Result<ClosedSummary, RelayError> {
+) -> Result<ClosedSummary> {
     let inputs = prepare_closed(opts, so)?;
     let sensor = sensor::open(so.format, so.mode(), &so.device, so.baud(), so.timeout())?;
     let links = open_ports(&inputs.prep)?;

@@ -2,17 +2,73 @@
 //! what it needs to drive the board, or the boards (`crate::relay::replay`); also reads a replay
 //! log to say where to resume.
 
-use crate::error::Error;
+use crate::error::{Error, Result};
 use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
 use crate::planning::plan::PlanRow;
 use crate::relay::replay::{check_log, execute_on, open_ports, Drive, Mode, Prepared, Summary};
-use crate::relay::{BoardKind, Link, RelayError, RelaySettings};
+use crate::relay::{BoardKind, Link, RelayError, RelaySettings, Setting, Wording};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::mpsc::Receiver;
 use std::sync::Arc;
+
+/// The command line's wording of a replay's settings: each as the flag that sets it.
+#[derive(Debug, Clone, Copy)]
+pub struct Flags;
+
+impl Flags {
+    /// The flag of a setting.
+    pub fn flag(s: Setting) -> &'static str {
+        match s {
+            Setting::Board => "--board",
+            Setting::Baud => "--baud",
+            Setting::Port => "--port",
+            Setting::Mode => "--mode",
+            Setting::Dwell => "--dwell-ms",
+            Setting::FromStep => "--from-step",
+            Setting::Log => "--log",
+            Setting::Verify => "--verify",
+            Setting::DryRun => "--dry-run",
+            Setting::Sensor => "--sensor",
+            Setting::SensorTimeout => "--sensor-timeout-ms",
+            Setting::MaxSteps => "--max-steps",
+        }
+    }
+}
+
+impl Wording for Flags {
+    fn name(&self, s: Setting) -> String {
+        Flags::flag(s).to_string()
+    }
+    fn subject(&self, s: Setting) -> String {
+        format!("argument {}", Flags::flag(s))
+    }
+}
+
+/// An error as the command line shows it: a replay's settings worded as their flags
+/// ([`Error::worded`] with [`Flags`]); its causes are the error's.
+#[derive(Debug)]
+pub struct Flagged(pub Error);
+
+impl std::fmt::Display for Flagged {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0.worded(&Flags))
+    }
+}
+
+impl std::error::Error for Flagged {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        std::error::Error::source(&self.0)
+    }
+}
+
+impl From<Error> for Flagged {
+    fn from(e: Error) -> Self {
+        Flagged(e)
+    }
+}
 
 /// The replay's inputs, as the command line gives them.
 #[derive(Debug, Clone)]
@@ -78,7 +134,7 @@ impl ReplayOptions {
 
 /// What a replay reads: the plan's rows, the scenario and the relay settings (the map file's,
 /// or the scenario's section).
-pub fn inputs(opts: &ReplayOptions) -> Result<(Vec<PlanRow>, Scenario, RelaySettings), RelayError> {
+pub fn inputs(opts: &ReplayOptions) -> Result<(Vec<PlanRow>, Scenario, RelaySettings)> {
     let rows = read_plan(&opts.plan)?;
     let scenario = match &opts.scenario {
         Some(p) => Scenario::load(p)?,
@@ -96,7 +152,7 @@ pub fn inputs(opts: &ReplayOptions) -> Result<(Vec<PlanRow>, Scenario, RelaySett
 
 /// Reads the plan, scenario and map, resolves the settings, checks the schedule and that the
 /// `--log` is a replay log that may be appended to (or a new or empty file).
-pub fn prepare(opts: &ReplayOptions) -> Result<Prepared, RelayError> {
+pub fn prepare(opts: &ReplayOptions) -> Result<Prepared> {
     let (rows, scenario, settings) = inputs(opts)?;
     let prep = crate::relay::replay::prepare(&rows, settings, scenario.stator.len(), opts.drive())?;
     check_log(&prep, false)?;
@@ -109,19 +165,19 @@ pub fn run(
     stop: Arc<AtomicBool>,
     input: Option<Receiver<String>>,
     out: &mut dyn Write,
-) -> Result<Summary, RelayError> {
+) -> Result<Summary> {
     let prep = prepare(opts)?;
     let links = if opts.dry_run {
         prep.boards.iter().map(|_| Link::dry_run()).collect()
     } else {
         open_ports(&prep)?
     };
-    execute_on(&prep, links, stop, input, out)
+    Ok(execute_on(&prep, links, stop, input, out)?)
 }
 
 /// Reads a replay log and returns the step to resume from: the one after the last step whose
 /// dwell completed (0 when none did).
-pub fn resume_step(log: &Path) -> Result<usize, RelayError> {
+pub fn resume_step(log: &Path) -> Result<usize> {
     let text = std::fs::read_to_string(log).map_err(|e| RelayError::Log {
         path: log.to_path_buf(),
         cause: e,

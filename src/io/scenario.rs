@@ -260,10 +260,11 @@ impl Scenario {
             .expect("the defaults form a valid scenario")
     }
 
-    /// The motor view of the scenario that commutation, planning and simulation need.
-    pub fn motor(&self) -> Motor<'_> {
+    /// The motor of the scenario that commutation, planning and simulation need: its own copy
+    /// of the torques, body and settle parameters, independent of the scenario afterwards.
+    pub fn motor(&self) -> Motor {
         Motor {
-            torques: &self.torques,
+            torques: self.torques.clone(),
             body: self.body,
             settle: self.settle,
             cancel: crate::planning::cancel::Cancel::never(),

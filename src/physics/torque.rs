@@ -72,7 +72,7 @@ pub trait TorqueModel: Sync {
 
     /// Whether the settle may trust a minimum near a well's cut-off that the ball came to
     /// without any margin of [`TorqueModel::cutoff_margins`] changing sign on the way (see
-    /// `dynamics::CUTOFF_SAFETY`): measured so for the "pairs" interaction, not for "coils".
+    /// `dynamics::end_phase::CUTOFF_SAFETY`): measured so for the "pairs" interaction, not for "coils".
     fn trusts_uncrossed_cutoffs(&self) -> bool {
         false
     }

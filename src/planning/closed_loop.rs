@@ -202,7 +202,7 @@ pub enum Decision {
 /// the physics that steers changes, and when it is played out short of the goal (then only if
 /// a step promises more than the noise).
 pub struct Controller<'a> {
-    model: &'a Motor<'a>,
+    model: &'a Motor,
     settings: PlanSettings,
     cl: LoopSettings,
     goal: Orientation,
@@ -229,7 +229,7 @@ impl<'a> Controller<'a> {
     /// A controller that plays `open` (made with `model` for `settings`, row 0 its initial
     /// state) towards `goal`; `None` for a plan without rows.
     pub fn new(
-        model: &'a Motor<'a>,
+        model: &'a Motor,
         settings: &PlanSettings,
         open: &Plan,
         goal: Orientation,
@@ -246,7 +246,7 @@ impl<'a> Controller<'a> {
             replans: 0,
             last: first.q,
             identifier: (cl.replan && cl.identify)
-                .then(|| Identifier::new(model.torques, cl.noise)),
+                .then(|| Identifier::new(&model.torques, cl.noise)),
             fitted_at: None,
             planned_with: None,
             steps: 0,
@@ -380,7 +380,7 @@ impl<'a> Controller<'a> {
     fn torques_of(&self, steer: Option<usize>) -> &MagnetTorques {
         match (steer, self.identifier.as_ref()) {
             (Some(k), Some(id)) => &id.candidate(k).torques,
-            _ => self.model.torques,
+            _ => &self.model.torques,
         }
     }
 
@@ -609,7 +609,7 @@ pub fn drive<P: Plant>(ctl: &mut Controller, plant: &mut P) -> Result<(Ending, u
 /// The simulated plant: the plant's physics settles each set from where the last left the
 /// ball, a seeded sensor measures it; every step is kept as a [`LoopRow`].
 struct Simulated<'a> {
-    plant: &'a Motor<'a>,
+    plant: &'a Motor,
     noise: Noise,
     truth: Orientation,
     rows: Loop<'a>,
@@ -625,7 +625,7 @@ impl Plant for Simulated<'_> {
         decide: &mut Decide<'_>,
     ) -> Result<(Orientation, Decision), Self::Error> {
         let p = self.plant;
-        let res = settle(p.torques, &row.active, &self.truth, p.body, p.settle);
+        let res = settle(&p.torques, &row.active, &self.truth, p.body, p.settle);
         self.truth = res.q;
         let measured = self.noise.measure(&self.truth);
         let decision = decide(&measured);

@@ -24,7 +24,7 @@ pub const FOLLOWED_PER_STATE: usize = 4;
 
 /// The coil-set model as a step source.
 pub struct CoilSets<'a> {
-    motor: &'a Motor<'a>,
+    motor: &'a Motor,
     /// The settings, with the capture resolved.
     s: &'a PlanSettings,
     /// A coil counts only when the magnet nearest it is within this (by default the maximum
@@ -35,7 +35,7 @@ pub struct CoilSets<'a> {
 impl<'a> CoilSets<'a> {
     /// The coil-set model of `motor` with the settings `s` (their capture, else the maximum
     /// attraction distance).
-    pub fn new(motor: &'a Motor<'a>, s: &'a PlanSettings) -> Self {
+    pub fn new(motor: &'a Motor, s: &'a PlanSettings) -> Self {
         let capture = s.limits.capture_for(s.model, &motor.torques.well);
         CoilSets { motor, s, capture }
     }
@@ -60,7 +60,7 @@ impl<'a> CoilSets<'a> {
         if self.motor.cancel.is_cancelled() {
             return (0, vec![None; sets.len()]);
         }
-        let torques = self.motor.torques;
+        let torques = &self.motor.torques;
         let pairs: Vec<Vec<Pair>> = sets.iter().map(|c| label(torques, c, q)).collect();
         let follow = if at.is_some() {
             FOLLOWED_PER_STATE
@@ -101,7 +101,7 @@ impl<'a> CoilSets<'a> {
     fn weigh(&self, at: &Frontier, sets: &[Vec<CoilId>]) -> (usize, Vec<Step>) {
         let from = at.state;
         let on = coils_of(&from.active);
-        let (torques, limits) = (self.motor.torques, &self.s.limits);
+        let (torques, limits) = (&self.motor.torques, &self.s.limits);
         let (spent, states) = self.settle_sets(&from.q, sets, Some(at));
         let steps = states
             .into_iter()
@@ -133,7 +133,7 @@ impl<'a> CoilSets<'a> {
     /// pulling its nearest magnet like a spring) would give the plan, those predicted not to
     /// advance last.
     fn ranked_sets(&self, at: &Frontier) -> Vec<Vec<CoilId>> {
-        let (torques, s) = (self.motor.torques, self.s);
+        let (torques, s) = (&self.motor.torques, self.s);
         let reach = coils_in_reach(torques, &at.state.q);
         let held = coils_of(&at.state.active);
         let ranked: Vec<(f64, Vec<CoilId>)> =
@@ -155,7 +155,7 @@ impl<'a> CoilSets<'a> {
     /// better pivot for the axis first (as the pair models order their second pair), then the
     /// coil whose magnet is nearest.
     fn initial_sets(&self) -> Vec<Vec<CoilId>> {
-        let (torques, s) = (self.motor.torques, self.s);
+        let (torques, s) = (&self.motor.torques, self.s);
         let first = bottom_coil(torques);
         let base = pivot_error(torques, first, &s.axis).0;
         let mut seconds: Vec<(f64, f64, CoilId)> = coils_in_reach(torques, &s.start)

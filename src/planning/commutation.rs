@@ -135,10 +135,12 @@ impl std::fmt::Display for PairsPerStep {
     }
 }
 
-/// Everything a commutation step needs to know about the motor.
+/// Everything a commutation step needs to know about the motor: its own copy of a scenario's
+/// torques, body and settle parameters ([`crate::Scenario::motor`]), so that it outlives the
+/// scenario and moves between threads.
 #[derive(Debug, Clone)]
-pub struct Motor<'a> {
-    pub torques: &'a MagnetTorques,
+pub struct Motor {
+    pub torques: MagnetTorques,
     pub body: Body,
     pub settle: SettleParams,
     /// Set from another thread to abandon the planning in progress (see
@@ -146,7 +148,7 @@ pub struct Motor<'a> {
     pub cancel: Cancel,
 }
 
-impl Motor<'_> {
+impl Motor {
     /// The settle that weighs candidate sets: the motor's, except that a set that does not hold
     /// the ball is not followed to where it would stop ([`Stop::Unheld`]): it is no candidate
     /// anyway, and a set that holds settles exactly as `simulate` settles it.
@@ -179,7 +181,7 @@ pub fn settled_states(
     if motor.cancel.is_cancelled() {
         return vec![None; sets.len()];
     }
-    settle_many(motor.torques, &sets, from, motor.body, motor.weighing())
+    settle_many(&motor.torques, &sets, from, motor.body, motor.weighing())
         .into_iter()
         .zip(sets)
         .map(|(r, active)| {
@@ -462,7 +464,7 @@ fn scored_by_pivot(
         .map(|pivot| {
             (
                 *pivot,
-                scored_candidates(motor.torques, &state.q, n, &[*pivot]),
+                scored_candidates(&motor.torques, &state.q, n, &[*pivot]),
             )
         })
         .collect()
@@ -583,7 +585,7 @@ pub fn evaluate_proposals(
     let outcomes: Vec<Option<CommutationState>> = match model {
         StepModel::Pivot => proposals
             .iter()
-            .map(|(pivot, new)| Some(pivot_step(motor.torques, &state.q, *pivot, new[0])))
+            .map(|(pivot, new)| Some(pivot_step(&motor.torques, &state.q, *pivot, new[0])))
             .collect(),
         StepModel::Dynamic | StepModel::Coils => {
             let sets: Vec<Vec<Pair>> = proposals
@@ -602,7 +604,7 @@ pub fn evaluate_proposals(
         .into_iter()
         .zip(outcomes)
         .filter_map(|((pivot, new), to)| {
-            admissible(motor.torques, &state.q, to?, n, limits, capture).map(|(to, angle, err)| {
+            admissible(&motor.torques, &state.q, to?, n, limits, capture).map(|(to, angle, err)| {
                 Step {
                     pivot: Some(pivot),
                     new,
@@ -753,8 +755,8 @@ pub fn initial_states(
     n: &UnitVec,
     capture: Radians,
 ) -> Vec<CommutationState> {
-    let coil = bottom_coil(motor.torques);
-    let (magnet, _) = nearest_magnet(motor.torques, coil, start);
+    let coil = bottom_coil(&motor.torques);
+    let (magnet, _) = nearest_magnet(&motor.torques, coil, start);
     let first = Pair { coil, magnet };
     // Align the first pair exactly (the minimal rotation), as the ball does when it is the
     // only pair on.
@@ -762,12 +764,12 @@ pub fn initial_states(
     let s = motor.torques.stator[coil.0];
     let align = UnitQuaternion::rotation_between(&p, &s).unwrap_or_else(UnitQuaternion::identity);
     let q1 = align * start;
-    let base = pivot_error(motor.torques, coil, n).0;
-    let mut seconds: Vec<(f64, f64, Pair)> = distance_array(motor.torques, &q1)
+    let base = pivot_error(&motor.torques, coil, n).0;
+    let mut seconds: Vec<(f64, f64, Pair)> = distance_array(&motor.torques, &q1)
         .into_iter()
         .filter(|(p, _)| p.coil != coil && p.magnet != magnet)
         .map(|(p, d)| {
-            let pe = pivot_error(motor.torques, p.coil, n).0;
+            let pe = pivot_error(&motor.torques, p.coil, n).0;
             // only a better pivot than the first pair counts; otherwise least motion first
             let key = if pe < base - 1e-9 { pe } else { base };
             (key, d.0, p)
@@ -781,7 +783,7 @@ pub fn initial_states(
     let states: Vec<Option<CommutationState>> = match model {
         StepModel::Pivot => seconds
             .iter()
-            .map(|(_, _, second)| Some(pivot_step(motor.torques, &q1, first, *second)))
+            .map(|(_, _, second)| Some(pivot_step(&motor.torques, &q1, first, *second)))
             .collect(),
         StepModel::Dynamic | StepModel::Coils => {
             let sets: Vec<Vec<Pair>> = seconds.iter().map(|(_, _, p)| vec![first, *p]).collect();
@@ -791,7 +793,7 @@ pub fn initial_states(
     states
         .into_iter()
         .flatten()
-        .filter(|st| holds(motor.torques, st, capture))
+        .filter(|st| holds(&motor.torques, st, capture))
         .collect()
 }
 

@@ -1,16 +1,18 @@
-//! The motor as a user calls it: the entry points of the library as methods of [`Motor`] (the
-//! view of a scenario's physics that [`crate::Scenario::motor`] gives), each the free function
+//! The motor as a user calls it: the entry points of the library as methods of [`Motor`] (a
+//! scenario's physics, copied out of it by [`crate::Scenario::motor`]), each the free function
 //! of its layer with the motor's torques, body and settle parameters filled in.
 
+use crate::error::Result;
 use crate::model::geometry::{Orientation, Pair};
 use crate::physics::dynamics::{self, SettleResult};
+use crate::physics::well_curve::{summarise, well_curve, WellSummary};
 use crate::planning::closed_loop::{run_closed_loop, LoopRun, LoopSettings};
 use crate::planning::commutation::Motor;
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::planner;
 use crate::planning::simulate::{self, SimRow};
 
-impl Motor<'_> {
+impl Motor {
     /// Settles the ball from `q0` under the coil:magnet pairs `pairs` (see
     /// [`dynamics::settle`]).
     ///
@@ -25,13 +27,13 @@ impl Motor<'_> {
     /// assert!(r.settled && r.residual_torque_nm < sc.settle.torque_tol);
     /// ```
     pub fn settle(&self, pairs: &[Pair], q0: &Orientation) -> SettleResult {
-        dynamics::settle(self.torques, pairs, q0, self.body, self.settle)
+        dynamics::settle(&self.torques, pairs, q0, self.body, self.settle)
     }
 
     /// Settles each of `sets` from `q0`, in parallel; the results in the sets' order, the same
     /// on any number of threads.
     pub fn settle_many(&self, sets: &[Vec<Pair>], q0: &Orientation) -> Vec<SettleResult> {
-        dynamics::settle_many(self.torques, sets, q0, self.body, self.settle)
+        dynamics::settle_many(&self.torques, sets, q0, self.body, self.settle)
     }
 
     /// Plans the motion `settings` asks for (axis, angle, step model, limits).
@@ -63,6 +65,30 @@ impl Motor<'_> {
     /// ```
     pub fn simulate(&self, rows: &[PlanRow]) -> Vec<SimRow> {
         simulate::simulate(self, rows)
+    }
+
+    /// The motor's well as a bench would measure it (what `spherestep wells` computes): the
+    /// torque on one magnet passing one energised coil, (angle, deg; torque, N m) every
+    /// `step_deg` degrees from 0 to the cut-off, and its summary. An error for a step outside
+    /// [`MIN_STEP_DEG`, `MAX_STEP_DEG`].
+    ///
+    /// [`MIN_STEP_DEG`]: crate::physics::well_curve::MIN_STEP_DEG
+    /// [`MAX_STEP_DEG`]: crate::physics::well_curve::MAX_STEP_DEG
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use spherestep::Scenario;
+    ///
+    /// let (curve, summary) = Scenario::prototype().motor().wells(0.5).unwrap();
+    /// assert_eq!(curve[0], (0.0, 0.0));
+    /// assert_eq!(summary.rows, curve.len());
+    /// assert!(summary.peak_torque_nm > 0.8 && summary.peak_angle_deg > 5.0);
+    /// ```
+    pub fn wells(&self, step_deg: f64) -> Result<(Vec<(f64, f64)>, WellSummary)> {
+        let curve = well_curve(&self.torques.well, step_deg)?;
+        let summary = summarise(&self.torques.well, &curve);
+        Ok((curve, summary))
     }
 
     /// Plays `open` (a plan of this motor's for `settings`) on `plant` with the closed loop

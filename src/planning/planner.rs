@@ -110,7 +110,7 @@ fn predict_settle_times(motor: &Motor, rows: &mut [PlanRow], start: &Orientation
     let times: Vec<(f64, bool)> = rows
         .par_iter()
         .zip(&froms)
-        .map(|(r, from)| settle(motor.torques, &r.active, from, motor.body, motor.settle))
+        .map(|(r, from)| settle(&motor.torques, &r.active, from, motor.body, motor.settle))
         .map(|res| (res.settle_time_s, res.settled))
         .collect();
     for (r, (t, settled)) in rows.iter_mut().zip(times) {
@@ -122,7 +122,7 @@ fn predict_settle_times(motor: &Motor, rows: &mut [PlanRow], start: &Orientation
 /// The pair models (pivot and dynamic) as a step source: each step keeps one held pair and
 /// switches on new ones that pass the paper's filter.
 struct PairSteps<'a> {
-    motor: &'a Motor<'a>,
+    motor: &'a Motor,
     /// The settings, with the capture resolved.
     s: &'a PlanSettings,
 }
@@ -178,7 +178,7 @@ fn ranked_proposals(motor: &Motor, s: &PlanSettings, at: &Frontier) -> Vec<Propo
             .filter_map(|(pivot, new)| {
                 let mut set = vec![pivot];
                 set.extend_from_slice(&new);
-                let qp = predicted_orientation(motor.torques, &at.state.q, &set);
+                let qp = predicted_orientation(&motor.torques, &at.state.q, &set);
                 predicted_rank(at, &qp, s).map(|r| (r, (pivot, new)))
             })
             .collect();

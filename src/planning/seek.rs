@@ -23,7 +23,7 @@ pub const DEPTH: usize = 12;
 /// A physics to steer in, and the goal.
 pub struct Seek<'a> {
     /// The body and settle of the motor (its torques are not used) ...
-    pub motor: &'a Motor<'a>,
+    pub motor: &'a Motor,
     /// ... and the torques the steps are settled with.
     pub torques: &'a MagnetTorques,
     /// Coils on after each step, and at most this many on while a step switches.

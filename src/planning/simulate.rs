@@ -39,7 +39,7 @@ pub fn simulate(motor: &Motor, rows: &[PlanRow]) -> Vec<SimRow> {
     };
     let mut out = Vec::with_capacity(rows.len());
     for r in rows {
-        let res = settle(motor.torques, &r.active, &q, motor.body, motor.settle);
+        let res = settle(&motor.torques, &r.active, &q, motor.body, motor.settle);
         q = res.q;
         out.push(SimRow {
             step: r.step,

@@ -19,7 +19,7 @@ use super::replay::{
     check_on_time, entries_from, stdout_error, Drive, Entry, LogKind, Mode, Prepared, Resume,
     Runner,
 };
-use super::{Link, RelayError};
+use super::{Link, RelayError, Setting};
 use crate::model::geometry::Orientation;
 use crate::planning::cancel::Cancel;
 use crate::planning::closed_loop::{
@@ -91,30 +91,34 @@ pub struct ClosedSummary {
 }
 
 /// Refuses the replay options a closed loop cannot honour: a dry run (nothing would measure the
-/// ball), step mode and `--from-step` (see the messages).
+/// ball), step mode and a first step other than 0 (see the messages).
 pub fn refuse_options(drive: &Drive, dry_run: bool) -> Result<(), RelayError> {
-    let refuse = |arg: &str, expected: &str| {
-        Err(RelayError::Arg {
-            arg: arg.into(),
+    let refuse = |setting: Setting, expected: &str| {
+        Err(RelayError::Setting {
+            setting,
             expected: expected.into(),
         })
     };
     if dry_run {
         return refuse(
-            "--dry-run",
-            "no --dry-run with --sensor (nothing would measure the ball: dry-run the plan without --sensor, or simulate the closed loop with `spherestep simulate PLAN SCENARIO --plant PLANT --closed-loop`)",
+            Setting::DryRun,
+            "none with a sensor (nothing would measure the ball: dry-run the plan without the \
+             sensor, or simulate the closed loop in a plant scenario: `spherestep simulate` with \
+             a plant and the closed loop)",
         );
     }
     if drive.mode == Mode::Step {
         return refuse(
-            "--mode",
-            "realtime with --sensor (step mode waits for Enter instead of the dwell, so the on-time of a replanned plan could not be checked before it is switched)",
+            Setting::Mode,
+            "realtime with a sensor (step mode waits for Enter instead of the dwell, so the \
+             on-time of a replanned plan could not be checked before it is switched)",
         );
     }
     if drive.from_step != 0 {
         return refuse(
-            "--from-step",
-            "0 with --sensor (the closed loop starts from the plan's initial state and replans from what it measures: to go on after a stop, plan anew from where the ball is)",
+            Setting::FromStep,
+            "0 with a sensor (the closed loop starts from the plan's initial state and replans \
+             from what it measures: to go on after a stop, plan anew from where the ball is)",
         );
     }
     Ok(())
@@ -498,7 +502,7 @@ mod tests {
         assert!(refuse_options(&drive, false).is_ok());
         let e = refuse_options(&drive, true).unwrap_err().to_string();
         assert!(
-            e.starts_with("argument --dry-run: expected no --dry-run"),
+            e.starts_with("replay setting `dry_run`: expected none with a sensor"),
             "{e}"
         );
         let step = Drive {
@@ -506,12 +510,12 @@ mod tests {
             ..drive.clone()
         };
         let e = refuse_options(&step, false).unwrap_err().to_string();
-        assert!(e.contains("--mode") && e.contains("on-time"), "{e}");
+        assert!(e.contains("`mode`") && e.contains("on-time"), "{e}");
         let from = Drive {
             from_step: 2,
             ..drive
         };
         let e = refuse_options(&from, false).unwrap_err().to_string();
-        assert!(e.contains("--from-step: expected 0 with --sensor"), "{e}");
+        assert!(e.contains("`from_step`: expected 0 with a sensor"), "{e}");
     }
 }

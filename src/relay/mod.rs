@@ -143,9 +143,6 @@ impl FromStr for BoardKind {
 /// Errors of the relay drivers and of a replay.
 #[derive(Debug, thiserror::Error)]
 pub enum RelayError {
-    /// A scenario, map or plan file is wrong (the message names file and field).
-    #[error(transparent)]
-    Input(#[from] crate::Error),
     /// The serial port could not be opened.
     #[error("cannot open serial port {port}: {message} (is the board plugged in, and are you in the `dialout` group?)")]
     Open { port: String, message: String },
@@ -194,8 +191,8 @@ pub enum RelayError {
         max: u16,
         hint: &'static str,
     },
-    /// `--verify` on a board (or channel count) that cannot report its relays.
-    #[error("{board} board: {reason}; replay without --verify")]
+    /// Verifying the relays on a board (or channel count) that cannot report them.
+    #[error("{}", self.worded(&Fields))]
     NoReadBack { board: BoardKind, reason: String },
     /// The read-back after a step differs from what was switched.
     #[error(
@@ -224,7 +221,7 @@ pub enum RelayError {
         coils: String,
     },
     /// One coil would stay on longer than allowed (heat).
-    #[error("coil {coil} ({}) {when} {:.3} s, over the limit of {:.3} s (relay.max_on_time_s){advice}", where_on(*board, *channel), on.as_secs_f64(), max.as_secs_f64())]
+    #[error("{}", self.worded(&Fields))]
     OnTooLong {
         coil: CoilId,
         /// The board, with `[[relay.boards]]` (`None` with a single board).
@@ -233,13 +230,13 @@ pub enum RelayError {
         when: String,
         on: Duration,
         max: Duration,
-        /// What to do about it (empty when nothing is to be said).
-        advice: &'static str,
+        /// What to do about it.
+        advice: OnTimeAdvice,
     },
     /// A coil came within [`closed::OFF_MARGIN`] of its on-time limit while the closed loop
     /// waited for the sensor or decided (fitting, replanning): everything was switched off
     /// before the limit, and the computation abandoned.
-    #[error("coil {coil} ({}) had been on {:.3} s, near its limit of {:.3} s (relay.max_on_time_s), while the closed loop was {phase}: every coil was switched off before the limit (a shorter --dwell-ms or --sensor-timeout-ms, or a higher relay.max_on_time_s, leaves it more time)", where_on(*board, *channel), on.as_secs_f64(), max.as_secs_f64())]
+    #[error("{}", self.worded(&Fields))]
     OnTimeReached {
         coil: CoilId,
         board: Option<usize>,
@@ -263,20 +260,22 @@ pub enum RelayError {
         path: PathBuf,
         cause: std::io::Error,
     },
-    /// Bad arguments (for example a --from-step past the plan's end).
-    #[error("argument {arg}: expected {expected}")]
-    Arg { arg: String, expected: String },
-    /// The replay stopped on an error; every coil was switched off afterwards.
-    #[error("{cause}; all coils switched off; resume with --from-step {resume}")]
+    /// A replay setting's value that cannot be used (for example a first step past the plan's
+    /// end); `expected` says what can.
+    #[error("{}", self.worded(&Fields))]
+    Setting { setting: Setting, expected: String },
+    /// The replay stopped on an error; every coil was switched off afterwards; `resume` is the
+    /// step to resume from.
+    #[error("{}", self.worded(&Fields))]
     Stopped {
         cause: Box<RelayError>,
         resume: usize,
     },
     /// The replay finished but the final all-off failed.
-    #[error("the replay finished, but switching all coils off FAILED: {0}; the coils may still be on: cut the coil supply")]
+    #[error("{}", self.worded(&Fields))]
     EndOffFailed(Box<RelayError>),
     /// The replay stopped and switching everything off failed too.
-    #[error("{cause}; then switching all coils off FAILED: {off}; the coils may still be on: cut the coil supply")]
+    #[error("{}", self.worded(&Fields))]
     OffFailed {
         cause: Box<RelayError>,
         off: Box<RelayError>,
@@ -289,8 +288,8 @@ pub enum RelayError {
     /// plan in force ran out).
     #[error("closed loop stuck after step {step}: {message}")]
     Stuck { step: usize, message: String },
-    /// The closed loop took `--max-steps` steps without reaching the goal.
-    #[error("closed loop: {steps} step(s) without reaching the goal (--max-steps {max}); the last measurement is {distance_deg:.2} deg from it")]
+    /// The closed loop took its most steps (`max`) without reaching the goal.
+    #[error("{}", self.worded(&Fields))]
     MaxSteps {
         steps: usize,
         max: usize,
@@ -298,14 +297,14 @@ pub enum RelayError {
     },
     /// A replanned plan failed the checks of a schedule (coils mapped, coils on at once from
     /// what is on now, on-time across the joint) before anything of it was switched.
-    #[error("the plan replanned after step {step} (replan {replan}) is refused before switching anything of it: {cause}")]
+    #[error("{}", self.worded(&Fields))]
     ReplanRefused {
         step: usize,
         replan: usize,
         cause: Box<RelayError>,
     },
     /// The closed-loop replay stopped on an error; every coil was switched off afterwards.
-    #[error("{cause}; all coils switched off (closed loop: {steps} step(s), {replans} replan(s){})", last_distance(*distance_deg))]
+    #[error("{}", self.worded(&Fields))]
     LoopStopped {
         cause: Box<RelayError>,
         steps: usize,
@@ -315,7 +314,7 @@ pub enum RelayError {
     },
     /// Something failed on one board of several (`[[relay.boards]]`): which board, on which
     /// port (the configured one in a dry run), and what.
-    #[error("board {index} ({port}): {error}")]
+    #[error("{}", self.worded(&Fields))]
     OnBoard {
         index: usize,
         port: String,
@@ -324,7 +323,7 @@ pub enum RelayError {
     /// With several boards: the replay finished (`cause` `None`) or stopped on `cause`, and
     /// switching all off failed on the `failed` boards (each an `OnBoard`); the boards in
     /// `switched_off` (their labels) were switched off.
-    #[error("{}", boards_off_failed(cause.as_deref(), failed, switched_off))]
+    #[error("{}", self.worded(&Fields))]
     BoardsOffFailed {
         cause: Option<Box<RelayError>>,
         failed: Vec<RelayError>,
@@ -332,7 +331,208 @@ pub enum RelayError {
     },
 }
 
+/// A setting of a replay that an error is about. The library's messages name it by its field
+/// (`from_step`); the command line words it as its flag (see [`Wording`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Setting {
+    /// The board type of the single-board form ([`replay::Drive::board`]).
+    Board,
+    /// The baud rate of the single-board form.
+    Baud,
+    /// The serial devices of the boards.
+    Port,
+    /// Realtime or step mode.
+    Mode,
+    /// A fixed dwell for every step.
+    Dwell,
+    /// The first step replayed.
+    FromStep,
+    /// The replay log.
+    Log,
+    /// Reading the relays back after each step.
+    Verify,
+    /// A replay over no port (nothing is sent).
+    DryRun,
+    /// The closed loop's orientation sensor.
+    Sensor,
+    /// How long the sensor is awaited.
+    SensorTimeout,
+    /// The most steps of a closed loop.
+    MaxSteps,
+}
+
+impl Setting {
+    /// The setting's name in the library: the field that holds it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Setting::Board => "board",
+            Setting::Baud => "baud",
+            Setting::Port => "ports",
+            Setting::Mode => "mode",
+            Setting::Dwell => "dwell_ms",
+            Setting::FromStep => "from_step",
+            Setting::Log => "log",
+            Setting::Verify => "verify",
+            Setting::DryRun => "dry_run",
+            Setting::Sensor => "sensor",
+            Setting::SensorTimeout => "sensor_timeout_ms",
+            Setting::MaxSteps => "max_steps",
+        }
+    }
+}
+
+/// How a message names the settings it is about: [`Fields`] (the library's `Display`: the
+/// fields' names), or the command line's flags.
+pub trait Wording {
+    /// A setting inside a phrase ("resume with `from_step` 3").
+    fn name(&self, s: Setting) -> String;
+    /// The head of a message about a setting's value ("replay setting `from_step`").
+    fn subject(&self, s: Setting) -> String;
+}
+
+/// The library's wording: settings by their fields' names.
+#[derive(Debug, Clone, Copy)]
+pub struct Fields;
+
+impl Wording for Fields {
+    fn name(&self, s: Setting) -> String {
+        format!("`{}`", s.name())
+    }
+    fn subject(&self, s: Setting) -> String {
+        format!("replay setting `{}`", s.name())
+    }
+}
+
+/// What an on-time error advises.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OnTimeAdvice {
+    /// Nothing to add.
+    None,
+    /// The dwells come from the plan: a fixed shorter dwell, or a higher limit.
+    Dwell,
+}
+
 impl RelayError {
+    /// The message, its settings named by `w` (`Display` is `worded(&Fields)`); the errors
+    /// inside are worded the same way.
+    pub fn worded(&self, w: &dyn Wording) -> String {
+        match self {
+            RelayError::Setting { setting, expected } => {
+                format!("{}: expected {expected}", w.subject(*setting))
+            }
+            RelayError::NoReadBack { board, reason } => format!(
+                "{board} board: {reason}; replay without {}",
+                w.name(Setting::Verify)
+            ),
+            RelayError::OnTooLong { .. } | RelayError::OnTimeReached { .. } => self.on_time(w),
+            RelayError::Stopped { cause, resume } => format!(
+                "{}; all coils switched off; resume with {} {resume}",
+                cause.worded(w),
+                w.name(Setting::FromStep)
+            ),
+            RelayError::EndOffFailed(e) => format!(
+                "the replay finished, but switching all coils off FAILED: {}; the coils may \
+                 still be on: cut the coil supply",
+                e.worded(w)
+            ),
+            RelayError::OffFailed { cause, off } => format!(
+                "{}; then switching all coils off FAILED: {}; the coils may still be on: cut \
+                 the coil supply",
+                cause.worded(w),
+                off.worded(w)
+            ),
+            RelayError::MaxSteps {
+                steps,
+                max,
+                distance_deg,
+            } => format!(
+                "closed loop: {steps} step(s) without reaching the goal ({} {max}); the last \
+                 measurement is {distance_deg:.2} deg from it",
+                w.name(Setting::MaxSteps)
+            ),
+            RelayError::ReplanRefused {
+                step,
+                replan,
+                cause,
+            } => format!(
+                "the plan replanned after step {step} (replan {replan}) is refused before \
+                 switching anything of it: {}",
+                cause.worded(w)
+            ),
+            RelayError::LoopStopped {
+                cause,
+                steps,
+                replans,
+                distance_deg,
+            } => format!(
+                "{}; all coils switched off (closed loop: {steps} step(s), {replans} \
+                 replan(s){})",
+                cause.worded(w),
+                last_distance(*distance_deg)
+            ),
+            RelayError::OnBoard { index, port, error } => {
+                format!("board {index} ({port}): {}", error.worded(w))
+            }
+            RelayError::BoardsOffFailed {
+                cause,
+                failed,
+                switched_off,
+            } => boards_off_failed(cause.as_deref(), failed, switched_off, w),
+            e => e.to_string(),
+        }
+    }
+
+    /// The messages of the on-time errors, worded by `w`.
+    fn on_time(&self, w: &dyn Wording) -> String {
+        match self {
+            RelayError::OnTooLong {
+                coil,
+                board,
+                channel,
+                when,
+                on,
+                max,
+                advice,
+            } => {
+                let advice = match advice {
+                    OnTimeAdvice::None => String::new(),
+                    OnTimeAdvice::Dwell => format!(
+                        "; the dwells are the plan's settle times x relay.dwell_factor: give a \
+                         shorter {}, or raise relay.max_on_time_s if the coils can take the heat",
+                        w.name(Setting::Dwell)
+                    ),
+                };
+                format!(
+                    "coil {coil} ({}) {when} {:.3} s, over the limit of {:.3} s \
+                     (relay.max_on_time_s){advice}",
+                    where_on(*board, *channel),
+                    on.as_secs_f64(),
+                    max.as_secs_f64()
+                )
+            }
+            RelayError::OnTimeReached {
+                coil,
+                board,
+                channel,
+                phase,
+                on,
+                max,
+            } => format!(
+                "coil {coil} ({}) had been on {:.3} s, near its limit of {:.3} s \
+                 (relay.max_on_time_s), while the closed loop was {phase}: every coil was \
+                 switched off before the limit (a shorter {} or {}, or a higher \
+                 relay.max_on_time_s, leaves it more time)",
+                where_on(*board, *channel),
+                on.as_secs_f64(),
+                max.as_secs_f64(),
+                w.name(Setting::Dwell),
+                w.name(Setting::SensorTimeout)
+            ),
+            e => e.to_string(),
+        }
+    }
+
     /// The error that started it all (through `Stopped` and `OffFailed`).
     pub fn root(&self) -> &RelayError {
         match self {
@@ -368,12 +568,13 @@ fn boards_off_failed(
     cause: Option<&RelayError>,
     failed: &[RelayError],
     switched_off: &[String],
+    w: &dyn Wording,
 ) -> String {
     let head = match cause {
-        Some(c) => format!("{c}; then switching all coils off FAILED on "),
+        Some(c) => format!("{}; then switching all coils off FAILED on ", c.worded(w)),
         None => "the replay finished, but switching all coils off FAILED on ".to_string(),
     };
-    let why: Vec<String> = failed.iter().map(|e| e.to_string()).collect();
+    let why: Vec<String> = failed.iter().map(|e| e.worded(w)).collect();
     let which: Vec<String> = failed
         .iter()
         .map(|e| match e {

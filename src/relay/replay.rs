@@ -10,8 +10,8 @@
 //! clock. `--log` writes what was sent when (and, with several boards, to which board).
 
 use super::{
-    connect, hex, BoardKind, BoardSpec, Channel, CoilMap, Link, RelayBoard, RelayError,
-    RelaySettings, Slot, SwitchOrder,
+    connect, hex, BoardKind, BoardSpec, Channel, CoilMap, Link, OnTimeAdvice, RelayBoard,
+    RelayError, RelaySettings, Setting, Slot, SwitchOrder,
 };
 use crate::model::geometry::CoilId;
 use crate::planning::plan::PlanRow;
@@ -154,8 +154,8 @@ pub fn schedule_on(
     mode: Mode,
 ) -> Result<Schedule, RelayError> {
     if from_step >= rows.len() {
-        return Err(RelayError::Arg {
-            arg: "--from-step".into(),
+        return Err(RelayError::Setting {
+            setting: Setting::FromStep,
             expected: format!(
                 "a step of the plan, 0..={}, got {from_step}",
                 rows.len().saturating_sub(1)
@@ -327,9 +327,9 @@ fn unmapped_reason(map: &CoilMap) -> String {
             )
         }
         CoilMap::Slots(_) => {
-            "no relay channel drives (add it to [relay.map] as \"board:channel\", or to the --map file)".into()
+            "no relay channel drives (add it to [relay.map] as \"board:channel\", or to the map file)".into()
         }
-        _ => "no relay channel drives (add it to [relay.map] or the --map file)".into(),
+        _ => "no relay channel drives (add it to [relay.map] or the map file)".into(),
     }
 }
 
@@ -393,9 +393,7 @@ pub(super) fn check_on_time(
                     ),
                     on: held.2,
                     max,
-                    advice: "; the dwells are the plan's settle times x relay.dwell_factor: \
-                             give a shorter --dwell-ms, or raise relay.max_on_time_s if the \
-                             coils can take the heat",
+                    advice: OnTimeAdvice::Dwell,
                 });
             }
         }
@@ -477,22 +475,22 @@ fn single_board(settings: &RelaySettings, drive: &Drive) -> Result<BoardSpec, Re
     let board = drive
         .board
         .or(settings.board)
-        .ok_or_else(|| RelayError::Arg {
-            arg: "--board".into(),
+        .ok_or_else(|| RelayError::Setting {
+            setting: Setting::Board,
             expected: "lcus, kmtronic, numato or modbus (or `board` in the [relay] section)".into(),
         })?;
     let channels = settings.channels.unwrap_or(board.default_channels());
     // The same check `connect` makes, before anything else.
     connect(board, channels, settings.slave_address, Link::dry_run())?;
     if let Some(b) = drive.baud.filter(|b| !(1..=4_000_000).contains(b)) {
-        return Err(RelayError::Arg {
-            arg: "--baud".into(),
+        return Err(RelayError::Setting {
+            setting: Setting::Baud,
             expected: format!("a baud rate from 1 to 4000000, got {b}"),
         });
     }
     if drive.ports.len() > 1 {
-        return Err(RelayError::Arg {
-            arg: "--port".into(),
+        return Err(RelayError::Setting {
+            setting: Setting::Port,
             expected: format!(
                 "one serial device for the board, got {} (several boards are listed as [[relay.boards]] in [relay])",
                 drive.ports.len()
@@ -512,25 +510,24 @@ fn single_board(settings: &RelaySettings, drive: &Drive) -> Result<BoardSpec, Re
 /// The boards of `[[relay.boards]]`, their ports overridden by `--port` (once per board, in
 /// order); `--board` and `--baud` are refused (each entry has its own).
 fn listed_boards(settings: &RelaySettings, drive: &Drive) -> Result<Vec<BoardSpec>, RelayError> {
-    let refuse = |arg: &str, key: &str| {
-        RelayError::Arg {
-        arg: arg.into(),
+    let refuse = |setting: Setting, key: &str| RelayError::Setting {
+        setting,
         expected: format!(
-            "no {arg} with [[relay.boards]] (each entry gives its board's `{key}`; {arg} applies to the single-board form only)"
+            "none with [[relay.boards]] (each entry gives its board's `{key}`; this setting \
+             applies to the single-board form only)"
         ),
-    }
     };
     if drive.board.is_some() {
-        return Err(refuse("--board", "board"));
+        return Err(refuse(Setting::Board, "board"));
     }
     if drive.baud.is_some() {
-        return Err(refuse("--baud", "baud"));
+        return Err(refuse(Setting::Baud, "baud"));
     }
     let mut boards = settings.boards.clone();
     if !drive.ports.is_empty() {
         if drive.ports.len() != boards.len() {
-            return Err(RelayError::Arg {
-                arg: "--port".into(),
+            return Err(RelayError::Setting {
+                setting: Setting::Port,
                 expected: format!(
                     "once per board of [[relay.boards]], in list order ({} boards), or not at all; got {}",
                     boards.len(),
@@ -540,8 +537,8 @@ fn listed_boards(settings: &RelaySettings, drive: &Drive) -> Result<Vec<BoardSpe
         }
         for (i, (b, p)) in boards.iter_mut().zip(&drive.ports).enumerate() {
             if let Some(j) = drive.ports[..i].iter().position(|q| q == p) {
-                return Err(RelayError::Arg {
-                    arg: "--port".into(),
+                return Err(RelayError::Setting {
+                    setting: Setting::Port,
                     expected: format!(
                         "a different device for each board, got {p} for boards {j} and {i}"
                     ),
@@ -577,7 +574,7 @@ fn on_board(index: usize, port: &str, error: RelayError) -> RelayError {
 ///
 /// # Errors
 ///
-/// [`RelayError::Arg`] for a board without a port, [`RelayError::Open`] (naming the board
+/// [`RelayError::Setting`] for a board without a port, [`RelayError::Open`] (naming the board
 /// with several) for a port that cannot be opened.
 #[cfg(feature = "hardware")]
 pub fn open_ports(prep: &Prepared) -> Result<Vec<Link>, RelayError> {
@@ -587,12 +584,12 @@ pub fn open_ports(prep: &Prepared) -> Result<Vec<Link>, RelayError> {
         .iter()
         .enumerate()
         .map(|(i, b)| {
-            b.port.as_deref().ok_or_else(|| RelayError::Arg {
-                arg: "--port".into(),
+            b.port.as_deref().ok_or_else(|| RelayError::Setting {
+                setting: Setting::Port,
                 expected: if listed {
-                    format!("a serial device for board {i}: its `port` in [[relay.boards]], or --port once per board in list order (or --dry-run)")
+                    format!("a serial device for board {i}: its `port` in [[relay.boards]], or one device per board in list order (or a dry run)")
                 } else {
-                    "a serial device such as /dev/ttyUSB0 (or --dry-run)".into()
+                    "a serial device such as /dev/ttyUSB0 (or a dry run)".into()
                 },
             })
         })
@@ -685,8 +682,8 @@ impl<'a> Runner<'a> {
         let n = prep.boards.len();
         let mut switches = prep.schedule.entries.iter().flat_map(|e| &e.switches);
         if n == 0 || links.len() != n || switches.any(|s| s.board >= n) {
-            return Err(RelayError::Arg {
-                arg: "--port".into(),
+            return Err(RelayError::Setting {
+                setting: Setting::Port,
                 expected: format!("one link per board ({n} boards), got {}", links.len()),
             });
         }
@@ -953,7 +950,7 @@ fn inspect_log(path: &Path, listed: bool, kind: LogKind) -> Result<LogFile, Rela
     };
     if meta.is_dir() {
         return Err(refuse(
-            "expected a file for the replay log, got a folder: give another --log file".into(),
+            "expected a file for the replay log, got a folder: give another log file".into(),
         ));
     }
     if meta.len() == 0 {
@@ -996,7 +993,7 @@ fn inspect_log(path: &Path, listed: bool, kind: LogKind) -> Result<LogFile, Rela
             "one board / several"
         };
         return Err(refuse(format!(
-            "its columns are `{other}`, this replay writes `{header}` ({why}): give another --log file"
+            "its columns are `{other}`, this replay writes `{header}` ({why}): give another log file"
         )));
     }
     let text = crate::error::printable(&String::from_utf8_lossy(line));
@@ -1220,7 +1217,7 @@ impl Runner<'_> {
                     when: format!("has been on since step {step} for"),
                     on,
                     max: self.max_on_time,
-                    advice: "",
+                    advice: OnTimeAdvice::None,
                 });
             }
         }
@@ -1590,6 +1587,6 @@ mod tests {
         );
         assert_eq!(step.peak, 3);
         let e = schedule(&rows, &s, BoardKind::Lcus, 8, 16, None, 3, Mode::Realtime).unwrap_err();
-        assert!(e.to_string().contains("--from-step"), "{e}");
+        assert!(e.to_string().contains("`from_step`"), "{e}");
     }
 }

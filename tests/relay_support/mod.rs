@@ -11,6 +11,7 @@ use spherestep::planning::planner;
 use spherestep::relay::modbus::crc16;
 use spherestep::relay::replay::{execute, execute_on, Summary};
 use spherestep::relay::{Link, RelayError};
+use spherestep::Error;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -87,7 +88,7 @@ pub fn options(plan: &Path, scenario: &Path) -> ReplayOptions {
 }
 
 /// Prepares and runs a replay over `link`, printing into a buffer.
-pub fn run(opts: &ReplayOptions, link: Link) -> (Result<Summary, RelayError>, String) {
+pub fn run(opts: &ReplayOptions, link: Link) -> (Result<Summary, Error>, String) {
     let mut out = Vec::new();
     let r = replay::prepare(opts).and_then(|prep| {
         execute(
@@ -97,6 +98,7 @@ pub fn run(opts: &ReplayOptions, link: Link) -> (Result<Summary, RelayError>, St
             None,
             &mut out,
         )
+        .map_err(Error::from)
     });
     (r, String::from_utf8_lossy(&out).into_owned())
 }
@@ -107,7 +109,7 @@ pub fn run_on(
     opts: &ReplayOptions,
     links: Vec<Link>,
     input: Option<Receiver<String>>,
-) -> (Result<Summary, RelayError>, String) {
+) -> (Result<Summary, Error>, String) {
     let mut out = Vec::new();
     let r = replay::prepare(opts).and_then(|prep| {
         execute_on(
@@ -117,6 +119,7 @@ pub fn run_on(
             input,
             &mut out,
         )
+        .map_err(Error::from)
     });
     (r, String::from_utf8_lossy(&out).into_owned())
 }
@@ -323,4 +326,17 @@ pub fn broad_plan(dir: &Path, model: &str) -> PathBuf {
     let path = dir.join("plan.csv");
     std::fs::write(&path, csv).unwrap();
     path
+}
+
+/// The relay error inside a library error (a panic naming it when it is another kind).
+pub fn relay(e: &Error) -> &RelayError {
+    match e {
+        Error::Relay(r) => r,
+        other => panic!("expected a relay error, got: {other}"),
+    }
+}
+
+/// A library error as the command line words it (a replay's settings as their flags).
+pub fn flagged(e: &Error) -> String {
+    e.worded(&replay::Flags)
 }

@@ -1,0 +1,434 @@
+//! The fast settle: Bogacki-Shampine 3(2) while the motion is nonlinear, watching the pairs'
+//! cut-offs (the graze watch) and looking for the linear end phase, with a tight fallback where
+//! the loose tolerance cannot be trusted.
+
+use super::end_phase::{EndPhase, EndSearch};
+use super::reference::settle_dopri5;
+use super::{finish, hermite_weights, RotorDynamics, SettleParams, SettleResult, State, Stop};
+use crate::physics::integrator::{integrate_until, End, Outcome, Tolerances};
+use crate::physics::torque::{rotation_matrix, TorqueModel};
+use nalgebra::Vector3;
+
+/// The fast path's stiffness scale (isotropic bodies of models that have one: the linear
+/// regime and its Newton finish are then available) and its relative tolerance, tighter for
+/// light damping.
+fn fast_tolerance<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    params: &SettleParams,
+) -> (Option<f64>, f64) {
+    let i = sys.body.inertia;
+    let isotropic = (i.x - i.y).abs() <= 1e-12 * i.x && (i.x - i.z).abs() <= 1e-12 * i.x;
+    let scale = sys.model.stiffness_scale().filter(|_| isotropic);
+    let rtol = match scale {
+        Some(k1) => {
+            let zeta = sys.body.damping / (2.0 * (k1 * i.x).sqrt());
+            params
+                .rtol
+                .min(NONLINEAR_RTOL)
+                .min((NONLINEAR_RTOL_PER_ZETA2 * zeta * zeta).max(NONLINEAR_RTOL_FLOOR))
+        }
+        None => params.rtol,
+    };
+    (scale, rtol)
+}
+
+/// What the fast path's integration `out` (ended without the Newton finish) says: the ball
+/// where the stepper left it and why it stopped; never settled without damping; a stop near
+/// rest but never near a strict minimum (`linear`: the model has a linear regime) is
+/// re-integrated tightly, or reported unheld when the set need not be followed.
+fn conclude<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    y0: [f64; 7],
+    params: SettleParams,
+    out: &Outcome<7>,
+    evaluations: u32,
+    linear: bool,
+) -> SettleResult {
+    // where the stepper left the ball, and why it says it stopped
+    let stopped_here = |stop: Stop| {
+        finish(
+            sys.model,
+            sys.active,
+            &out.y,
+            out.t,
+            evaluations,
+            out.steps,
+            stop,
+        )
+    };
+    if sys.body.damping <= 0.0 {
+        // Undamped, the ball never settles (it was not at rest in equilibrium at the start):
+        // whatever the stepper's own dissipation did, the physics says no.
+        return stopped_here(match out.end {
+            End::Stopped => Stop::TimeLimit,
+            e => e.into(),
+        });
+    }
+    let near_rest = |y: &[f64; 7]| {
+        Vector3::new(y[4], y[5], y[6]).norm() < NEAR_REST * params.omega_tol
+            && sys.body_torque(y).norm() < NEAR_REST * params.torque_tol
+    };
+    let unsure = match out.end {
+        End::Stopped => true,
+        End::TimeLimit => near_rest(&out.y),
+        _ => false,
+    };
+    if linear && unsure {
+        // settled (or nearly at rest at t_max), but never near a strict minimum: not sure where
+        // along the free direction the ball stops, nor when
+        if !params.follow_unheld {
+            return stopped_here(Stop::Unheld);
+        }
+        return settle_tight(sys, y0, params, evaluations);
+    }
+    stopped_here(out.end.into())
+}
+
+/// The fast path: Bogacki-Shampine 3(2) at the scenario's (loose) tolerances while the motion
+/// is nonlinear, then, once the ball moves within [`LINEAR_RADIUS`](super::end_phase::LINEAR_RADIUS) of a strict minimum (found
+/// by Newton on the torque, positive-definite stiffness, no magnet near its well's cut-off), the
+/// linear damped motion about that minimum solved in closed form, mode by mode, for the first
+/// instant it meets the settle test. Integrating that creep step by step is what an explicit
+/// stepper does worst: it runs at its stability limit there, where its own (anti-)damping, not
+/// the physics', decides when the test passes.
+///
+/// If the nonlinear phase ends (the settle test passes, or t_max) without a strict minimum (a
+/// direction that nothing holds: a pair out of reach, a neutral rotation about a lone pair's
+/// axis), where the ball stops along that direction depends on how accurately the whole coast
+/// was integrated, which a loose tolerance cannot promise (at its stability limit the stepper
+/// neither damps nor stops the free rotation): the settle is run again at tight tolerances.
+pub(super) fn settle_fast<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    y0: [f64; 7],
+    params: SettleParams,
+    mut trace: Option<&mut Vec<(f64, State)>>,
+) -> SettleResult {
+    let (scale, rtol) = fast_tolerance(sys, &params);
+    let tol = Tolerances {
+        rtol,
+        atol: params.atol,
+    };
+    // a tenth of the time scale sqrt(I / K) of the active pairs together
+    let first_step = scale.map_or(0.0, |k1| {
+        FIRST_STEP * (sys.body.inertia.x / (k1 * sys.active.len().max(1) as f64)).sqrt()
+    });
+    let mut watch = GrazeWatch::new(sys, y0, scale.is_some());
+    // where the watch cannot follow the margins, the approach may have crossed a cut-off
+    let trusted = watch.on && sys.model.trusts_uncrossed_cutoffs();
+    let mut search = scale.map(|k1| EndSearch::new(k1, !trusted));
+    let mut grazed = false;
+    let out = integrate_until(sys, y0, params.t_max, tol, first_step, |t, y, dy| {
+        if let Some(tr) = trace.as_deref_mut() {
+            tr.push((t, State::from_column_slice(y)));
+        }
+        if sys.settled(&params, y, dy) {
+            return true;
+        }
+        if watch.on {
+            match watch.look(sys, t, y) {
+                Look::Grazed => {
+                    grazed = true;
+                    return true;
+                }
+                Look::Crossed => {
+                    if let Some(s) = search.as_mut() {
+                        s.crossed = true;
+                    }
+                }
+                Look::Quiet => {}
+            }
+        }
+        search.as_mut().is_some_and(|s| s.stops(sys, t, y, dy))
+    });
+    let (newton_evals, end) = search.map_or((0, None), |s| (s.evaluations, s.found));
+    let evaluations = out.evaluations + newton_evals;
+    if let Some(e) = end {
+        return end_phase_result(sys, &e, params, evaluations, out.steps, trace);
+    }
+    if grazed {
+        // where the ball goes from a graze hangs on errors this tolerance allows
+        return settle_tight(sys, y0, params, evaluations);
+    }
+    conclude(sys, y0, params, &out, evaluations, scale.is_some())
+}
+
+/// The settle that ends in the end phase `e`, found after `evaluations` and `steps`: its
+/// closed-form first instant of the settle test (or t_max), traced when a trace is kept.
+fn end_phase_result<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    e: &EndPhase,
+    params: SettleParams,
+    evaluations: u32,
+    steps: u32,
+    trace: Option<&mut Vec<(f64, State)>>,
+) -> SettleResult {
+    let (t, y, settled) = e.solve(sys.body, &params);
+    if let Some(tr) = trace {
+        tr.push((t, State::from_column_slice(&y)));
+    }
+    let stop = if settled {
+        Stop::Settled
+    } else {
+        Stop::TimeLimit
+    };
+    finish(sys.model, sys.active, &y, t, evaluations, steps, stop)
+}
+
+/// The graze watch: each pair's cut-off margin and its rate at the last accepted step looked
+/// at, and now. A margin changes no faster than |w| (|d(p . s)/dt| <= |w|), so while the ball
+/// has turned less since the margins were last looked at than the least of them (less
+/// [`GRAZE_EPS`], with |w| taken at twice the larger of a step's ends), no pair can have come
+/// near its cut-off and the margins are not computed.
+struct GrazeWatch {
+    /// Whether the watch is on: the model offers margins (a "coils" model beyond its skin
+    /// does not), and the path has a linear regime.
+    on: bool,
+    before: Vec<(f64, f64)>,
+    now: Vec<(f64, f64)>,
+    /// How far the ball may turn before the margins are looked at again.
+    slack: f64,
+    y_before: [f64; 7],
+    t_before: f64,
+    w_before: f64,
+    turned: f64,
+    /// Whether `now` holds the margins at `y_before` (the last step looked at them).
+    looked: bool,
+}
+
+/// What the graze watch saw at a step.
+enum Look {
+    /// Nothing near a cut-off.
+    Quiet,
+    /// A margin changed sign, or the watch can no longer follow the margins: the approach may
+    /// have crossed a cut-off.
+    Crossed,
+    /// A pair grazed its cut-off ([`grazes`]).
+    Grazed,
+}
+
+/// The least |margin| of `m`.
+fn least(m: &[(f64, f64)]) -> f64 {
+    m.iter().fold(f64::INFINITY, |a, &(x, _)| a.min(x.abs()))
+}
+
+/// The cut-off margins of the active pairs at the state `y` into `out`; false where the model
+/// offers none.
+fn margins<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    y: &[f64; 7],
+    out: &mut Vec<(f64, f64)>,
+) -> bool {
+    out.clear();
+    let r = rotation_matrix(y[0], y[1], y[2], y[3]);
+    let w = Vector3::new(y[4], y[5], y[6]);
+    sys.model.cutoff_margins(&r, &w, sys.active, out)
+}
+
+impl GrazeWatch {
+    /// The watch from the start `y0` (at rest), on when `linear` (the path has a linear
+    /// regime) and the model offers margins there.
+    fn new<M: TorqueModel>(sys: &RotorDynamics<'_, M>, y0: [f64; 7], linear: bool) -> Self {
+        let mut before = Vec::new();
+        let r0 = rotation_matrix(y0[0], y0[1], y0[2], y0[3]);
+        let on = linear
+            && sys
+                .model
+                .cutoff_margins(&r0, &Vector3::zeros(), sys.active, &mut before);
+        let slack = least(&before) - GRAZE_EPS;
+        GrazeWatch {
+            on,
+            before,
+            now: Vec::new(),
+            slack,
+            y_before: y0,
+            t_before: 0.0,
+            w_before: 0.0,
+            turned: 0.0,
+            looked: false,
+        }
+    }
+
+    /// Looks at the accepted step ending at (t, y); the watch goes off where the model offers
+    /// no margins.
+    fn look<M: TorqueModel>(&mut self, sys: &RotorDynamics<'_, M>, t: f64, y: &[f64; 7]) -> Look {
+        let w_now = Vector3::new(y[4], y[5], y[6]).norm();
+        let h = t - self.t_before;
+        self.turned += 2.0 * w_now.max(self.w_before) * h;
+        let mut seen = Look::Quiet;
+        if self.turned >= self.slack {
+            if self.looked {
+                std::mem::swap(&mut self.before, &mut self.now);
+            }
+            self.on = (self.looked || margins(sys, &self.y_before, &mut self.before))
+                && margins(sys, y, &mut self.now);
+            let pairs = || self.before.iter().zip(&self.now);
+            if self.on && pairs().any(|(&a, &b)| grazes(a, b, h)) {
+                return Look::Grazed;
+            }
+            if !self.on || pairs().any(|(a, b)| (a.0 < 0.0) != (b.0 < 0.0)) {
+                seen = Look::Crossed;
+            }
+            self.slack = least(&self.now) - GRAZE_EPS;
+            self.turned = 0.0;
+            self.looked = true;
+        } else {
+            self.looked = false;
+        }
+        (self.y_before, self.t_before, self.w_before) = (*y, t, w_now);
+        seen
+    }
+}
+
+/// The fast path's fallback: the settle from the start by Dopri5 at [`FALLBACK_RTOL`], its
+/// evaluations counted on top of the `spent` ones.
+fn settle_tight<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    y0: [f64; 7],
+    params: SettleParams,
+    spent: u32,
+) -> SettleResult {
+    let tight = SettleParams {
+        rtol: FALLBACK_RTOL,
+        atol: FALLBACK_ATOL,
+        ..params
+    };
+    let mut r = settle_dopri5(sys, y0, tight, None);
+    r.evaluations = r.evaluations.saturating_add(spent);
+    r
+}
+
+/// The fast path's least first step, in units of the time scale sqrt(I / (n K)) of its n
+/// active pairs: from rest Hairer's estimate starts 50 to 100 times shorter, and the step took
+/// 6 or 7 steps to grow out of it. On the 200 sets of examples/settle_sets.rs the median settle
+/// takes 70.5 evaluations instead of 81; on the 28,000 of examples/basins.rs none lands in
+/// another equilibrium, and 297 settle times are outside the reference's bounds (307 without).
+/// 0.2 saves 2 evaluations more but leaves 319 outside.
+const FIRST_STEP: f64 = 0.1;
+
+/// The loosest relative tolerance of the fast path's nonlinear phase (a looser scenario rtol is
+/// tightened to it) ...
+const NONLINEAR_RTOL: f64 = 1e-2;
+/// ... and, for light damping, at most this times the damping ratio squared (zeta = c over
+/// 2 sqrt(K I), K one aligned pair's stiffness), never below [`NONLINEAR_RTOL_FLOOR`]: the
+/// stepper's error per oscillation must stay small against the damping's loss per oscillation
+/// (about 4 pi zeta of the energy). At 0.2 of critical damping and rtol 1e-2, the stepper's own
+/// damping of the oscillations, not the physics', decided when sets came near their minimum
+/// (settle times 0.2 to 0.6 s early) and 3 sets in 1,000 ended in another equilibrium; rtol 1e-3
+/// still put 1 in 2,000 there, 1e-4 none (examples/basins.rs).
+const NONLINEAR_RTOL_PER_ZETA2: f64 = 2.5e-3;
+const NONLINEAR_RTOL_FLOOR: f64 = 1e-5;
+
+/// A pair's magnet that comes this close to its well's cut-off (in cosine: 1e-4 is 0.013
+/// degrees at a 25 degree cut-off) and turns back, or dips across and back within a step, sends
+/// the fast path to its tight fallback: whether it leaves reach there, and the torque jumps, is
+/// decided by errors its tolerance allows. On examples/basins.rs one set in 4,000 of the
+/// cosine, light-damping kind (seeds 18 and 19) ended 0.12 and 0.32 rad from the reference's
+/// equilibrium so; 1e-5 caught seed 19's only. The cost: the sets that graze (3 to 15% of the
+/// random sets, most at light damping) settle at tight tolerances.
+const GRAZE_EPS: f64 = 1e-4;
+
+/// Points of a step's interpolant at which [`grazes`] looks.
+const GRAZE_SAMPLES: u32 = 16;
+
+/// Whether a pair's cut-off margin m, (m0, dm0/dt) at a step's start and (m1, dm1/dt) at its
+/// end `h` later, grazes the cut-off over the step: comes within [`GRAZE_EPS`] of 0 on the
+/// cubic Hermite interpolant without ending on the other side, or dips across and back.
+fn grazes((m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f64) -> bool {
+    if m0.signum() != m1.signum() {
+        // a crossing, not a graze
+        return false;
+    }
+    let (d0, d1, dm) = (rate0 * h, rate1 * h, m1 - m0);
+    // the interpolant departs from the chord by at most a quarter of |d0 - dm| + |d1 - dm|:
+    // most steps are ruled out here
+    if m0.abs().min(m1.abs()) > GRAZE_EPS + 0.25 * ((d0 - dm).abs() + (d1 - dm).abs()) {
+        return false;
+    }
+    (0..=GRAZE_SAMPLES).any(|j| {
+        let [a0, b0, a1, b1] = hermite_weights(j as f64 / GRAZE_SAMPLES as f64);
+        let m = a0 * m0 + b0 * d0 + a1 * m1 + b1 * d1;
+        m.abs() < GRAZE_EPS || m.signum() != m0.signum()
+    })
+}
+
+/// At t_max without a strict minimum, the fast path falls back to the tight integration only
+/// if the ball is this close to the settle test (times its tolerances): a free rotation the
+/// stepper neither damps nor stops at its stability limit. A ball still moving faster than that
+/// is not settling by t_max on either path, and is reported so at once. On examples/basins.rs
+/// (seeds 17, 18 and 19: 84,000 sets) 30 gives the same results as 100 did; 10 let 11 sets of
+/// seed 17 say "not settled" where the reference settles before t_max, 20 none. On the 200
+/// sets of examples/settle_sets.rs, 30 spares the tight run of the two orders of a set still
+/// creeping at t_max (2,700 evaluations each): 103 evaluations per settle on average, not 127.
+const NEAR_REST: f64 = 30.0;
+
+/// Tolerances of the tight integration the fast path falls back to. On the 28,000 sets of
+/// examples/basins.rs, 1e-8 leaves as many sets outside the reference's bounds as 1e-9 (303 and
+/// 302, none in another equilibrium) for 21% fewer evaluations; 1e-7 leaves 322, DOP853 at 1e-9
+/// 341. (Before the reference applied its settle test within its steps, 1e-8 seemed worse: 756
+/// against 666, most of them the reference's own late detection.)
+const FALLBACK_RTOL: f64 = 1e-8;
+const FALLBACK_ATOL: f64 = 1e-10;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::geometry::{Orientation, Pair};
+
+    #[test]
+    fn the_hermite_weights_interpolate_a_cubic_exactly() {
+        let p = |t: f64| 0.3 - 1.2 * t + 0.7 * t * t + 2.1 * t * t * t;
+        let dp = |t: f64| -1.2 + 1.4 * t + 6.3 * t * t;
+        let (t0, h) = (0.4, 0.25);
+        for j in 0..=8 {
+            let s = j as f64 / 8.0;
+            let [a0, b0, a1, b1] = hermite_weights(s);
+            let m = a0 * p(t0) + b0 * h * dp(t0) + a1 * p(t0 + h) + b1 * h * dp(t0 + h);
+            assert!((m - p(t0 + s * h)).abs() < 1e-14, "s = {s}");
+        }
+    }
+
+    #[test]
+    fn a_margin_that_dips_to_the_cut_off_and_back_grazes_it() {
+        // m(t) = c + a (t - h/2)^2 over a step h: at its ends 0.01, its least c mid-step
+        let h = 0.1;
+        let step = |c: f64| {
+            let a = (0.01 - c) / (h * h / 4.0);
+            ((0.01, -a * h), (0.01, a * h))
+        };
+        let (start, end) = step(0.5 * GRAZE_EPS);
+        assert!(grazes(start, end, h));
+        // dipping across and back is a graze too
+        let (start, end) = step(-0.002);
+        assert!(grazes(start, end, h));
+        // staying well clear is not
+        let (start, end) = step(0.005);
+        assert!(!grazes(start, end, h));
+        // nor is a crossing: the ball leaves reach (or comes into it) for good
+        assert!(!grazes((0.01, -0.2), (-0.01, -0.2), h));
+    }
+
+    #[test]
+    fn the_fast_path_settles_where_the_reference_does() {
+        let (torques, body) = super::super::prototype_physics();
+        let q0 = Orientation::identity();
+        let params = SettleParams::default();
+        for set in [
+            vec![Pair::new(0, 14), Pair::new(12, 26)],
+            vec![Pair::new(0, 14), Pair::new(12, 26), Pair::new(5, 40)],
+            vec![Pair::new(0, 14)],
+        ] {
+            let fast = super::super::settle(&torques, &set, &q0, body, params);
+            let reference = super::super::settle(&torques, &set, &q0, body, params.reference());
+            assert_eq!(fast.settled, reference.settled, "{set:?}");
+            let apart = fast.q.angle_to(&reference.q);
+            assert!(apart < 1e-3, "{set:?}: {apart} rad apart");
+            let (tf, tr) = (fast.settle_time_s, reference.settle_time_s);
+            assert!(
+                (tf - tr).abs() <= 0.05 * tr + 1e-3,
+                "{set:?}: {tf} s against {tr} s"
+            );
+            // for fewer evaluations
+            assert!(fast.evaluations < reference.evaluations, "{set:?}");
+        }
+    }
+}
