@@ -373,3 +373,46 @@ fn a_garbling_sensor_stops_the_closed_loop() {
     );
     assert!(r.summary["garbled_readings"].as_u64().unwrap() >= 1);
 }
+
+#[test]
+fn bad_arguments_are_refused_before_any_port_is_made() {
+    let dir = tempfile::tempdir().unwrap();
+    let plant = write(dir.path(), "plant.toml", "[relay]\nboard = \"numato\"\n");
+    let p = plant.to_str().unwrap();
+    for (args, needle) in [
+        (
+            vec!["--speed", "0"],
+            "argument --speed: expected a number > 0",
+        ),
+        (vec!["--stuck-relay", "17"], "argument --stuck-relay"),
+        (
+            vec!["--sensor-garble", "0.5"],
+            "argument --sensor-garble: expected a sensor",
+        ),
+        (
+            vec!["--sensor", "bno055", "--sensor-garble", "2"],
+            "a fraction from 0 to 1",
+        ),
+        (vec!["--mount", "0,0,0,0"], "argument --mount"),
+        (
+            vec!["--drop-after-frames", "0"],
+            "argument --drop-after-frames",
+        ),
+    ] {
+        let (code, out, err) = common::run(&[&["virtual", p][..], &args].concat());
+        assert_eq!(code, 1, "{args:?}: {out}{err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(!out.contains("ready:"), "{args:?}: {out}");
+    }
+    let none = dir.path().join("none.toml");
+    let (code, _, err) = common::run(&["virtual", none.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(err.contains("none.toml"), "{err}");
+    let bare = write(dir.path(), "bare.toml", "");
+    let (code, _, err) = common::run(&["virtual", bare.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("argument --board") && err.contains("bare.toml"),
+        "{err}"
+    );
+}
