@@ -210,8 +210,8 @@ fn replay_through_the_virtual_motor_decides_as_run_closed_loop() {
     // row 0 (90 degrees about Z), `replay --sensor` towards the plan file's last row (91.65
     // degrees). The steps before it and the replans after steps 0 and 1 are the same.
     let agreed = 2;
-    for k in 0..agreed {
-        let (a, b) = (&run_sets[k], replay_sets.get(k));
+    for (k, a) in run_sets.iter().enumerate().take(agreed) {
+        let b = replay_sets.get(k);
         assert_eq!(
             Some(a),
             b,
