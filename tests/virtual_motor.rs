@@ -416,3 +416,48 @@ fn bad_arguments_are_refused_before_any_port_is_made() {
         "{err}"
     );
 }
+
+#[test]
+fn a_coil_on_too_long_and_too_many_coils_on_are_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut plan = String::from(
+        "step,pivot_coil,pivot_magnet,new_coil,new_magnet,active,qx,qy,qz,qw,step_angle_deg,step_axis_error_deg,cum_angle_deg,cum_axis_error_deg,settle_time_s\n",
+    );
+    for (k, active) in ["0:10;1:11", "0:10;2:12", "2:12;3:13"].iter().enumerate() {
+        plan.push_str(&format!("{k},,,,,{active},0,0,0,1,0,0,0,0,0.1\n"));
+    }
+    let plan = write(dir.path(), "plan.csv", &plan);
+    // the plant's coils take 1 s (virtual: 0.2 s of the replay's) and two at once
+    let plant = write(
+        dir.path(),
+        "plant.toml",
+        "[relay]\nboard = \"numato\"\nmax_on_time_s = 1.0\nmax_coils_on = 2\n",
+    );
+    let scenario = write(dir.path(), "replay.toml", "[relay]\nboard = \"numato\"\n");
+    let r = rehearse(
+        dir.path(),
+        &plant,
+        &plan,
+        &scenario,
+        &[],
+        &["--dwell-ms", "300"],
+    );
+    assert_eq!(r.replay.0, 0, "{:?}", r.replay);
+    assert_eq!(r.virtual_code, 1);
+    let v: Vec<String> = (r.summary["violations"].as_array().unwrap().iter())
+        .map(|x| x.as_str().unwrap().to_string())
+        .collect();
+    assert!(
+        v.iter()
+            .any(|x| x.contains("coil 0 (board 0, channel 1) on for")
+                && x.contains("past max_on_time_s")),
+        "{v:?}"
+    );
+    assert!(
+        v.iter()
+            .any(|x| x.contains("3 relays on at once") && x.contains("more than max_coils_on (2)")),
+        "{v:?}"
+    );
+    assert!(r.log.contains("\"violation\""), "{}", r.log);
+    assert_eq!(coils_on_at_end(&r.log), "");
+}
