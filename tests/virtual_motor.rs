@@ -321,13 +321,16 @@ fn fault(extra: &[&str], sensor: Option<&str>) -> (Rehearsal, String) {
 }
 
 #[test]
-fn a_port_that_vanishes_stops_the_replay_and_says_the_all_off_failed() {
+fn a_port_that_vanishes_stops_the_replay_with_the_step_to_resume_from() {
     // the board is unplugged: its relays lose power (the virtual motor's log shows them
-    // released), the replay's all-off cannot reach it and says so; written against the
-    // replay's current message, which gives no --from-step when the all-off failed
+    // released), the replay's all-off cannot reach it and says so, and where to resume
     let (r, said) = fault(&["--drop-after-frames", "9"], None);
     assert!(said.contains("closed the connection"), "{said}");
     assert!(said.contains("switching all coils off FAILED"), "{said}");
+    assert!(
+        said.contains("once every board answers again, resume with --from-step 2"),
+        "{said}"
+    );
     assert!(r.log.contains("\"dropped\""), "{}", r.log);
 }
 

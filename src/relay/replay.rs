@@ -1403,7 +1403,16 @@ impl Runner<'_> {
     /// together.
     fn finish(&mut self, result: Result<bool, RelayError>) -> Result<Summary, RelayError> {
         let next = self.next_step;
-        match self.close(result)? {
+        let closed = self.close(result).map_err(|e| match e {
+            RelayError::OffFailed { .. } | RelayError::BoardsOffFailed { cause: Some(_), .. } => {
+                RelayError::OffFailedResume {
+                    error: Box::new(e),
+                    resume: next,
+                }
+            }
+            e => e,
+        })?;
+        match closed {
             Ok(quit) => {
                 let msg = if quit {
                     format!(
