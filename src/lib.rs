@@ -10,6 +10,8 @@
 //! 3. [`planning`]: commutation, the planners, the simulation of a plan and the closed loop;
 //! 4. [`relay`]: relay boards, the serial link and the timed replay of a plan;
 //!    [`sensor`] (the same level): orientation sensors read over a port (quat-csv, BNO055);
+//!    [`rehearse`] (above them): the virtual motor, their far ends on pseudo-terminals driving
+//!    a simulated ball;
 //! 5. [`io`]: the files: scenarios (TOML), plans and results (CSV), atomic writes;
 //! 6. [`figures`]: the pictures, the 3-D page and the batch report;
 //! 7. [`commands`]: one function per command of the binary, and batches of scenarios.
@@ -55,6 +57,7 @@ pub mod io;
 pub mod model;
 pub mod physics;
 pub mod planning;
+pub mod rehearse;
 pub mod relay;
 pub mod sensor;
 pub mod serial;

@@ -201,11 +201,10 @@ fn a_coil_set_plan_replays_on_relay_boards() {
     assert_eq!(code, 0, "{out}{err}");
     let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
     assert_eq!(v["model"], "coils");
-    // broad wells settle slowly (up to seconds a step): with the dwell derived from the
-    // predicted settle times a coil would stay on past the on-time limit, and that is refused
+    // broad wells settle slowly (up to seconds a step): the planner keeps each coil's
+    // on-time, with the dwells derived from the predicted settle times, within the limit
     let (code, out, err) = common::run(&["replay", f, "--board", "numato", "--dry-run"]);
-    assert_eq!(code, 1, "{out}{err}");
-    assert!(err.contains("max_on_time_s"), "{err}");
+    assert_eq!(code, 0, "{out}{err}");
     let (code, out, err) = common::run(&[
         "replay",
         f,

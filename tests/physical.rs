@@ -168,7 +168,10 @@ fn the_physical_prototype_steps_90_degrees_about_z_as_its_dynamics_do() {
     assert!(p.reached, "{:?}", p.message);
     assert_eq!(p.summary(&s).model, "coils");
     let worst = max_axis_error_deg(&p.rows);
-    assert!(worst < 5.0, "worst cumulative axis error {worst}");
+    // the physical coils settle for seconds a step, and the plan keeps each coil's on-time
+    // within relay.max_on_time_s (10 s) at the replay's dwells: 7.12 degrees, where a plan
+    // keeping the coil at -Z on for 80 s made 2.12
+    assert!(worst < 7.5, "worst cumulative axis error {worst}");
     for r in simulate(&sc.motor(), &p.rows) {
         assert!(
             r.settled && r.deviation_deg < 1.0,

@@ -12,6 +12,7 @@ mod run;
 mod settle;
 mod simulate;
 mod view;
+mod virtual_motor;
 mod wells;
 
 use clap::{Parser, Subcommand};
@@ -97,6 +98,10 @@ enum Command {
     /// the end (and on error or Ctrl-C). Settings come from the scenario's [relay] section or
     /// --map.
     Replay(replay::Args),
+    /// A virtual motor for a replay to drive: relay boards and a sensor on pseudo-terminals,
+    /// answering their protocols byte for byte, a ball moving under the plant's physics, the
+    /// limits watched, faults injected on request.
+    Virtual(virtual_motor::Args),
     /// Write one self-contained HTML page showing a plan in 3-D (opens from disk, no network).
     View(view::Args),
     /// Draw an existing result CSV (plan, sweep or run, told by its header) as SVG and PNG.
@@ -120,6 +125,7 @@ impl Cli {
             Command::Batch(a) => a.run(out),
             Command::Replay(a) => a.run(out),
             Command::View(a) => a.run(out),
+            Command::Virtual(a) => a.run(out),
             Command::Plot(a) => a.run(out),
             Command::Prototype(a) => a.run(out),
             Command::Wells(a) => a.run(out),

@@ -4,6 +4,7 @@
 pub mod batch;
 pub mod closed_loop;
 pub mod closed_replay;
+pub mod rehearse;
 pub mod replay;
 pub mod wells;
 

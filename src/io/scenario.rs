@@ -306,7 +306,14 @@ impl Scenario {
             interaction: well_and_interaction.1,
         };
         ck.well_scale(&torques.well, &settle)?;
-        let plan = ck.plan(raw.plan.unwrap_or_default(), &torques)?;
+        // The relay section first: its limits (coils on at once, one coil's on-time with the
+        // replay's dwells) are the planner's, so that replay accepts what is planned.
+        let relay = crate::relay::RelaySettings::from_config(
+            raw.relay.unwrap_or_default(),
+            path,
+            "relay.",
+        )?;
+        let plan = ck.plan(raw.plan.unwrap_or_default(), &torques, &relay)?;
         let sweep = match raw.sweep {
             None => None,
             Some(sw) => Some(ck.sweep(sw, &plan)?),
@@ -326,11 +333,6 @@ impl Scenario {
                 reference_label: r.reference_label,
             },
         };
-        let relay = crate::relay::RelaySettings::from_config(
-            raw.relay.unwrap_or_default(),
-            path,
-            "relay.",
-        )?;
         let name = raw.name.unwrap_or_else(|| {
             path.file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
@@ -997,7 +999,11 @@ impl Checker<'_> {
     }
 
     /// The step limits of the `[plan]` section.
-    fn step_limits(&self, raw: &RawPlan) -> Result<StepLimits> {
+    fn step_limits(
+        &self,
+        raw: &RawPlan,
+        relay: &crate::relay::RelaySettings,
+    ) -> Result<StepLimits> {
         let d = StepLimits::default();
         let count = |field: &str, v: Option<usize>, default: usize| self.count(field, v, default);
         let angle_field =
@@ -1019,7 +1025,8 @@ impl Checker<'_> {
                 d.bound_start,
             )?,
             max_candidates: count("plan.max_candidates", raw.max_candidates, d.max_candidates)?,
-            max_coils_on: count("plan.max_coils_on", raw.max_coils_on, d.max_coils_on)?,
+            max_coils_on: count("plan.max_coils_on", raw.max_coils_on, relay.max_coils_on)?,
+            on_time: Some(relay.on_time_limit()),
             capture: match raw.capture_deg {
                 None => None,
                 Some(_) => Some(angle_field(
@@ -1038,7 +1045,14 @@ impl Checker<'_> {
 
     /// The `[plan]` section; without `model`, the motor's physics chooses
     /// ([`default_step_model`]).
-    fn plan(&self, raw: RawPlan, torques: &MagnetTorques) -> Result<PlanSettings> {
+    /// `relay`: the scenario's `[relay]` section, whose limits the plans keep to (its
+    /// `max_coils_on` unless `plan.max_coils_on` is given, and its on-time limit).
+    fn plan(
+        &self,
+        raw: RawPlan,
+        torques: &MagnetTorques,
+        relay: &crate::relay::RelaySettings,
+    ) -> Result<PlanSettings> {
         let axis = self.unit("plan.axis", raw.axis.unwrap_or([0.0, 0.0, 1.0]))?;
         let angle = target_angle(raw.angle_deg.unwrap_or(90.0))
             .map_err(|m| self.err("plan.angle_deg", m))?;
@@ -1070,7 +1084,7 @@ impl Checker<'_> {
         let count = |field: &str, v: Option<usize>, default: usize| self.count(field, v, default);
         let angle_field =
             |field: &str, v: Option<f64>, default: Radians| self.small_angle(field, v, default);
-        let limits = self.step_limits(&raw)?;
+        let limits = self.step_limits(&raw, relay)?;
         let supply_field = match (raw.pairs_per_step, raw.max_pairs_per_step) {
             (None, None) => "plan.max_coils_on",
             _ => field,

@@ -145,14 +145,24 @@ pub struct LoopRun {
     pub summary: LoopSummary,
 }
 
-/// splitmix64 with Box-Muller normals: the same noise on every machine.
-struct Noise {
+/// splitmix64 with Box-Muller normals: the same noise on every machine (also the virtual
+/// motor's sensor's, `crate::rehearse`).
+pub struct Noise {
     state: u64,
     sigma: f64,
 }
 
 impl Noise {
-    fn uniform(&mut self) -> f64 {
+    /// A sensor noise of standard deviation `sigma` from `seed`.
+    pub fn new(seed: u64, sigma: Radians) -> Noise {
+        Noise {
+            state: seed,
+            sigma: sigma.0,
+        }
+    }
+
+    /// A uniform number in (0, 1).
+    pub fn uniform(&mut self) -> f64 {
         self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.state;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -162,7 +172,7 @@ impl Noise {
     }
 
     /// The true orientation as a sensor of this noise reports it.
-    fn measure(&mut self, truth: &Orientation) -> Orientation {
+    pub fn measure(&mut self, truth: &Orientation) -> Orientation {
         if self.sigma == 0.0 {
             return *truth;
         }

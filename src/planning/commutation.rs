@@ -11,6 +11,7 @@ use crate::model::geometry::{
 use crate::physics::dynamics::{settle_many, Body, SettleParams};
 use crate::physics::torque::{MagnetTorques, Well};
 use crate::planning::cancel::Cancel;
+use crate::planning::on_time::OnTimeLimit;
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -362,6 +363,9 @@ pub struct StepLimits {
     /// The most coils on at once, while a step switches (the held and the new set together):
     /// what the supply can power.
     pub max_coils_on: usize,
+    /// How long a coil may stay on when the plan is replayed, with the replay's dwells: a step
+    /// that would keep a coil on past it is not taken. `None`: no limit.
+    pub on_time: Option<OnTimeLimit>,
 }
 
 /// The prototype's supply (24 V, 100 W) powers four coils at once (about 1 A, 25 W each).
@@ -416,6 +420,7 @@ impl Default for StepLimits {
             search_bound: Radians(45f64.to_radians()),
             capture: None,
             max_coils_on: DEFAULT_MAX_COILS_ON,
+            on_time: Some(OnTimeLimit::default()),
         }
     }
 }

@@ -1,8 +1,9 @@
 //! From settled equilibria to plans: which coil:magnet pairs to switch (`commutation`) or which
 //! sets of coils (`coilsets`), the searches that chain steps towards a target rotation
 //! (`search`, shared by every step model) and the planner that sets them going (`planner`) into
-//! a `plan`, the replay of a plan through the dynamics (`simulate`) and the closed loop that
-//! replans from measured orientations (`closed_loop`).
+//! a `plan`, the replay of a plan through the dynamics (`simulate`), the closed loop that
+//! replans from measured orientations (`closed_loop`) and how long a replay keeps each coil on
+//! (`on_time`, shared with the hardware replay's check).
 
 pub mod cancel;
 pub mod closed_loop;
@@ -10,6 +11,7 @@ pub mod coilsets;
 pub mod commutation;
 pub mod identify;
 mod motor;
+pub mod on_time;
 pub mod plan;
 pub mod planner;
 pub mod search;

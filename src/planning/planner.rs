@@ -62,6 +62,15 @@ fn plan_with(motor: &Motor, s: &PlanSettings, from: Option<CommutationState>) ->
         StepModel::Pivot => {
             let mut p = run(&PairSteps { motor, s });
             predict_settle_times(motor, &mut p.rows, &s.start);
+            // the search counted the dwell floor only: the settle times are known now
+            if let Some(why) = search::over_on_time(&p.rows, s.limits.on_time) {
+                let before = p
+                    .message
+                    .take()
+                    .map(|m| format!("{m}; "))
+                    .unwrap_or_default();
+                p.message = Some(format!("{before}{why}"));
+            }
             p
         }
     }

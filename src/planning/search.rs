@@ -4,10 +4,11 @@
 //! greedy seeds. They are generic over a [`StepSource`]: a step model says where a plan starts,
 //! which steps lead on from a state and which states are one; the searches decide the rest.
 
-use crate::model::geometry::{Orientation, Pair, Radians};
+use crate::model::geometry::{CoilId, Orientation, Pair, Radians};
 use crate::planning::commutation::{
     cumulative, cumulative_from, CommutationState, Step, StepLimits,
 };
+use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
 use crate::planning::plan::PlanRow;
 use crate::planning::plan::{max_axis_error_deg, Plan, PlanSettings, Scheme};
 use rayon::prelude::*;
@@ -49,27 +50,99 @@ pub trait StepSource: Sync {
     }
 }
 
-/// A partial plan: the states so far and their running figures.
+/// A partial plan: the states so far, their running figures and how long each coil on at its
+/// end has been on (with the replay's dwells; empty without an on-time limit).
 #[derive(Debug, Clone)]
 pub(crate) struct Node {
     rows: Vec<PlanRow>,
     state: CommutationState,
     worst: f64,
     cum: f64,
+    on: OnTimes<CoilId>,
+}
+
+/// A step refused because it would keep a coil on past the on-time limit.
+#[derive(Debug, Clone, Copy)]
+struct OverTime {
+    coil: CoilId,
+    since_step: usize,
+    on: std::time::Duration,
+    max: std::time::Duration,
+}
+
+impl OverTime {
+    fn describe(&self) -> String {
+        format!(
+            "coil {} would stay on from step {} for {:.2} s, over relay.max_on_time_s ({:.2} s)",
+            self.coil,
+            self.since_step,
+            self.on.as_secs_f64(),
+            self.max.as_secs_f64()
+        )
+    }
+}
+
+/// The coils on after `step` (a plan's step index), with their on-times, from `on` before it.
+fn held_after(
+    on: &OnTimes<CoilId>,
+    limit: Option<OnTimeLimit>,
+    active: &[Pair],
+    step: usize,
+    settle_time_s: f64,
+) -> Result<OnTimes<CoilId>, OverTime> {
+    let Some(l) = limit else {
+        return Ok(OnTimes::new());
+    };
+    let mut on = on.clone();
+    on_time::hold(
+        &mut on,
+        active.iter().map(|p| p.coil),
+        step,
+        l.dwell(settle_time_s),
+    );
+    match on_time::over(&on, l.max_on) {
+        Some((coil, h)) => Err(OverTime {
+            coil,
+            since_step: h.since_step,
+            on: h.on,
+            max: l.max_on,
+        }),
+        None => Ok(on),
+    }
 }
 
 impl Node {
-    fn extend(&self, step: &Step, q0: &Orientation, s: &PlanSettings) -> Node {
+    /// The partial plan with `step` taken, or why not: a coil would stay on too long.
+    fn extend(&self, step: &Step, q0: &Orientation, s: &PlanSettings) -> Result<Node, OverTime> {
+        let index = self.rows.len();
+        let on = held_after(
+            &self.on,
+            s.limits.on_time,
+            &step.to.active,
+            index,
+            step.to.settle_time_s,
+        )?;
         let (ca, ce) = cumulative_from(q0, &step.to.q, &s.axis, self.cum);
         let mut rows = self.rows.clone();
-        let row = step_row(rows.len(), step, (ca, ce));
+        let row = step_row(index, step, (ca, ce));
         rows.push(row);
-        Node {
+        Ok(Node {
             rows,
             state: step.to.clone(),
             worst: self.worst.max(ce.0),
             cum: ca.0,
-        }
+            on,
+        })
+    }
+
+    /// Whether this plan is at least as good as `o` into the same state: no worse an axis
+    /// error, and no coil on longer.
+    fn dominates(&self, o: &Node) -> bool {
+        self.worst <= o.worst + 1e-9
+            && self
+                .on
+                .iter()
+                .all(|(c, h)| o.on.get(c).is_some_and(|x| h.on <= x.on))
     }
 
     fn frontier(&self) -> Frontier<'_> {
@@ -94,15 +167,27 @@ pub fn run(src: &dyn StepSource, s: &PlanSettings) -> Plan {
             settles: 0,
         };
     };
+    let roots: Vec<Node> = inits.iter().filter_map(|i| root_node(i, s).ok()).collect();
+    let Some(first) = roots.first().cloned() else {
+        let why = root_node(first, s)
+            .err()
+            .map(|o| o.describe())
+            .unwrap_or_default();
+        return Plan {
+            rows: Vec::new(),
+            reached: false,
+            message: Some(format!(
+                "no initial commutation state can be held within the on-time limit: {why}"
+            )),
+            settles: 0,
+        };
+    };
     match s.scheme {
-        Scheme::Search => {
-            let roots: Vec<Node> = inits.iter().map(root_node).collect();
-            match s.model {
-                crate::planning::commutation::StepModel::Pivot => search(src, s, roots),
-                _ => best_first(src, s, roots),
-            }
-        }
-        g => greedy(src, s, root_node(first), g),
+        Scheme::Search => match s.model {
+            crate::planning::commutation::StepModel::Pivot => search(src, s, roots),
+            _ => best_first(src, s, roots),
+        },
+        g => greedy(src, s, first, g),
     }
 }
 
@@ -141,14 +226,23 @@ pub(crate) fn first_row(init: &CommutationState) -> PlanRow {
     }
 }
 
-/// A plan's start: row 0, the initial commutation state.
-fn root_node(init: &CommutationState) -> Node {
-    Node {
+/// A plan's start: row 0, the initial commutation state (unless holding it alone would keep a
+/// coil on too long).
+fn root_node(init: &CommutationState, s: &PlanSettings) -> Result<Node, OverTime> {
+    let on = held_after(
+        &OnTimes::new(),
+        s.limits.on_time,
+        &init.active,
+        0,
+        init.settle_time_s,
+    )?;
+    Ok(Node {
         rows: vec![first_row(init)],
         state: init.clone(),
         worst: 0.0,
         cum: 0.0,
-    }
+        on,
+    })
 }
 
 fn reached(p: &Node, s: &PlanSettings) -> bool {
@@ -183,22 +277,37 @@ fn greedy(src: &dyn StepSource, s: &PlanSettings, mut path: Node, scheme: Scheme
         }
         let steps = src.steps(&path.state, false);
         let remaining = s.angle.0 - path.cum;
-        // a greedy plan must not cycle between the same states
+        // a greedy plan must not cycle between the same states, nor keep a coil on too long
+        let mut over: Option<OverTime> = None;
         let best = steps
             .iter()
             .filter(|st| !seen.contains(&src.key(&st.to)))
-            .max_by(|a, b| {
+            .filter_map(|st| match path.extend(st, &q0, s) {
+                Ok(n) => Some((st, n)),
+                Err(o) => {
+                    over.get_or_insert(o);
+                    None
+                }
+            })
+            .max_by(|(a, _), (b, _)| {
                 greedy_key(scheme, a, remaining)
                     .total_cmp(&greedy_key(scheme, b, remaining))
                     .then_with(|| b.to.active.cmp(&a.to.active))
             });
-        let Some(best) = best else {
-            return stopped(
-                path,
-                "no candidate step advances about the axis within the axis error limit".into(),
-            );
+        let Some((_, next)) = best else {
+            let why = match over {
+                Some(o) => format!(
+                    "every candidate step that advances would keep a coil on past the on-time \
+                     limit ({})",
+                    o.describe()
+                ),
+                None => {
+                    "no candidate step advances about the axis within the axis error limit".into()
+                }
+            };
+            return stopped(path, why);
         };
-        path = path.extend(best, &q0, s);
+        path = next;
         seen.push(src.key(&path.state));
     }
 }
@@ -270,7 +379,7 @@ fn search(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan {
                     let q0 = p.rows[0].q;
                     src.steps(&p.state, true)
                         .iter()
-                        .map(|st| p.extend(st, &q0, s))
+                        .filter_map(|st| p.extend(st, &q0, s).ok())
                         .collect()
                 })
                 .collect();
@@ -361,6 +470,7 @@ fn greedy_best(
                     active: p.rows.last().map(|r| r.active.clone()).unwrap_or_default(),
                     settle_time_s: 0.0,
                 },
+                on: on_times_of(&p.rows, s.limits.on_time),
                 rows: p.rows,
                 worst,
                 cum,
@@ -447,29 +557,28 @@ impl Frontiers {
     fn current(&self, src: &dyn StepSource, node: usize) -> bool {
         let (root, path) = &self.nodes[node];
         let key = (*root, src.key(&path.state));
-        let found = self.states.get(&key).and_then(|v| {
+        self.states.get(&key).is_none_or(|v| {
             v.iter()
-                .find(|(q, _)| q.angle_to(&path.state.q) < SAME_STATE_RAD)
-        });
-        found.is_none_or(|&(_, k)| k == node)
+                .any(|&(q, k)| k == node && q.angle_to(&path.state.q) < SAME_STATE_RAD)
+        })
     }
 
-    /// Files a new partial plan under its state, unless a plan at least as good ends there.
+    /// Files a new partial plan under its state, unless a plan at least as good ends there
+    /// (no worse an axis error and no coil on longer: [`Node::dominates`]); the plans it is
+    /// at least as good as are dropped.
     fn admit(&mut self, src: &dyn StepSource, root: usize, c: Node, target: f64) {
         let id = self.nodes.len();
+        let nodes = &self.nodes;
         let list = self.states.entry((root, src.key(&c.state))).or_default();
-        match list
-            .iter_mut()
-            .find(|(q, _)| q.angle_to(&c.state.q) < SAME_STATE_RAD)
+        let same = |q: &Orientation| q.angle_to(&c.state.q) < SAME_STATE_RAD;
+        if list
+            .iter()
+            .any(|(q, k)| same(q) && nodes[*k].1.dominates(&c))
         {
-            Some(entry) => {
-                if self.nodes[entry.1].1.worst <= c.worst + 1e-9 {
-                    return;
-                }
-                entry.1 = id;
-            }
-            None => list.push((c.state.q, id)),
+            return;
         }
+        list.retain(|(q, k)| !(same(q) && c.dominates(&nodes[*k].1)));
+        list.push((c.state.q, id));
         if c.cum > self.deepest.cum {
             self.deepest = c.clone();
         }
@@ -500,6 +609,7 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
         f.push(k, r, s.angle.0);
     }
     let mut spent = 0usize;
+    let mut over: Option<OverTime> = None;
     while spent < s.settle_budget {
         let Some(Open { node, .. }) = f.open.pop() else {
             break;
@@ -518,7 +628,13 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
         spent += settles;
         let q0 = path.rows[0].q;
         for st in &steps {
-            let c = path.extend(st, &q0, s);
+            let c = match path.extend(st, &q0, s) {
+                Ok(c) => c,
+                Err(o) => {
+                    over.get_or_insert(o);
+                    continue;
+                }
+            };
             if best.as_ref().is_some_and(|b| c.worst > score(b, s) + 1e-9) {
                 continue;
             }
@@ -531,16 +647,72 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
             f.admit(src, root_id, c, s.angle.0);
         }
     }
+    let refused = match over {
+        Some(o) => format!(
+            "; steps that would keep a coil on past the on-time limit were not taken (e.g. {})",
+            o.describe()
+        ),
+        None => String::new(),
+    };
     let mut plan = outcome(
         best,
         f.deepest,
         format!(
-            "the search found no sequence that reaches the target within its budget of {} settles",
+            "the search found no sequence that reaches the target within its budget of {} \
+             settles{refused}",
             s.settle_budget
         ),
     );
     plan.settles = spent;
     plan
+}
+
+/// How long each coil on at the end of `rows` has been on, with the replay's dwells (empty
+/// without a limit).
+fn on_times_of(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> OnTimes<CoilId> {
+    let mut on = OnTimes::new();
+    if let Some(l) = limit {
+        for r in rows {
+            on_time::hold(
+                &mut on,
+                r.active.iter().map(|p| p.coil),
+                r.step,
+                l.dwell(r.settle_time_s),
+            );
+        }
+    }
+    on
+}
+
+/// The first coil of a plan that stays on past the on-time limit, as a message (`None` when
+/// none does, or without a limit): a pivot plan's settle times are predicted after it is
+/// planned, and its search counts only the dwell floor.
+pub fn over_on_time(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> Option<String> {
+    let l = limit?;
+    let mut on = OnTimes::new();
+    for r in rows {
+        on_time::hold(
+            &mut on,
+            r.active.iter().map(|p| p.coil),
+            r.step,
+            l.dwell(r.settle_time_s),
+        );
+        if let Some((coil, h)) = on_time::over(&on, l.max_on) {
+            let o = OverTime {
+                coil,
+                since_step: h.since_step,
+                on: h.on,
+                max: l.max_on,
+            };
+            return Some(format!(
+                "{} through step {}: replay will refuse the plan (a shorter --dwell-ms, or a \
+                 higher relay.max_on_time_s)",
+                o.describe(),
+                r.step
+            ));
+        }
+    }
+    None
 }
 
 /// A list of pairs, sorted.

@@ -19,11 +19,11 @@ use std::time::Duration;
 /// (25 W) that is four coils. Set it from your coils' measured current.
 pub const DEFAULT_MAX_COILS_ON: usize = crate::planning::commutation::DEFAULT_MAX_COILS_ON;
 /// Default limit on one coil's continuous on-time, s.
-pub const DEFAULT_MAX_ON_TIME_S: f64 = 10.0;
+pub const DEFAULT_MAX_ON_TIME_S: f64 = crate::planning::on_time::DEFAULT_MAX_ON_TIME_S;
 /// Default dwell: the predicted settle time times this factor...
-pub const DEFAULT_DWELL_FACTOR: f64 = 1.5;
+pub const DEFAULT_DWELL_FACTOR: f64 = crate::planning::on_time::DEFAULT_DWELL_FACTOR;
 /// ...but at least this long, ms (relays take a few ms to close, the ball longer to settle).
-pub const DEFAULT_DWELL_FLOOR_MS: f64 = 200.0;
+pub const DEFAULT_DWELL_FLOOR_MS: f64 = crate::planning::on_time::DEFAULT_DWELL_FLOOR_MS;
 /// The longest `max_on_time_s` accepted (a day).
 pub const MAX_ON_TIME_LIMIT_S: f64 = 86_400.0;
 /// The longest `dwell_floor_ms` accepted (an hour).
@@ -192,6 +192,15 @@ impl RelaySettings {
             map,
             boards: listed,
         })
+    }
+
+    /// The on-time limit and the dwells, as the planners keep to them.
+    pub fn on_time_limit(&self) -> crate::planning::on_time::OnTimeLimit {
+        crate::planning::on_time::OnTimeLimit {
+            max_on: self.max_on_time,
+            dwell_factor: self.dwell_factor,
+            dwell_floor: self.dwell_floor,
+        }
     }
 
     /// Parses relay settings written as a TOML map file (the `[relay]` keys at the top level).

@@ -280,6 +280,13 @@ pub enum RelayError {
         cause: Box<RelayError>,
         off: Box<RelayError>,
     },
+    /// An open-loop replay stopped and switching all off failed too (`error`: `OffFailed` or
+    /// `BoardsOffFailed`): where to resume once the board is back.
+    #[error("{error}; once every board answers again, resume with --from-step {resume}")]
+    OffFailedResume {
+        error: Box<RelayError>,
+        resume: usize,
+    },
     /// The orientation sensor of a closed-loop replay failed (its message names the sensor
     /// and its port).
     #[error(transparent)]
@@ -539,7 +546,9 @@ impl RelayError {
             RelayError::Stopped { cause, .. }
             | RelayError::OffFailed { cause, .. }
             | RelayError::LoopStopped { cause, .. } => cause.root(),
-            RelayError::OnBoard { error, .. } => error.root(),
+            RelayError::OnBoard { error, .. } | RelayError::OffFailedResume { error, .. } => {
+                error.root()
+            }
             RelayError::BoardsOffFailed {
                 cause: Some(cause), ..
             } => cause.root(),

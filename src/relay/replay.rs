@@ -14,6 +14,7 @@ use super::{
     RelayError, RelaySettings, Setting, Slot, SwitchOrder,
 };
 use crate::model::geometry::CoilId;
+use crate::planning::on_time;
 use crate::planning::plan::PlanRow;
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufRead, Write};
@@ -89,7 +90,8 @@ pub struct Schedule {
     pub entries: Vec<Entry>,
 }
 
-/// The dwell of a plan row: the override as given, or settle time x factor, at least the floor.
+/// The dwell of a plan row: the override as given, or settle time x factor, at least the floor
+/// (the planners' own computation, [`crate::planning::on_time::dwell`]).
 pub fn dwell(
     row: &PlanRow,
     settings: &RelaySettings,
@@ -97,15 +99,11 @@ pub fn dwell(
 ) -> Duration {
     match dwell_override {
         Some(d) => d,
-        None => {
-            let t = row.settle_time_s * settings.dwell_factor;
-            let d = if t.is_finite() && t > 0.0 {
-                Duration::from_secs_f64(t.min(1e6))
-            } else {
-                Duration::ZERO
-            };
-            d.max(settings.dwell_floor)
-        }
+        None => on_time::dwell(
+            row.settle_time_s,
+            settings.dwell_factor,
+            settings.dwell_floor,
+        ),
     }
 }
 
@@ -363,39 +361,41 @@ pub(super) fn check_on_time(
     entries: &[Entry],
     max: Duration,
     listed: bool,
-    mut on: OnTimes,
+    on: OnTimes,
 ) -> Result<(), RelayError> {
+    let mut held: on_time::OnTimes<Slot> = on
+        .iter()
+        .map(|(&s, &(_, since_step, on))| (s, on_time::Held { since_step, on }))
+        .collect();
     for e in entries {
-        on.retain(|slot, _| e.on_after.contains_key(slot));
-        for (&slot, &coil) in &e.on_after {
-            let held = on.entry(slot).or_insert((coil, e.step, Duration::ZERO));
-            held.2 += e.dwell;
-            if held.2 > max {
-                let unsettled: Vec<String> = entries
-                    .iter()
-                    .filter(|x| x.unsettled && (held.1..=e.step).contains(&x.step))
-                    .map(|x| x.step.to_string())
-                    .collect();
-                let unsettled = match unsettled.is_empty() {
-                    true => String::new(),
-                    false => format!(
-                        " (step {} never settled in the plan: its settle time is t_max)",
-                        unsettled.join(", ")
-                    ),
-                };
-                return Err(RelayError::OnTooLong {
-                    coil,
-                    board: listed.then_some(slot.board),
-                    channel: slot.channel,
-                    when: format!(
-                        "would stay on from step {} through step {}{unsettled} for",
-                        held.1, e.step
-                    ),
-                    on: held.2,
-                    max,
-                    advice: OnTimeAdvice::Dwell,
-                });
-            }
+        on_time::hold(&mut held, e.on_after.keys().copied(), e.step, e.dwell);
+        if let Some((slot, h)) = on_time::over(&held, max) {
+            // what is held is what is on after the entry
+            let coil = e.on_after.get(&slot).copied().unwrap_or(CoilId(0));
+            let unsettled: Vec<String> = entries
+                .iter()
+                .filter(|x| x.unsettled && (h.since_step..=e.step).contains(&x.step))
+                .map(|x| x.step.to_string())
+                .collect();
+            let unsettled = match unsettled.is_empty() {
+                true => String::new(),
+                false => format!(
+                    " (step {} never settled in the plan: its settle time is t_max)",
+                    unsettled.join(", ")
+                ),
+            };
+            return Err(RelayError::OnTooLong {
+                coil,
+                board: listed.then_some(slot.board),
+                channel: slot.channel,
+                when: format!(
+                    "would stay on from step {} through step {}{unsettled} for",
+                    h.since_step, e.step
+                ),
+                on: h.on,
+                max,
+                advice: OnTimeAdvice::Dwell,
+            });
         }
     }
     Ok(())
@@ -1400,7 +1400,16 @@ impl Runner<'_> {
     /// together.
     fn finish(&mut self, result: Result<bool, RelayError>) -> Result<Summary, RelayError> {
         let next = self.next_step;
-        match self.close(result)? {
+        let closed = self.close(result).map_err(|e| match e {
+            RelayError::OffFailed { .. } | RelayError::BoardsOffFailed { cause: Some(_), .. } => {
+                RelayError::OffFailedResume {
+                    error: Box::new(e),
+                    resume: next,
+                }
+            }
+            e => e,
+        })?;
+        match closed {
             Ok(quit) => {
                 let msg = if quit {
                     format!(

@@ -1,0 +1,136 @@
+//! How long each coil stays on when a plan is replayed: the one computation that the planners
+//! (which refuse steps that would keep a coil on past the limit) and `replay`'s schedule check
+//! (which refuses a plan that does) share. A step's dwell is its predicted settle time times
+//! the dwell factor, at least the dwell floor; a coil's continuous on-time is the sum of the
+//! dwells of the consecutive steps it stays on in, counting the step that switched it on.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+/// The replay's timing and its on-time limit, as the planners see them (`[relay]`'s
+/// `max_on_time_s`, `dwell_factor` and `dwell_floor_ms`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OnTimeLimit {
+    /// One coil's longest continuous on-time.
+    pub max_on: Duration,
+    /// A step's dwell is its settle time times this...
+    pub dwell_factor: f64,
+    /// ...and at least this.
+    pub dwell_floor: Duration,
+}
+
+/// The default limit on one coil's continuous on-time, s (`relay.max_on_time_s`).
+pub const DEFAULT_MAX_ON_TIME_S: f64 = 10.0;
+/// The default dwell factor (`relay.dwell_factor`): dwell = predicted settle time x this...
+pub const DEFAULT_DWELL_FACTOR: f64 = 1.5;
+/// ...but at least this long, ms (`relay.dwell_floor_ms`).
+pub const DEFAULT_DWELL_FLOOR_MS: f64 = 200.0;
+
+impl Default for OnTimeLimit {
+    /// The replay's defaults (a scenario without `[relay]`).
+    fn default() -> Self {
+        OnTimeLimit {
+            max_on: Duration::from_secs_f64(DEFAULT_MAX_ON_TIME_S),
+            dwell_factor: DEFAULT_DWELL_FACTOR,
+            dwell_floor: Duration::from_secs_f64(DEFAULT_DWELL_FLOOR_MS / 1000.0),
+        }
+    }
+}
+
+impl OnTimeLimit {
+    /// The dwell of a step predicted to settle in `settle_time_s`.
+    pub fn dwell(&self, settle_time_s: f64) -> Duration {
+        dwell(settle_time_s, self.dwell_factor, self.dwell_floor)
+    }
+}
+
+/// The dwell of a step predicted to settle in `settle_time_s`: that times `factor`, at least
+/// `floor` (a settle time that is not a finite positive number counts as 0; at most 1e6 s).
+pub fn dwell(settle_time_s: f64, factor: f64, floor: Duration) -> Duration {
+    let t = settle_time_s * factor;
+    let d = if t.is_finite() && t > 0.0 {
+        Duration::from_secs_f64(t.min(1e6))
+    } else {
+        Duration::ZERO
+    };
+    d.max(floor)
+}
+
+/// A relay that is on: the step it went on in and how long it has been on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Held {
+    pub since_step: usize,
+    pub on: Duration,
+}
+
+/// What is on and for how long, by relay (a coil, or a board's channel).
+pub type OnTimes<K> = BTreeMap<K, Held>;
+
+/// One step of a replay: `now_on` is what is on after step `step`, which dwells `dwell`.
+/// What is no longer on is forgotten (it went off: its next on-time starts from zero), what
+/// stays on adds the dwell, and what goes on starts with it.
+pub fn hold<K: Ord + Copy>(
+    on: &mut OnTimes<K>,
+    now_on: impl IntoIterator<Item = K>,
+    step: usize,
+    dwell: Duration,
+) {
+    let now: Vec<K> = now_on.into_iter().collect();
+    on.retain(|k, _| now.contains(k));
+    for k in now {
+        let h = on.entry(k).or_insert(Held {
+            since_step: step,
+            on: Duration::ZERO,
+        });
+        h.on += dwell;
+    }
+}
+
+/// The first relay (in key order) of `on` that has been on longer than `max`, if any.
+pub fn over<K: Ord + Copy>(on: &OnTimes<K>, max: Duration) -> Option<(K, Held)> {
+    on.iter().find(|(_, h)| h.on > max).map(|(&k, &h)| (k, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_coil_adds_up_its_dwells_until_it_goes_off() {
+        let ms = Duration::from_millis;
+        let mut on = OnTimes::new();
+        hold(&mut on, [1, 2], 0, ms(300));
+        hold(&mut on, [1, 3], 1, ms(200));
+        assert_eq!(on[&1].on, ms(500));
+        assert_eq!(on[&3].on, ms(200));
+        assert!(!on.contains_key(&2));
+        hold(&mut on, [3], 2, ms(200));
+        hold(&mut on, [1, 3], 3, ms(200));
+        assert_eq!(
+            on[&1],
+            Held {
+                since_step: 3,
+                on: ms(200)
+            }
+        );
+        assert_eq!(
+            over(&on, ms(500)),
+            Some((
+                3,
+                Held {
+                    since_step: 1,
+                    on: ms(600)
+                }
+            ))
+        );
+        assert_eq!(over(&on, ms(600)), None);
+    }
+
+    #[test]
+    fn the_dwell_is_the_settle_time_times_the_factor_at_least_the_floor() {
+        let floor = Duration::from_millis(200);
+        assert_eq!(dwell(1.0, 1.5, floor), Duration::from_millis(1500));
+        assert_eq!(dwell(0.1, 1.5, floor), floor);
+        assert_eq!(dwell(f64::NAN, 1.5, floor), floor);
+    }
+}

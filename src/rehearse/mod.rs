@@ -1,0 +1,160 @@
+//! A virtual motor to rehearse the hardware path without hardware (`spherestep virtual`):
+//! relay boards and an orientation sensor played on pseudo-terminals, byte for byte as the
+//! real devices answer, driving a ball that moves under the plant's equations of motion in
+//! real time, with the hardware limits watched and faults injected on request.
+//!
+//! - [`boards`]: the four relay protocols' far end (frames parsed, replies, relays held);
+//! - [`sensor`]: the quat-csv lines and the BNO055's register protocol;
+//! - [`plant`]: the ball, integrated as the coils switch;
+//! - `live` (with the `hardware` feature, on Unix): the pseudo-terminals, their threads, the
+//!   clock, the limits, the log and the summary.
+//!
+//! A layer above `relay` and `sensor` (whose frames and constants it answers) and below the
+//! files: it reads nothing; the command gives it the plant's parts.
+
+pub mod boards;
+#[cfg(all(feature = "hardware", unix))]
+pub mod live;
+pub mod plant;
+pub mod sensor;
+
+use crate::model::geometry::{CoilId, Orientation, Radians};
+use crate::relay::{BoardKind, Slot};
+use crate::sensor::SensorFormat;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// At most this many violations are kept (each with its time); the rest are counted.
+pub const MAX_VIOLATIONS: usize = 100;
+
+/// One board of the virtual motor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BoardSetup {
+    pub kind: BoardKind,
+    pub channels: u16,
+    pub slave_address: u8,
+}
+
+/// The faults to inject.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Faults {
+    /// Board 0's port vanishes after this many frames (its relays lose power).
+    pub drop_after_frames: Option<usize>,
+    /// The sensor goes silent after this many readings.
+    pub sensor_stall_after: Option<usize>,
+    /// This fraction of the sensor's readings are corrupted (seeded), 0 to 1.
+    pub sensor_garble: f64,
+    /// This relay never closes (stuck open): commanded on, it reads back off.
+    pub stuck_relay: Option<Slot>,
+}
+
+/// Everything the virtual motor needs.
+#[derive(Debug, Clone)]
+pub struct Options {
+    pub boards: Vec<BoardSetup>,
+    /// Board and channel of each coil (the plant's coil map, inverted).
+    pub coil_of: BTreeMap<Slot, CoilId>,
+    pub max_coils_on: usize,
+    pub max_on_time: Duration,
+    /// The ball at its start.
+    pub ball: plant::Ball,
+    pub sensor: Option<SensorFormat>,
+    pub sensor_noise: Radians,
+    pub seed: u64,
+    /// The virtual clock runs this many times as fast as the wall clock.
+    pub speed: f64,
+    /// The sensor's mounting: it reports the ball's orientation times this.
+    pub mount: Orientation,
+    pub link_dir: Option<PathBuf>,
+    pub log: Option<PathBuf>,
+    pub faults: Faults,
+    /// Stop after this long (wall clock) whatever happens.
+    pub max_seconds: Option<Duration>,
+}
+
+/// What a rehearsal saw.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    #[cfg(all(feature = "hardware", unix))]
+    pub ports: Vec<live::PortInfo>,
+    pub ended_by: String,
+    /// The virtual clock at the end, s.
+    pub virtual_time_s: f64,
+    /// Frames received, per board.
+    pub frames: Vec<usize>,
+    pub unknown_frames: usize,
+    pub sensor_readings: usize,
+    pub garbled_readings: usize,
+    pub most_relays_on: usize,
+    /// Relays closed at the end (`board:channel`) and the coils they drive.
+    pub relays_on_at_end: Vec<String>,
+    pub coils_on_at_end: Vec<usize>,
+    /// The ball at the end: qx, qy, qz, qw.
+    pub final_orientation: [f64; 4],
+    pub violations: Vec<String>,
+    pub violations_total: usize,
+    pub log: Option<PathBuf>,
+    /// Writing the log failed (it was given up): why.
+    pub log_error: Option<String>,
+}
+
+impl Summary {
+    /// The summary as text, a line each.
+    pub fn text(&self) -> String {
+        let mut s = format!(
+            "virtual motor ended by {} after {:.3} s (virtual clock)\n",
+            self.ended_by, self.virtual_time_s
+        );
+        let frames: Vec<String> = (self.frames.iter().enumerate())
+            .map(|(k, n)| format!("board {k}: {n}"))
+            .collect();
+        s.push_str(&format!(
+            "frames received: {}; not understood: {}; sensor readings: {} ({} garbled); most relays on at once: {}\n",
+            frames.join(", "),
+            self.unknown_frames,
+            self.sensor_readings,
+            self.garbled_readings,
+            self.most_relays_on
+        ));
+        let [x, y, z, w] = self.final_orientation;
+        s.push_str(&format!(
+            "ball at the end: qx,qy,qz,qw = {x:.6},{y:.6},{z:.6},{w:.6}\n"
+        ));
+        match self.relays_on_at_end.is_empty() {
+            true => s.push_str("every relay off at the end\n"),
+            false => s.push_str(&format!(
+                "RELAYS STILL ON at the end: {}\n",
+                self.relays_on_at_end.join(", ")
+            )),
+        }
+        match self.violations_total {
+            0 => s.push_str("no violation\n"),
+            n => {
+                s.push_str(&format!("{n} violation(s):\n"));
+                for v in &self.violations {
+                    s.push_str(&format!("  {v}\n"));
+                }
+                if n > self.violations.len() {
+                    s.push_str(&format!("  ... and {} more\n", n - self.violations.len()));
+                }
+            }
+        }
+        if let Some(e) = &self.log_error {
+            s.push_str(&format!("writing the log failed: {e}\n"));
+        }
+        s
+    }
+}
+
+/// Why the virtual motor could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum RehearseError {
+    #[error("cannot open a pseudo-terminal: {0}")]
+    Pty(String),
+    #[error("--link-dir: {}: {reason}", path.display())]
+    LinkDir { path: PathBuf, reason: String },
+    #[error("--log: {}: {reason}", path.display())]
+    Log { path: PathBuf, reason: String },
+}

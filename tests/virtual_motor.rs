@@ -1,0 +1,466 @@
+//! The hardware path rehearsed end to end: `spherestep virtual` plays the relay boards (and a
+//! sensor) on pseudo-terminals, `spherestep replay` drives them. For each board protocol the
+//! main-job plan ends where `simulate` says, with no violation; each injected fault stops the
+//! replay with every coil off, a message saying what happened and where to resume. Every wait
+//! has a deadline (the harness kills what it started), and nothing asserts how fast anything
+//! ran: the virtual clock runs 5 times the wall clock and the replay's dwells are 5 times
+//! shorter, so the ball has the plan's dwells on the virtual clock whatever the machine.
+#![cfg(unix)]
+
+mod common;
+
+use spherestep::commands::{plan_settings, PlanOverrides};
+use spherestep::io::planfile::write_plan;
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::orientation_from_xyzw;
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::Duration;
+
+/// Longest anything may take before the harness gives up (a guard against hangs).
+const GUARD: Duration = Duration::from_secs(120);
+
+/// The virtual clock's speed, and the replay's dwell factor and on-time limit scaled by it
+/// (the plan keeps to 10 s at a factor of 1.5).
+const SPEED: &str = "5";
+const FAST_RELAY: &str = "dwell_factor = 0.3\ndwell_floor_ms = 40\nmax_on_time_s = 2.0\n";
+
+/// The plant's relay section for a protocol (two 8-channel boards for LCUS and KMTronic),
+/// and the replay's (the same boards, dwells and on-time scaled to the virtual clock). The
+/// plant allows 11 s on the virtual clock: the plan's 10 s and what the replay's own
+/// switching and the machine's scheduling add (times the speed).
+fn relay_sections(board: &str) -> (String, String) {
+    let boards = match board {
+        "lcus" | "kmtronic" => {
+            format!(
+                "[[relay.boards]]\nboard = \"{board}\"\n[[relay.boards]]\nboard = \"{board}\"\n"
+            )
+        }
+        _ => String::new(),
+    };
+    let single = if boards.is_empty() {
+        format!("board = \"{board}\"\n")
+    } else {
+        String::new()
+    };
+    (
+        format!("[relay]\n{single}max_on_time_s = 11.0\n{boards}"),
+        format!("[relay]\n{single}{FAST_RELAY}{boards}"),
+    )
+}
+
+/// The main job (90 degrees about Y on the prototype), written as `plan` writes it.
+fn main_job(dir: &Path) -> (PathBuf, Scenario) {
+    let sc = Scenario::load(Path::new("scenarios/prototype.toml")).unwrap();
+    let o = PlanOverrides {
+        axis: Some("0,1,0".into()),
+        angle_deg: Some(90.0),
+        ..Default::default()
+    };
+    let p = sc.motor().plan(&plan_settings(&sc, &o).unwrap());
+    assert!(p.reached, "{:?}", p.message);
+    let mut csv = Vec::new();
+    write_plan(&p.rows, &mut csv).unwrap();
+    let path = dir.join("plan.csv");
+    std::fs::write(&path, csv).unwrap();
+    (path, sc)
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// A child process with its output gathered on threads.
+struct Running {
+    child: Child,
+    out: mpsc::Receiver<String>,
+    err: mpsc::Receiver<String>,
+}
+
+fn spawn(args: &[&str]) -> Running {
+    let mut child = Command::new(common::bin())
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (to, out) = mpsc::channel();
+    let stdout = child.stdout.take().unwrap();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if to.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let (te, err) = mpsc::channel();
+    let mut stderr = child.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stderr.read_to_string(&mut s);
+        let _ = te.send(s);
+    });
+    Running { child, out, err }
+}
+
+impl Running {
+    /// Waits for a stdout line starting with `prefix`; the lines up to it.
+    fn until(&mut self, prefix: &str) -> Vec<String> {
+        let mut seen = Vec::new();
+        loop {
+            match self.out.recv_timeout(GUARD) {
+                Ok(l) => {
+                    let done = l.starts_with(prefix);
+                    seen.push(l);
+                    if done {
+                        return seen;
+                    }
+                }
+                Err(_) => {
+                    let _ = self.child.kill();
+                    panic!("no line '{prefix}...' in time; got {seen:?}");
+                }
+            }
+        }
+    }
+
+    /// Waits for the end (killing it past the guard): exit code, stdout, stderr.
+    fn finish(mut self) -> (i32, String, String) {
+        let deadline = std::time::Instant::now() + GUARD;
+        let code = loop {
+            if let Some(s) = self.child.try_wait().unwrap() {
+                break s.code().unwrap_or(-1);
+            }
+            if std::time::Instant::now() > deadline {
+                let _ = self.child.kill();
+                let _ = self.child.wait();
+                panic!("did not end in time");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        let out: Vec<String> = self.out.try_iter().collect();
+        let err = self.err.recv_timeout(GUARD).unwrap_or_default();
+        (code, out.join("\n"), err)
+    }
+}
+
+/// What one rehearsal gave: the replay's exit code, stdout and stderr, the virtual motor's
+/// summary (JSON), exit code and log.
+struct Rehearsal {
+    replay: (i32, String, String),
+    summary: serde_json::Value,
+    virtual_code: i32,
+    log: String,
+}
+
+/// Runs the virtual motor on `plant` with `extra` arguments, then the replay of `plan` with
+/// `scenario` and `replay_extra` on its ports.
+fn rehearse(
+    dir: &Path,
+    plant: &Path,
+    plan: &Path,
+    scenario: &Path,
+    extra: &[&str],
+    replay_extra: &[&str],
+) -> Rehearsal {
+    let links = dir.join("dev");
+    let log = dir.join("virtual.csv");
+    let (links_s, log_s) = (links.display().to_string(), log.display().to_string());
+    let mut args = vec![
+        "virtual",
+        plant.to_str().unwrap(),
+        "--speed",
+        SPEED,
+        "--link-dir",
+        &links_s,
+        "--log",
+        &log_s,
+        "--json",
+        "--max-seconds",
+        "100",
+    ];
+    args.extend_from_slice(extra);
+    let mut v = spawn(&args);
+    let ports = v.until("ready:");
+    let boards = ports.iter().filter(|l| l.starts_with("board ")).count();
+    let mut r: Vec<String> = vec![
+        "replay".into(),
+        plan.display().to_string(),
+        scenario.display().to_string(),
+    ];
+    for k in 0..boards {
+        r.push("--port".into());
+        r.push(links.join(format!("board{k}")).display().to_string());
+    }
+    r.extend(replay_extra.iter().map(|s| s.to_string()));
+    let r: Vec<&str> = r.iter().map(String::as_str).collect();
+    let replay = spawn(&r).finish();
+    let (virtual_code, out, err) = v.finish();
+    let json = out.find('{').map(|i| &out[i..]).unwrap_or("");
+    let summary: serde_json::Value = serde_json::from_str(json)
+        .unwrap_or_else(|e| panic!("no summary ({e}): {out}\n{err}\nreplay: {replay:?}"));
+    Rehearsal {
+        replay,
+        summary,
+        virtual_code,
+        log: std::fs::read_to_string(&log).unwrap_or_default(),
+    }
+}
+
+/// The coils on in the log's last row (the `end` row).
+fn coils_on_at_end(log: &str) -> String {
+    let last = log.lines().last().unwrap_or_default();
+    // t_s,port,"frame","what",coils_on,qw,qx,qy,qz: the fifth field from the end
+    let fields: Vec<&str> = last.rsplitn(6, ',').collect();
+    assert!(last.contains("\"end\""), "{last}");
+    fields[4].to_string()
+}
+
+fn main_job_on(board: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let (plan, sc) = main_job(dir.path());
+    let (plant_relay, replay_relay) = relay_sections(board);
+    let plant = write(
+        dir.path(),
+        "plant.toml",
+        &format!("name = \"plant\"\n{plant_relay}"),
+    );
+    let scenario = write(
+        dir.path(),
+        "fast.toml",
+        &format!("name = \"fast\"\n{replay_relay}"),
+    );
+    let plan_s = plan.display().to_string();
+    let verify: &[&str] = if board == "lcus" { &[] } else { &["--verify"] };
+    let r = rehearse(
+        dir.path(),
+        &plant,
+        &plan,
+        &scenario,
+        &["--plan", &plan_s],
+        verify,
+    );
+    assert_eq!(r.replay.0, 0, "{board}: {:?}", r.replay);
+    assert!(r.replay.1.contains("all coils off"), "{}", r.replay.1);
+    let s = &r.summary;
+    assert_eq!(s["violations_total"], 0, "{board}: {s:#}");
+    assert_eq!(s["unknown_frames"], 0, "{board}: {s:#}");
+    assert_eq!(r.virtual_code, 0, "{board}: {s:#}");
+    assert!(s["relays_on_at_end"].as_array().unwrap().is_empty());
+    assert_eq!(coils_on_at_end(&r.log), "");
+    // where simulate says the ball ends
+    let rows = spherestep::io::planfile::read_plan(&plan).unwrap();
+    let sim = sc.motor().simulate(&rows);
+    let want = sim.last().unwrap().q;
+    let q: Vec<f64> = (0..4)
+        .map(|k| s["final_orientation"][k].as_f64().unwrap())
+        .collect();
+    let got = orientation_from_xyzw(q[0], q[1], q[2], q[3]).unwrap();
+    let off = got.angle_to(&want).to_degrees();
+    assert!(
+        off < 1.0,
+        "{board}: the ball ends {off} degrees from simulate's"
+    );
+}
+
+#[test]
+fn numato_replay_ends_where_simulate_says() {
+    main_job_on("numato");
+}
+
+#[test]
+fn modbus_replay_ends_where_simulate_says() {
+    main_job_on("modbus");
+}
+
+#[test]
+fn lcus_replay_on_two_boards_ends_where_simulate_says() {
+    main_job_on("lcus");
+}
+
+#[test]
+fn kmtronic_replay_on_two_boards_ends_where_simulate_says() {
+    main_job_on("kmtronic");
+}
+
+/// A fault's rehearsal on a numato board (read back with --verify), and what the replay said.
+fn fault(extra: &[&str], sensor: Option<&str>) -> (Rehearsal, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let (plan, _) = main_job(dir.path());
+    let plant = write(
+        dir.path(),
+        "plant.toml",
+        "name = \"plant\"\n[relay]\nboard = \"numato\"\nmax_on_time_s = 11.0\n",
+    );
+    // the closed loop keeps the coils on while it reads and decides: room on the wall clock
+    let scenario = write(
+        dir.path(),
+        "fast.toml",
+        "name = \"fast\"\n[relay]\nboard = \"numato\"\ndwell_factor = 0.3\ndwell_floor_ms = 40\nmax_on_time_s = 5.0\n",
+    );
+    let plan_s = plan.display().to_string();
+    let mut v_args = vec!["--plan", plan_s.as_str()];
+    v_args.extend_from_slice(extra);
+    let sensor_path = dir.path().join("dev").join("sensor").display().to_string();
+    let mut r_args = vec!["--verify"];
+    if let Some(f) = sensor {
+        v_args.extend_from_slice(&["--sensor", f]);
+        r_args.extend_from_slice(&["--sensor", &sensor_path, "--sensor-format", f]);
+    }
+    let r = rehearse(dir.path(), &plant, &plan, &scenario, &v_args, &r_args);
+    let said = format!("{}\n{}", r.replay.1, r.replay.2);
+    assert_ne!(r.replay.0, 0, "the replay went on: {said}");
+    assert_eq!(coils_on_at_end(&r.log), "", "{}", r.log);
+    assert!(r.summary["relays_on_at_end"].as_array().unwrap().is_empty());
+    (r, said)
+}
+
+#[test]
+fn a_port_that_vanishes_stops_the_replay_with_the_step_to_resume_from() {
+    // the board is unplugged: its relays lose power (the virtual motor's log shows them
+    // released), the replay's all-off cannot reach it and says so, and where to resume
+    let (r, said) = fault(&["--drop-after-frames", "9"], None);
+    assert!(said.contains("closed the connection"), "{said}");
+    assert!(said.contains("switching all coils off FAILED"), "{said}");
+    assert!(
+        said.contains("once every board answers again, resume with --from-step 2"),
+        "{said}"
+    );
+    assert!(r.log.contains("\"dropped\""), "{}", r.log);
+}
+
+#[test]
+fn a_stuck_relay_is_found_by_the_read_back() {
+    // coil 12 (channel 13) goes on in step 0 of the plan about Y
+    let (_, said) = fault(&["--stuck-relay", "13"], None);
+    assert!(
+        said.contains("all coils switched off; resume with --from-step 0"),
+        "{said}"
+    );
+    assert!(
+        said.to_lowercase().contains("read back")
+            || said.contains("mismatch")
+            || said.contains("verify"),
+        "{said}"
+    );
+}
+
+#[test]
+fn a_sensor_that_stalls_stops_the_closed_loop() {
+    // the closed loop's message (written against its current behaviour) names the sensor and
+    // the steps done; --from-step is refused with --sensor, so it names none
+    let (r, said) = fault(&["--sensor-stall-after", "40"], Some("quat-csv"));
+    assert!(
+        said.contains("(quat-csv): no reading within 500 ms"),
+        "{said}"
+    );
+    assert!(
+        said.contains("all coils switched off (closed loop:"),
+        "{said}"
+    );
+    assert!(r.summary["sensor_readings"].as_u64().unwrap() >= 40);
+}
+
+#[test]
+fn a_garbling_sensor_stops_the_closed_loop() {
+    let (r, said) = fault(&["--sensor-garble", "1"], Some("bno055"));
+    assert!(said.contains("(bno055): unexpected reply 5A"), "{said}");
+    assert!(
+        said.contains("all coils switched off (closed loop:"),
+        "{said}"
+    );
+    assert!(r.summary["garbled_readings"].as_u64().unwrap() >= 1);
+}
+
+#[test]
+fn bad_arguments_are_refused_before_any_port_is_made() {
+    let dir = tempfile::tempdir().unwrap();
+    let plant = write(dir.path(), "plant.toml", "[relay]\nboard = \"numato\"\n");
+    let p = plant.to_str().unwrap();
+    for (args, needle) in [
+        (
+            vec!["--speed", "0"],
+            "argument --speed: expected a number > 0",
+        ),
+        (vec!["--stuck-relay", "17"], "argument --stuck-relay"),
+        (
+            vec!["--sensor-garble", "0.5"],
+            "argument --sensor-garble: expected a sensor",
+        ),
+        (
+            vec!["--sensor", "bno055", "--sensor-garble", "2"],
+            "a fraction from 0 to 1",
+        ),
+        (vec!["--mount", "0,0,0,0"], "argument --mount"),
+        (
+            vec!["--drop-after-frames", "0"],
+            "argument --drop-after-frames",
+        ),
+    ] {
+        let (code, out, err) = common::run(&[&["virtual", p][..], &args].concat());
+        assert_eq!(code, 1, "{args:?}: {out}{err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(!out.contains("ready:"), "{args:?}: {out}");
+    }
+    let none = dir.path().join("none.toml");
+    let (code, _, err) = common::run(&["virtual", none.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(err.contains("none.toml"), "{err}");
+    let bare = write(dir.path(), "bare.toml", "");
+    let (code, _, err) = common::run(&["virtual", bare.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("argument --board") && err.contains("bare.toml"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_coil_on_too_long_and_too_many_coils_on_are_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut plan = String::from(
+        "step,pivot_coil,pivot_magnet,new_coil,new_magnet,active,qx,qy,qz,qw,step_angle_deg,step_axis_error_deg,cum_angle_deg,cum_axis_error_deg,settle_time_s\n",
+    );
+    for (k, active) in ["0:10;1:11", "0:10;2:12", "2:12;3:13"].iter().enumerate() {
+        plan.push_str(&format!("{k},,,,,{active},0,0,0,1,0,0,0,0,0.1\n"));
+    }
+    let plan = write(dir.path(), "plan.csv", &plan);
+    // the plant's coils take 1 s (virtual: 0.2 s of the replay's) and two at once
+    let plant = write(
+        dir.path(),
+        "plant.toml",
+        "[relay]\nboard = \"numato\"\nmax_on_time_s = 1.0\nmax_coils_on = 2\n",
+    );
+    let scenario = write(dir.path(), "replay.toml", "[relay]\nboard = \"numato\"\n");
+    let r = rehearse(
+        dir.path(),
+        &plant,
+        &plan,
+        &scenario,
+        &[],
+        &["--dwell-ms", "300"],
+    );
+    assert_eq!(r.replay.0, 0, "{:?}", r.replay);
+    assert_eq!(r.virtual_code, 1);
+    let v: Vec<String> = (r.summary["violations"].as_array().unwrap().iter())
+        .map(|x| x.as_str().unwrap().to_string())
+        .collect();
+    assert!(
+        v.iter()
+            .any(|x| x.contains("coil 0 (board 0, channel 1) on for")
+                && x.contains("past max_on_time_s")),
+        "{v:?}"
+    );
+    assert!(
+        v.iter()
+            .any(|x| x.contains("3 relays on at once") && x.contains("more than max_coils_on (2)")),
+        "{v:?}"
+    );
+    assert!(r.log.contains("\"violation\""), "{}", r.log);
+    assert_eq!(coils_on_at_end(&r.log), "");
+}
