@@ -61,6 +61,7 @@ fn main() -> Result<()> {
     let mm = model.motor();
     println!("plant,axis,seed,fewest,max_steps,loop,steps,replans,final_error_deg,reached,replan_ms_median,replan_ms_max,message");
     let mut all = (0, 0, 0);
+    let mut replan_ms: Vec<f64> = Vec::new();
     for plant_path in &args[1..] {
         let plant = Scenario::load(Path::new(plant_path))?;
         let pm = plant.motor();
@@ -88,6 +89,8 @@ fn main() -> Result<()> {
                 max_coils_on: settings.limits.max_coils_on,
                 goal,
         ranked: None,
+        on_time: settings.limits.on_time,
+        held: Default::default(),
             };
             let ahead = seek.search(&root, 12, 32, WITHIN_DEG.to_radians());
             let best = ahead
@@ -113,6 +116,7 @@ fn main() -> Result<()> {
                         LoopSettings::open(noise, seed)
                     };
                     let run = run_closed_loop(&mm, &pm, &settings, &p, goal, &cl);
+                    replan_ms.extend(&run.replan_ms);
                     let s = &run.summary;
                     let ok = s.final_error_deg <= WITHIN_DEG;
                     if closed {
@@ -161,5 +165,16 @@ fn main() -> Result<()> {
         "all: closed {}/{} within {WITHIN_DEG} deg, open {}/{}",
         all.0, all.2, all.1, all.2
     );
+    replan_ms.sort_by(f64::total_cmp);
+    let at = |p: f64| replan_ms[((replan_ms.len() - 1) as f64 * p).round() as usize];
+    if !replan_ms.is_empty() {
+        eprintln!(
+            "replans: {}, median {:.1} ms, 90th percentile {:.1} ms, largest {:.1} ms",
+            replan_ms.len(),
+            at(0.5),
+            at(0.9),
+            at(1.0)
+        );
+    }
     Ok(())
 }

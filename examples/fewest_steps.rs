@@ -78,6 +78,8 @@ fn main() -> Result<()> {
         max_coils_on: settings.limits.max_coils_on,
         goal,
         ranked: None,
+        on_time: settings.limits.on_time,
+        held: Default::default(),
     };
     println!(
         "start {:.2} deg from the goal after {played} of the plan's steps; beam {beam}",

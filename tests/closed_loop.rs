@@ -454,3 +454,61 @@ fn the_worst_axis_error_of_a_run_leaves_out_rotations_too_small_to_have_an_axis(
     assert_eq!(summary.run.max_axis_error_deg, worst);
     assert!(worst < 5.0, "{worst}");
 }
+
+/// A run of the prototype's pair-model plan (90 degrees about `axis`) on `plant`, closed or
+/// open loop, 1 degree of sensor noise, `seed`, at most `max_steps` steps.
+fn on_plant(plant: &str, axis: &str, closed: bool, seed: u64, max_steps: usize) -> RunSummary {
+    let o = LoopOptions {
+        closed,
+        noise_deg: 1.0,
+        seed,
+        max_steps: Some(max_steps),
+        identify: true,
+    };
+    play_with("scenarios/prototype.toml", plant, axis, &o).1
+}
+
+#[test]
+fn on_plants_unlike_the_model_the_closed_loop_ends_within_three_degrees() {
+    // max_steps: twice the plant's own fewest steps (examples/closed_loop_grid.rs)
+    for (plant, axis, seed, max_steps) in [
+        ("scenarios/plants/cosine-35-coils.toml", "0,0,1", 1, 12),
+        ("scenarios/plants/cosine-35-coils.toml", "1,1,1", 2, 14),
+        ("scenarios/plants/gaussian-12-25.toml", "1,0,0", 3, 14),
+        ("scenarios/plants/narrow-coils-stiff.toml", "0,1,0", 1, 12),
+    ] {
+        let open = on_plant(plant, axis, false, seed, max_steps);
+        let closed = on_plant(plant, axis, true, seed, max_steps);
+        let r = &closed.run;
+        assert!(r.final_error_deg < 3.0, "{plant} about {axis}: {r:?}");
+        assert!(r.steps <= max_steps, "{r:?}");
+        assert!(r.final_error_deg < open.run.final_error_deg, "{plant}: {r:?} {open:?}");
+    }
+}
+
+#[test]
+fn where_the_model_is_right_the_closed_loop_ends_no_worse_than_open_loop() {
+    for (plant, axis, seed) in [
+        ("scenarios/prototype.toml", "0,1,0", 1),
+        ("scenarios/prototype.toml", "0,0,1", 2),
+        ("scenarios/plants/prototype-strong-10.toml", "1,1,1", 3),
+    ] {
+        let open = on_plant(plant, axis, false, seed, 14);
+        let closed = on_plant(plant, axis, true, seed, 14);
+        assert!(
+            closed.run.final_error_deg <= open.run.final_error_deg + 1.0,
+            "{plant} about {axis}: closed {:?}, open {:?}",
+            closed.run,
+            open.run
+        );
+        // the plan is followed, not second-guessed on noise: replans only at its end
+        assert!(closed.run.replans <= 2, "{:?}", closed.run);
+    }
+}
+
+#[test]
+fn the_step_budget_does_not_hang_on_the_plan_alone() {
+    use spherestep::commands::closed_loop::default_max_steps;
+    assert_eq!(default_max_steps(4), 18);
+    assert_eq!(default_max_steps(0), 6);
+}

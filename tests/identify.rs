@@ -7,7 +7,8 @@ use spherestep::model::geometry::{CoilId, Orientation, Radians};
 use spherestep::physics::dynamics::settle;
 use spherestep::planning::coilsets::{coils_in_reach, label};
 use spherestep::planning::commutation::Motor;
-use spherestep::planning::identify::{Identifier, Observation};
+use spherestep::physics::torque::Interaction;
+use spherestep::planning::identify::{Identifier, Observation, Shape};
 use std::path::Path;
 
 fn load(name: &str) -> Scenario {
@@ -58,10 +59,14 @@ fn the_fit_finds_the_wells_that_made_the_steps() {
     );
     // ... the plant's broad wells, every coil pulling, do (to the settle's tolerance)
     let k = id.steer().expect("a candidate is chosen over the model");
-    let name = &id.candidate(k).name;
+    let c = id.candidate(k);
+    let p = c.params.expect("a fitted candidate has parameters");
     assert!(
-        name.starts_with("cosine wells reaching 40 deg, every coil pulls"),
-        "{name}"
+        p.shape == Shape::Cosine
+            && p.interaction == Interaction::Coils
+            && (p.reach_deg - 40.0).abs() <= 2.5,
+        "{}",
+        c.name
     );
     assert!(
         id.rms(k).0.to_degrees() < 0.05,
@@ -82,4 +87,34 @@ fn the_model_is_kept_while_it_predicts_the_steps() {
     assert!(id.rms(0).0 < 1e-7, "{}", id.rms(0).0);
     assert_eq!(id.steer(), None);
     assert_eq!(id.best(), 0);
+}
+
+#[test]
+fn the_fit_refines_a_reach_between_the_grid_points_and_a_physics_that_holds_nothing_loses() {
+    // cosine wells reaching 37 degrees, every coil pulling: between the grid's 35 and 40
+    let model = load("scenarios/prototype.toml");
+    let mut plant = load("scenarios/plants/cosine-35-coils.toml");
+    let truth = spherestep::planning::identify::WellParams {
+        shape: Shape::Cosine,
+        reach_deg: 37.0,
+        stiffness: 4.0,
+        interaction: Interaction::Coils,
+    };
+    plant.torques = truth.torques(&plant.torques);
+    let obs = steps_in(&plant.motor(), Orientation::identity());
+    let mut id = Identifier::new(&model.torques, Radians(0.0));
+    for o in &obs {
+        id.observe(&model.motor(), o);
+    }
+    let k = id.steer().expect("a candidate is chosen over the model");
+    let p = id.candidate(k).params.unwrap();
+    assert!(
+        p.shape == Shape::Cosine && p.interaction == Interaction::Coils,
+        "{}",
+        id.candidate(k).name
+    );
+    // the chosen wells make the steps as the plant did
+    assert!(id.rms(k).0.to_degrees() < 0.1, "{}", id.rms(k).0.to_degrees());
+    // and every step the model cannot make costs it the cap
+    assert!(id.score(0) >= 3.0 * spherestep::planning::identify::CAP);
 }

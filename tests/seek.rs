@@ -33,6 +33,8 @@ fn the_search_reaches_the_goal_through_steps_the_physics_takes() {
         max_coils_on: s.limits.max_coils_on,
         goal,
         ranked: None,
+        on_time: None,
+        held: Default::default(),
     };
     let tolerance = Degrees(2.0).to_radians().0;
     let path = seek.search(&root, 8, 8, tolerance);

@@ -6,7 +6,8 @@
 //! the same inputs and seed give the same rows on any machine.
 
 use crate::model::geometry::{rot_q, rotation_angle, rotation_axis, Orientation};
-use crate::model::geometry::{Pair, Radians, UnitVec};
+use crate::model::geometry::{CoilId, Pair, Radians, UnitVec};
+use crate::planning::on_time::{self, OnTimes};
 use crate::physics::dynamics::settle;
 use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{coils_of, label};
@@ -81,11 +82,15 @@ pub const TRACK_DEG: f64 = 0.25;
 /// The replan's search (see [`crate::planning::seek`]): the states nearest the goal kept at
 /// each depth, and how deep it looks at most (fewer where fewer steps are left). A replan is
 /// made while the coils hold the ball: on 2 cores it takes tens of milliseconds.
-pub const REPLAN_BEAM: usize = 6;
+pub const REPLAN_BEAM: usize = 4;
 pub const REPLAN_DEPTH: usize = 6;
 /// The replan's search settles this many of each state's coil sets, those whose cheap
 /// prediction lies nearest the goal.
-pub const REPLAN_SETS: usize = 12;
+pub const REPLAN_SETS: usize = 10;
+/// A replan whose path gains less than [`SLOW_DEG`] a step towards the goal (and does not
+/// reach it) is searched again settling this many sets per state; the nearer end is taken.
+pub const REPLAN_SETS_WIDE: usize = 24;
+pub const SLOW_DEG: f64 = 5.0;
 
 /// One step played on the plant.
 #[derive(Debug, Clone, PartialEq)]
@@ -143,6 +148,8 @@ pub struct LoopSummary {
 pub struct LoopRun {
     pub rows: Vec<LoopRow>,
     pub summary: LoopSummary,
+    /// The wall time of each replan, ms, in order (the summary has their median and largest).
+    pub replan_ms: Vec<f64>,
 }
 
 /// splitmix64 with Box-Muller normals: the same noise on every machine (also the virtual
@@ -233,6 +240,9 @@ pub struct Controller<'a> {
     replan_ms: Vec<f64>,
     /// The last measurement was at the goal (see [`Controller::arrived`]).
     arrived: bool,
+    /// How long each coil on has been on, by the dwells of the rows played (see
+    /// [`crate::planning::on_time`]): a replan keeps to the limit from there.
+    on: OnTimes<CoilId>,
 }
 
 impl<'a> Controller<'a> {
@@ -262,6 +272,7 @@ impl<'a> Controller<'a> {
             steps: 0,
             replan_ms: Vec::new(),
             arrived: false,
+            on: OnTimes::new(),
         })
     }
 
@@ -332,6 +343,10 @@ impl<'a> Controller<'a> {
             };
         }
         self.learn(&row.active, measured);
+        if let Some(l) = self.settings.limits.on_time {
+            let dwell = l.dwell(row.settle_time_s);
+            on_time::hold(&mut self.on, coils_of(&row.active), self.steps - 1, dwell);
+        }
         loop {
             let steer = self.steering();
             let (est, explained) = self.estimate(steer, &row.active, measured);
@@ -345,14 +360,6 @@ impl<'a> Controller<'a> {
             let near = (explained && angular(&est, &row.q) <= TRACK_DEG.to_radians())
                 || angular(measured, &row.q) <= self.cl.replan_beyond.0;
             let on_track = self.planned_with == steer && near;
-            if std::env::var_os("SS_DEBUG").is_some() {
-                eprintln!(
-                    "   est {:.2} from plan, measured {:.2}, explained {explained}, to goal {:.2}",
-                    angular(&est, &row.q).to_degrees(),
-                    angular(measured, &row.q).to_degrees(),
-                    distance.to_degrees()
-                );
-            }
             if on_track && !last {
                 self.next += 1;
                 return Decision::Continue;
@@ -436,24 +443,7 @@ impl<'a> Controller<'a> {
             to: *measured,
         };
         let before = id.steer();
-        let t0 = std::time::Instant::now();
-        let s0 = id.settles();
         id.observe(self.model, &o);
-        if std::env::var_os("SS_DEBUG").is_some() {
-            eprintln!("   fit: {} settles {:.0} ms", id.settles() - s0, t0.elapsed().as_secs_f64() * 1e3);
-        }
-        if std::env::var_os("SS_DEBUG").is_some() {
-            let b = id.best();
-            eprintln!(
-                "step {}: model {:.2}, best {} {:.2} ({}), steer {:?}",
-                self.steps - 1,
-                id.score(0),
-                b,
-                id.score(b),
-                id.candidate(b).name,
-                id.steer()
-            );
-        }
         if id.steer().is_some() && id.steer() != before {
             self.fitted_at = Some(self.steps - 1);
         }
@@ -490,6 +480,8 @@ impl<'a> Controller<'a> {
             max_coils_on: self.settings.limits.max_coils_on,
             goal: self.goal,
             ranked: Some(REPLAN_SETS),
+            on_time: self.settings.limits.on_time,
+            held: self.on.clone(),
         };
         let root = CommutationState {
             q: *est,
@@ -501,15 +493,30 @@ impl<'a> Controller<'a> {
             .max_steps
             .saturating_sub(self.steps - 1)
             .clamp(1, REPLAN_DEPTH);
-        let t0 = std::time::Instant::now();
-        let path = seek.search(&root, left, REPLAN_BEAM, self.cl.goal_tolerance.0);
-        if std::env::var_os("SS_DEBUG").is_some() {
-            eprintln!(
-                "   search: {} settles, {:.0} ms, depth {left}, {} states",
-                path.settles,
-                t0.elapsed().as_secs_f64() * 1e3,
-                path.states.len()
-            );
+        let tolerance = self.cl.goal_tolerance.0;
+        let mut path = seek.search(&root, left, REPLAN_BEAM, tolerance);
+        // short of the goal at less than SLOW_DEG a step: the cheap ranking missed the way
+        // (broad wells, where every coil pulls many magnets); the search again, wider
+        let start = angular(est, &self.goal);
+        let slow = path.states.last().is_none_or(|end| {
+            let gain = start - angular(&end.q, &self.goal);
+            angular(&end.q, &self.goal) > tolerance
+                && gain < SLOW_DEG.to_radians() * path.states.len() as f64
+        });
+        if slow {
+            let wide = Seek {
+                ranked: Some(REPLAN_SETS_WIDE),
+                ..seek
+            };
+            let again = wide.search(&root, left, REPLAN_BEAM, tolerance);
+            let end = |p: &crate::planning::seek::Path| {
+                p.states.last().map_or(start, |e| angular(&e.q, &self.goal))
+            };
+            let settles = path.settles + again.settles;
+            if end(&again) < end(&path) {
+                path = again;
+            }
+            path.settles = settles;
         }
         let Some(end) = path.states.last() else {
             let name = match steer {
@@ -698,6 +705,7 @@ pub fn run_closed_loop(
     }
     run.summary.fit_settles = ctl.fit_settles();
     (run.summary.replan_ms_median, run.summary.replan_ms_max) = median_max(ctl.replan_ms());
+    run.replan_ms = ctl.replan_ms().to_vec();
     run
 }
 
@@ -731,6 +739,7 @@ fn angular(a: &Orientation, b: &Orientation) -> f64 {
 
 fn no_run(message: &str) -> LoopRun {
     LoopRun {
+        replan_ms: Vec::new(),
         rows: Vec::new(),
         summary: LoopSummary {
             steps: 0,
@@ -818,6 +827,7 @@ impl Loop<'_> {
             replan_ms_max: 0.0,
         };
         LoopRun {
+            replan_ms: Vec::new(),
             rows: self.rows,
             summary,
         }

@@ -23,19 +23,15 @@ use crate::planning::commutation::Motor;
 use rayon::prelude::*;
 
 /// Widths (degrees) of the grid's gaussian candidates.
-pub const GAUSSIAN_WIDTHS_DEG: [f64; 6] = [5.0, 7.0, 10.0, 14.0, 20.0, 28.0];
-/// Reaches (maximum attraction distances, degrees) of the grid's candidates, 15 to 60 by 2.5
-/// (with every coil pulling, which magnets a coil reaches decides the equilibria: a coarser
-/// grid leaves the fit in the wrong basin of its refinement); a gaussian's reach is at least
-/// its width (where its pull peaks).
-pub const REACHES_DEG: [f64; 19] = [
-    15.0, 17.5, 20.0, 22.5, 25.0, 27.5, 30.0, 32.5, 35.0, 37.5, 40.0, 42.5, 45.0, 47.5, 50.0,
-    52.5, 55.0, 57.5, 60.0,
-];
+pub const GAUSSIAN_WIDTHS_DEG: [f64; 4] = [7.0, 10.0, 14.0, 20.0];
+/// Reaches (maximum attraction distances, degrees) of the grid's candidates, 15 to 60 by 5;
+/// a gaussian's reach is at least its width (where its pull peaks). The refinement finds the
+/// reaches between.
+pub const REACHES_DEG: [f64; 10] = [15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0, 55.0, 60.0];
 /// Stiffnesses of the grid's candidates, as fractions of the model's single-pair stiffness
 /// (the equilibria do not depend on it, only which basin a step ends in: the refinement
 /// finds it).
-pub const STIFFNESS_FRACTIONS: [f64; 2] = [0.4, 1.0];
+pub const STIFFNESS_FRACTIONS: [f64; 1] = [1.0];
 /// A measured step costs at most this (a squared error of 3 noise units): a step that ended in
 /// another basin than predicted, or a prediction that does not settle.
 pub const CAP: f64 = 9.0;
@@ -51,6 +47,9 @@ pub const MIN_SCALE: f64 = 0.2 * std::f64::consts::PI / 180.0;
 /// pairs or every coil), and how many polls each refinement makes at most.
 pub const REFINED: usize = 4;
 pub const POLLS: usize = 12;
+/// The settles all refinements after one step may spend together (counted, so that the same
+/// steps give the same fit on any machine): it bounds the time a step's fit takes.
+pub const REFINE_BUDGET: usize = 600;
 /// A candidate whose summed cost exceeds the best's by more than this is dropped.
 pub const UNLIKELY: f64 = 2.0 * CAP;
 /// A candidate whose cost averages at most this per step explains the steps as well as the
@@ -383,11 +382,19 @@ impl Identifier {
                 break;
             }
         }
+        let budget = self.settles + REFINE_BUDGET;
         for start in starts {
+            if self.settles >= budget {
+                break;
+            }
             let mut at = start;
             let mut score = self.evaluate(motor, &at).0;
+            self.settles += self.observations.len();
             let mut level = 0;
             for _ in 0..POLLS {
+                if self.settles >= budget {
+                    break;
+                }
                 let tries: Vec<WellParams> =
                     at.neighbours(level).into_iter().filter(|p| p.within(k)).collect();
                 let scored: Vec<f64> = tries.iter().map(|p| self.evaluate(motor, p).0).collect();

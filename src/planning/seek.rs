@@ -5,7 +5,8 @@
 //! path until a measurement strays from it); `examples/fewest_steps.rs` uses the same search to
 //! tell how few steps a physics needs for a motion. Budgets are counted in settles.
 
-use crate::model::geometry::{Orientation, Pair};
+use crate::model::geometry::{CoilId, Orientation, Pair};
+use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
 use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{
     coil_sets, coils_in_reach, coils_of, label, settle_following, FOLLOWED_PER_STATE,
@@ -34,6 +35,11 @@ pub struct Seek<'a> {
     /// least-squares alignment of each coil with its nearest magnet,
     /// [`predicted_orientation`]) lies nearest the goal; `None`: every set.
     pub ranked: Option<usize>,
+    /// The replay's on-time limit (`None`: none), and how long each coil held at the root has
+    /// been on: a step that would keep a coil on past the limit is not taken, as the planners
+    /// do not take one ([`crate::planning::on_time`]).
+    pub on_time: Option<OnTimeLimit>,
+    pub held: OnTimes<CoilId>,
 }
 
 /// What a search found.
@@ -67,6 +73,8 @@ impl Seek<'_> {
         // every kept state: its parent (None: the root's child) and itself
         let mut kept: Vec<(Option<usize>, CommutationState)> = Vec::new();
         let mut level: Vec<(Option<usize>, CommutationState)> = vec![];
+        // the on-times of each kept state's coils
+        let mut kept_on: Vec<OnTimes<CoilId>> = Vec::new();
         let mut best: Option<(f64, usize)> = None;
         let mut nearest_by_depth = Vec::new();
         for d in 0..depth {
@@ -76,9 +84,20 @@ impl Seek<'_> {
                 level.iter().map(|(i, s)| (*i, s)).collect()
             };
             let mut next: Vec<(Option<usize>, CommutationState)> = Vec::new();
+            let mut next_on: Vec<OnTimes<CoilId>> = Vec::new();
             for (parent, st) in parents {
+                let on = parent.map_or(&self.held, |i| &kept_on[i]);
                 for c in self.successors(st, &mut settles) {
+                    let mut held = on.clone();
+                    if let Some(l) = self.on_time {
+                        let dwell = l.dwell(c.settle_time_s);
+                        on_time::hold(&mut held, coils_of(&c.active), d, dwell);
+                        if on_time::over(&held, l.max_on).is_some() {
+                            continue;
+                        }
+                    }
                     next.push((parent, c));
+                    next_on.push(held);
                 }
             }
             let mut keyed: Vec<(f64, usize)> = next
@@ -92,6 +111,7 @@ impl Seek<'_> {
             level = Vec::with_capacity(keyed.len());
             for &(dist, i) in &keyed {
                 kept.push(next[i].clone());
+                kept_on.push(next_on[i].clone());
                 let at = kept.len() - 1;
                 if best.is_none_or(|(b, _)| dist < b) {
                     best = Some((dist, at));
