@@ -482,7 +482,10 @@ fn on_plants_unlike_the_model_the_closed_loop_ends_within_three_degrees() {
         let r = &closed.run;
         assert!(r.final_error_deg < 3.0, "{plant} about {axis}: {r:?}");
         assert!(r.steps <= max_steps, "{r:?}");
-        assert!(r.final_error_deg < open.run.final_error_deg, "{plant}: {r:?} {open:?}");
+        assert!(
+            r.final_error_deg < open.run.final_error_deg,
+            "{plant}: {r:?} {open:?}"
+        );
     }
 }
 

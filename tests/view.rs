@@ -49,7 +49,7 @@ fn page_embeds_plan_and_packings() {
     let out = dir.path().join("plan.html");
     let plan_path = data_dir().join("view_plan_z.csv");
     let sc = Scenario::prototype();
-    let axis = spherestep::io::scenario::parse_axis("0,0,2", "--axis").unwrap();
+    let axis = spherestep::commands::args::parse_axis("0,0,2", "--axis").unwrap();
     write_view(
         &plan_path,
         &sc,

@@ -1,9 +1,10 @@
 //! `spherestep settle`: settles the ball under one active set or under many, in parallel.
 
 use anyhow::Result;
+use spherestep::commands::args::parse_orientation;
 use spherestep::commands::{self as app};
 use spherestep::io::output::{check_not_input, write_atomic};
-use spherestep::io::scenario::{parse_orientation, Scenario};
+use spherestep::io::scenario::Scenario;
 use std::io::Write;
 use std::path::PathBuf;
 

@@ -1,8 +1,9 @@
 //! `spherestep view`: writes the self-contained 3-D page of a plan.
 
 use anyhow::Result;
+use spherestep::commands::args::parse_axis;
 use spherestep::io::output::check_not_input;
-use spherestep::io::scenario::{parse_axis, Scenario};
+use spherestep::io::scenario::Scenario;
 use std::io::Write;
 use std::path::PathBuf;
 

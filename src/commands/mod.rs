@@ -1,6 +1,7 @@
 //! The commands behind the command line, as library functions that take plain arguments and
 //! write to a given output, so that they are testable without spawning the binary.
 
+pub mod args;
 pub mod batch;
 pub mod closed_loop;
 pub mod closed_replay;
@@ -12,8 +13,7 @@ use crate::error::{printable, Error, Result};
 use crate::io::output::emit_csv;
 use crate::io::planfile::{read_plan, write_plan};
 use crate::io::scenario::{
-    check_pairs_per_step, check_supply, default_pairs_per_step, parse_axis, parse_orientation,
-    parse_pairs_per_step, Scenario,
+    check_pairs_per_step, check_supply, default_pairs_per_step, parse_pairs_per_step, Scenario,
 };
 use crate::io::table::write_csv;
 use crate::model::geometry::{parse_pairs, xyzw, Orientation, Pair};
@@ -23,6 +23,7 @@ use crate::planning::commutation::{pair_gap, StepModel};
 use crate::planning::plan::PlanRow;
 use crate::planning::planner::{plan, target_angle, Plan, PlanSettings, Scheme};
 use crate::planning::simulate::{simulate, SimRow};
+use args::{parse_axis, parse_orientation};
 use std::io::Write;
 use std::path::Path;
 

@@ -2,9 +2,10 @@
 //! and limits), checks the options, and runs the virtual motor of `crate::rehearse` on
 //! pseudo-terminals until the replaying side is done or a signal comes; then the summary.
 
+use crate::commands::args::parse_orientation;
 use crate::error::{Error, Result};
 use crate::io::planfile::read_plan;
-use crate::io::scenario::{parse_orientation, Scenario};
+use crate::io::scenario::Scenario;
 use crate::model::geometry::{CoilId, Degrees, Orientation, Pair};
 use crate::rehearse::plant::Ball;
 use crate::rehearse::{BoardSetup, Faults, Options, Summary};

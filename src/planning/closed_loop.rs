@@ -7,12 +7,12 @@
 
 use crate::model::geometry::{rot_q, rotation_angle, rotation_axis, Orientation};
 use crate::model::geometry::{CoilId, Pair, Radians, UnitVec};
-use crate::planning::on_time::{self, OnTimes};
 use crate::physics::dynamics::settle;
 use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{coils_of, label};
 use crate::planning::commutation::{cumulative, cumulative_from, CommutationState, Motor, Step};
 use crate::planning::identify::{Identifier, Observation};
+use crate::planning::on_time::{self, OnTimes};
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::search::{first_row, step_row};
 use crate::planning::seek::Seek;
@@ -520,7 +520,10 @@ impl<'a> Controller<'a> {
         }
         let Some(end) = path.states.last() else {
             let name = match steer {
-                Some(_) => format!("the fitted {}", self.fitted().map(|f| f.0).unwrap_or_default()),
+                Some(_) => format!(
+                    "the fitted {}",
+                    self.fitted().map(|f| f.0).unwrap_or_default()
+                ),
                 None => "the model".into(),
             };
             return Err(format!(

@@ -70,7 +70,9 @@ pub struct Observation {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Shape {
     /// Gaussian wells of this width (degrees).
-    Gaussian { width_deg: f64 },
+    Gaussian {
+        width_deg: f64,
+    },
     Cosine,
 }
 
@@ -395,8 +397,11 @@ impl Identifier {
                 if self.settles >= budget {
                     break;
                 }
-                let tries: Vec<WellParams> =
-                    at.neighbours(level).into_iter().filter(|p| p.within(k)).collect();
+                let tries: Vec<WellParams> = at
+                    .neighbours(level)
+                    .into_iter()
+                    .filter(|p| p.within(k))
+                    .collect();
                 let scored: Vec<f64> = tries.iter().map(|p| self.evaluate(motor, p).0).collect();
                 self.settles += tries.len() * self.observations.len();
                 let best = (0..tries.len())

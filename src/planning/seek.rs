@@ -6,12 +6,12 @@
 //! tell how few steps a physics needs for a motion. Budgets are counted in settles.
 
 use crate::model::geometry::{CoilId, Orientation, Pair};
-use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
 use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{
     coil_sets, coils_in_reach, coils_of, label, settle_following, FOLLOWED_PER_STATE,
 };
 use crate::planning::commutation::{predicted_orientation, CommutationState, Motor, PairsPerStep};
+use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
 
 /// How many states nearest the goal the closed loop's search keeps at each depth, and how deep
 /// it looks at most. For scale (`examples/fewest_steps.rs` on `scenarios/broad-wells.toml`,
@@ -160,7 +160,12 @@ impl Seek<'_> {
             let mut keyed: Vec<(f64, usize)> = pairs
                 .iter()
                 .enumerate()
-                .map(|(i, p)| (self.distance(&predicted_orientation(torques, &from.q, p)), i))
+                .map(|(i, p)| {
+                    (
+                        self.distance(&predicted_orientation(torques, &from.q, p)),
+                        i,
+                    )
+                })
                 .collect();
             keyed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             keyed.truncate(k);

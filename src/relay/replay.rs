@@ -918,6 +918,32 @@ struct LogFile {
     ends_with_line_end: bool,
 }
 
+/// What refuses a log whose first line is `line` as a log of another kind than this replay's
+/// (its `header`, of `kind`), if it is one: whose log it is and what to do.
+fn other_log_kind(line: &[u8], header: &str, kind: LogKind) -> Option<String> {
+    let other = [false, true]
+        .into_iter()
+        .flat_map(|l| {
+            [
+                log_header(l, LogKind::Replay),
+                log_header(l, LogKind::ClosedLoop),
+            ]
+        })
+        .find(|h| line == h.as_bytes());
+    other.map(|other| {
+        let why = if kind == LogKind::Replay && other.contains(LOG_SENSOR_COLUMNS) {
+            "a closed-loop replay's log"
+        } else if kind == LogKind::ClosedLoop && !other.contains(LOG_SENSOR_COLUMNS) {
+            "a replay's log without the sensor's columns"
+        } else {
+            "one board / several"
+        };
+        format!(
+            "its columns are `{other}`, this replay writes `{header}` ({why}): give another log file"
+        )
+    })
+}
+
 /// The longest first line read to tell whether a file is a replay log.
 const LOG_FIRST_LINE_MAX: u64 = 4096;
 
@@ -975,26 +1001,8 @@ fn inspect_log(path: &Path, listed: bool, kind: LogKind) -> Result<LogFile, Rela
             ends_with_line_end: last[0] == b'\n',
         });
     }
-    let other = [false, true]
-        .into_iter()
-        .flat_map(|l| {
-            [
-                log_header(l, LogKind::Replay),
-                log_header(l, LogKind::ClosedLoop),
-            ]
-        })
-        .find(|h| line == h.as_bytes());
-    if let Some(other) = other {
-        let why = if kind == LogKind::Replay && other.contains(LOG_SENSOR_COLUMNS) {
-            "a closed-loop replay's log"
-        } else if kind == LogKind::ClosedLoop && !other.contains(LOG_SENSOR_COLUMNS) {
-            "a replay's log without the sensor's columns"
-        } else {
-            "one board / several"
-        };
-        return Err(refuse(format!(
-            "its columns are `{other}`, this replay writes `{header}` ({why}): give another log file"
-        )));
+    if let Some(message) = other_log_kind(line, &header, kind) {
+        return Err(refuse(message));
     }
     let text = crate::error::printable(&String::from_utf8_lossy(line));
     let shown = match text.char_indices().nth(80) {

@@ -1,556 +1,39 @@
-//! Scenario files (TOML): which motor (rotor and stator packings, magnet wells), which body and
-//! damping, how to settle. Unknown keys are rejected; every value is checked, and an error names
-//! the file, the field and what was expected. Every section has defaults (the prototype).
+//! The checks that turn a scenario file as written (`raw`) into a [`super::Scenario`]: every
+//! value in range, every file it names read, each error naming the file, the field and what was
+//! expected.
 
-use crate::error::{printable, shown, Error, Result};
-use crate::model::geometry::{orientation_from_xyzw, unit, Degrees, Pair, Radians, UnitVec};
+use super::raw::*;
+use super::*;
+use crate::error::{shown, Error, Result};
+use crate::model::geometry::{orientation_from_xyzw, unit, Degrees, Radians, UnitVec};
 use crate::model::packing::{self, Cap, Packing, SemiRegular};
 use crate::model::symmetry::Group;
-use crate::physics::dynamics::{Body, Method, SettleParams};
+use crate::physics::dynamics::{Body, SettleParams};
 use crate::physics::magnetics::{
     disc_volume, magnet_moment_from_remanence, DipoleParts, DipoleWell,
 };
 use crate::physics::torque::{Interaction, MagnetTorques, TorqueTable, Well, WellShape};
-use crate::planning::commutation::{
-    default_step_model, Motor, PairsPerStep, StepLimits, StepModel,
-};
+use crate::planning::commutation::{default_step_model, PairsPerStep, StepLimits, StepModel};
 use crate::planning::planner::{
     target_angle, PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET,
 };
 use nalgebra::UnitQuaternion;
 use nalgebra::Vector3;
-use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
-/// Defaults of the `[magnets]` section (see the README and scenarios/prototype.toml).
-pub const DEFAULT_STRENGTH_J: f64 = 0.25;
-pub const DEFAULT_WIDTH_DEG: f64 = 10.0;
-pub const DEFAULT_MAX_ATTRACTION_DEG: f64 = 30.0;
-/// The radius of the magnets' centres (m) of shape = "dipole" when not given: the prototype's
-/// 12 inch ball.
-pub const DEFAULT_BALL_RADIUS_M: f64 = 0.1524;
-/// Two magnets (or two coils) closer than this (chord of the unit sphere, about 6e-5 degrees)
-/// are the same place: refused.
-pub const COINCIDENT_TOL: f64 = 1e-6;
-/// Defaults of the `[body]` section.
-pub const DEFAULT_INERTIA_KG_M2: f64 = 0.023;
-pub const DEFAULT_DAMPING_NMS: f64 = 1.0;
-
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct RawScenario {
-    name: Option<String>,
-    description: Option<String>,
-    rotor: Option<RawPacking>,
-    stator: Option<RawPacking>,
-    magnets: Option<RawMagnets>,
-    body: Option<RawBody>,
-    settle: Option<RawSettle>,
-    plan: Option<RawPlan>,
-    sweep: Option<RawSweep>,
-    relay: Option<crate::relay::RelayConfig>,
-    report: Option<RawReport>,
-}
-
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawReport {
-    reference_deg: Option<f64>,
-    reference_label: Option<String>,
-}
-
-/// The `[report]` section: what the pictures compare against.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct ReportSettings {
-    /// A reference axis error (e.g. the paper's bound), drawn as a line, degrees.
-    pub reference_deg: Option<f64>,
-    pub reference_label: Option<String>,
-}
-
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawSweep {
-    axes: Option<AxesSpec>,
-    axis_count: Option<usize>,
-    angles_deg: Option<Vec<f64>>,
-    schemes: Option<Vec<String>>,
-    models: Option<Vec<String>>,
-    keep_plans: Option<bool>,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(untagged)]
-enum AxesSpec {
-    Named(String),
-    List(Vec<[f64; 3]>),
-}
-
-/// A sweep: many planning cases from one scenario (axes x angles x schemes x models).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Sweep {
-    pub axes: Vec<UnitVec>,
-    pub angles: Vec<Radians>,
-    pub schemes: Vec<Scheme>,
-    /// (model, pairs per step)
-    pub models: Vec<(StepModel, PairsPerStep)>,
-    /// Also write each case's plan CSV.
-    pub keep_plans: bool,
-}
-
-/// `count` axes spread evenly over the whole sphere (a Fibonacci lattice), deterministic.
-pub fn sphere_axes(count: usize) -> Vec<UnitVec> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..count)
-        .map(|k| {
-            let z = 1.0 - (2.0 * k as f64 + 1.0) / count as f64;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = golden * k as f64;
-            UnitVec::new_normalize(Vector3::new(r * phi.cos(), r * phi.sin(), z))
-        })
-        .collect()
-}
-
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawPlan {
-    axis: Option<[f64; 3]>,
-    angle_deg: Option<f64>,
-    scheme: Option<String>,
-    model: Option<StepModel>,
-    pairs_per_step: Option<usize>,
-    max_pairs_per_step: Option<usize>,
-    settle_budget: Option<usize>,
-    settles_per_state: Option<usize>,
-    start: Option<[f64; 4]>,
-    max_steps: Option<usize>,
-    beam_width: Option<usize>,
-    max_step_axis_error_deg: Option<f64>,
-    min_step_angle_deg: Option<f64>,
-    error_bound_start_deg: Option<f64>,
-    search_bound_deg: Option<f64>,
-    capture_deg: Option<f64>,
-    max_coils_on: Option<usize>,
-    max_candidates: Option<usize>,
-    angle_tolerance_deg: Option<f64>,
-}
-
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawPacking {
-    preset: Option<String>,
-    points: Option<Vec<[f64; 3]>>,
-    file: Option<String>,
-    group: Option<Group>,
-    generators: Option<Vec<[f64; 3]>>,
-    cap_axis: Option<[f64; 3]>,
-    cap_deg: Option<f64>,
-}
-
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-enum Shape {
-    Gaussian,
-    Cosine,
-    Table,
-    Dipole,
-}
-
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawMagnets {
-    shape: Option<Shape>,
-    strength_j: Option<f64>,
-    width_deg: Option<f64>,
-    max_attraction_deg: Option<f64>,
-    table: Option<String>,
-    interaction: Option<Interaction>,
-    // shape = "dipole": the physical parts (SI units)
-    ball_radius_m: Option<f64>,
-    magnet_moment_am2: Option<f64>,
-    remanence_t: Option<f64>,
-    magnet_volume_m3: Option<f64>,
-    magnet_diameter_m: Option<f64>,
-    magnet_thickness_m: Option<f64>,
-    coil_turns: Option<f64>,
-    coil_current_a: Option<f64>,
-    coil_ampere_turns: Option<f64>,
-    coil_radius_m: Option<f64>,
-    gap_m: Option<f64>,
-    core_gain: Option<f64>,
-}
-
-impl RawMagnets {
-    /// The dipole keys given, by name (refused unless shape = "dipole").
-    fn dipole_keys(&self) -> Vec<&'static str> {
-        [
-            ("ball_radius_m", self.ball_radius_m),
-            ("magnet_moment_am2", self.magnet_moment_am2),
-            ("remanence_t", self.remanence_t),
-            ("magnet_volume_m3", self.magnet_volume_m3),
-            ("magnet_diameter_m", self.magnet_diameter_m),
-            ("magnet_thickness_m", self.magnet_thickness_m),
-            ("coil_turns", self.coil_turns),
-            ("coil_current_a", self.coil_current_a),
-            ("coil_ampere_turns", self.coil_ampere_turns),
-            ("coil_radius_m", self.coil_radius_m),
-            ("gap_m", self.gap_m),
-            ("core_gain", self.core_gain),
-        ]
-        .into_iter()
-        .filter(|(_, v)| v.is_some())
-        .map(|(k, _)| k)
-        .collect()
-    }
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(untagged)]
-enum Inertia {
-    Scalar(f64),
-    Diagonal([f64; 3]),
-}
-
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawBody {
-    inertia_kg_m2: Option<Inertia>,
-    damping_nms: Option<f64>,
-}
-
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawSettle {
-    omega_tol: Option<f64>,
-    torque_tol: Option<f64>,
-    t_max_s: Option<f64>,
-    rtol: Option<f64>,
-    atol: Option<f64>,
-    method: Option<Method>,
-}
-
-/// A checked scenario: the motor, the body and the settle settings.
-#[derive(Debug, Clone)]
-pub struct Scenario {
-    /// The file it came from (`<built-in>` for the prototype).
-    pub path: PathBuf,
-    /// The files it was read from: `path` (when loaded from it) and the files it names
-    /// (point files, a torque table), as they were opened; what an output must not replace.
-    pub files: Vec<PathBuf>,
-    pub name: String,
-    pub description: String,
-    pub rotor: Packing,
-    pub stator: Packing,
-    pub torques: MagnetTorques,
-    pub body: Body,
-    pub settle: SettleParams,
-    /// Planning settings of the `[plan]` section (command-line options override them).
-    pub plan: PlanSettings,
-    /// The `[sweep]` section, if any: many cases instead of one plan.
-    pub sweep: Option<Sweep>,
-    /// The `[report]` section (reference lines of the pictures).
-    pub report: ReportSettings,
-    /// Relay board (or boards), coil map and replay limits (`[relay]`, see `crate::relay::config`).
-    pub relay: crate::relay::RelaySettings,
-}
-
-impl Scenario {
-    /// The built-in prototype with every default.
-    pub fn prototype() -> Scenario {
-        Scenario::from_toml("", Path::new("<built-in prototype>"))
-            .expect("the defaults form a valid scenario")
-    }
-
-    /// The motor of the scenario that commutation, planning and simulation need: its own copy
-    /// of the torques, body and settle parameters, independent of the scenario afterwards.
-    pub fn motor(&self) -> Motor {
-        Motor {
-            torques: self.torques.clone(),
-            body: self.body,
-            settle: self.settle,
-            cancel: crate::planning::cancel::Cancel::never(),
-        }
-    }
-
-    /// Reads and checks a scenario file.
-    pub fn load(path: &Path) -> Result<Scenario> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let mut sc = Scenario::from_toml(&text, path)?;
-        sc.files.insert(0, path.to_path_buf());
-        Ok(sc)
-    }
-
-    /// Parses and checks scenario text; `path` names the file in errors and anchors relative
-    /// paths (tables, point files).
-    pub fn from_toml(text: &str, path: &Path) -> Result<Scenario> {
-        let raw: RawScenario = toml::from_str(text).map_err(|e| Error::Parse {
-            file: path.to_path_buf(),
-            message: e.to_string().trim_end().to_string(),
-        })?;
-        Scenario::from_raw(raw, path)
-    }
-
-    fn from_raw(raw: RawScenario, path: &Path) -> Result<Scenario> {
-        let ck = Checker {
-            file: path,
-            read: Default::default(),
-        };
-        let rotor = ck.packing(raw.rotor.unwrap_or_default(), "rotor")?;
-        let stator = ck.packing(raw.stator.unwrap_or_default(), "stator")?;
-        let well_and_interaction = ck.magnets(raw.magnets.unwrap_or_default())?;
-        let body = ck.body(raw.body.unwrap_or_default())?;
-        let settle = ck.settle(raw.settle.unwrap_or_default())?;
-        let torques = MagnetTorques {
-            rotor: rotor.points.iter().map(|p| p.into_inner()).collect(),
-            stator: stator.points.iter().map(|p| p.into_inner()).collect(),
-            well: well_and_interaction.0,
-            interaction: well_and_interaction.1,
-        };
-        ck.well_scale(&torques.well, &settle)?;
-        // The relay section first: its limits (coils on at once, one coil's on-time with the
-        // replay's dwells) are the planner's, so that replay accepts what is planned.
-        let relay = crate::relay::RelaySettings::from_config(
-            raw.relay.unwrap_or_default(),
-            path,
-            "relay.",
-        )?;
-        let plan = ck.plan(raw.plan.unwrap_or_default(), &torques, &relay)?;
-        let sweep = match raw.sweep {
-            None => None,
-            Some(sw) => Some(ck.sweep(sw, &plan)?),
-        };
-        let report = match raw.report {
-            None => ReportSettings::default(),
-            Some(r) => ReportSettings {
-                reference_deg: match r.reference_deg {
-                    Some(v) if !(v.is_finite() && v >= 0.0) => {
-                        return Err(ck.err(
-                            "report.reference_deg",
-                            format!("a finite angle >= 0 degrees, got {}", shown(v)),
-                        ))
-                    }
-                    v => v,
-                },
-                reference_label: r.reference_label,
-            },
-        };
-        let name = raw.name.unwrap_or_else(|| {
-            path.file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "scenario".into())
-        });
-        Ok(Scenario {
-            path: path.to_path_buf(),
-            files: ck.read.into_inner(),
-            name,
-            description: raw.description.unwrap_or_default(),
-            rotor,
-            stator,
-            torques,
-            body,
-            settle,
-            plan,
-            sweep,
-            report,
-            relay,
-        })
-    }
-
-    /// Checks an active set against this motor: indices in range, no coil used twice.
-    pub fn check_active(&self, active: &[Pair], arg: &str) -> Result<()> {
-        if active.is_empty() {
-            return Err(Error::Arg {
-                arg: arg.into(),
-                expected: "at least one coil:magnet pair".into(),
-            });
-        }
-        for (k, p) in active.iter().enumerate() {
-            if p.coil.0 >= self.stator.len() {
-                return Err(Error::Arg {
-                    arg: arg.into(),
-                    expected: format!(
-                        "coil index below {} (the stator's coil count), got {} in pair {p}",
-                        self.stator.len(),
-                        p.coil
-                    ),
-                });
-            }
-            if p.magnet.0 >= self.rotor.len() {
-                return Err(Error::Arg {
-                    arg: arg.into(),
-                    expected: format!(
-                        "magnet index below {} (the rotor's magnet count), got {} in pair {p}",
-                        self.rotor.len(),
-                        p.magnet
-                    ),
-                });
-            }
-            if active[..k].iter().any(|o| o.coil == p.coil) {
-                return Err(Error::Arg {
-                    arg: arg.into(),
-                    expected: format!("each coil at most once, got coil {} twice", p.coil),
-                });
-            }
-        }
-        Ok(())
-    }
-}
-
-impl Scenario {
-    /// Checks that `plant` has this scenario's packings, so that a plan made here can be
-    /// replayed in the plant's physics: as many magnets and coils, each at the same place
-    /// (within [`COINCIDENT_TOL`]). The error names both scenarios, the counts and the first
-    /// magnet or coil that differs.
-    pub fn check_same_packings(&self, plant: &Scenario, arg: &str) -> Result<()> {
-        let counts = |sc: &Scenario| {
-            format!(
-                "{} ({}): {} magnets, {} coils",
-                printable(&sc.name),
-                sc.path.display(),
-                sc.rotor.len(),
-                sc.stator.len()
-            )
-        };
-        let moved = |what: &str, a: &Packing, b: &Packing| {
-            a.points
-                .iter()
-                .zip(&b.points)
-                .position(|(p, q)| (p.into_inner() - q.into_inner()).norm() > COINCIDENT_TOL)
-                .map(|k| {
-                    let d = crate::model::geometry::angular_distance(&a.points[k], &b.points[k]);
-                    format!("{what} {k} {:.4} deg from the plan's", d.0.to_degrees())
-                })
-        };
-        let differs = if self.rotor.len() != plant.rotor.len() {
-            Some("other magnet count".to_string())
-        } else if self.stator.len() != plant.stator.len() {
-            Some("other coil count".to_string())
-        } else {
-            moved("magnet", &self.rotor, &plant.rotor)
-                .or_else(|| moved("coil", &self.stator, &plant.stator))
-        };
-        match differs {
-            None => Ok(()),
-            Some(d) => Err(Error::Arg {
-                arg: arg.into(),
-                expected: format!(
-                    "a plant with the plan's packings ({}), got {}: {d}",
-                    counts(self),
-                    counts(plant)
-                ),
-            }),
-        }
-    }
-}
-
-/// Checks a step model's pairs per step: the pivot model takes exactly 2, the dynamic 2 to 8;
-/// the coil-set model 2 to 8 coils on after each step.
-pub fn check_pairs_per_step(
-    model: StepModel,
-    pairs: PairsPerStep,
-) -> std::result::Result<(), String> {
-    let limit = PairsPerStep::LIMIT;
-    match model {
-        StepModel::Pivot if pairs == PairsPerStep::exactly(2) => Ok(()),
-        StepModel::Pivot => Err(format!("2 pairs per step for the pivot model, got {pairs}")),
-        StepModel::Dynamic if pairs.min >= 2 && pairs.min <= pairs.max && pairs.max <= limit => {
-            Ok(())
-        }
-        StepModel::Dynamic => Err(format!(
-            "2 to {limit} pairs per step for the dynamic model, got {pairs}"
-        )),
-        StepModel::Coils if pairs.min >= 2 && pairs.min <= pairs.max && pairs.max <= limit => {
-            Ok(())
-        }
-        StepModel::Coils => Err(format!(
-            "2 to {limit} coils on after each step for the coil-set model, got {pairs}"
-        )),
-    }
-}
-
-/// Checks pairs (or coils) per step against the supply: a step's set is on after it, so a step
-/// of more than `max_coils_on` pairs can never be switched (the search would find no step
-/// and blame its budget).
-pub fn check_supply(pairs: PairsPerStep, max_coils_on: usize) -> std::result::Result<(), String> {
-    if pairs.min <= max_coils_on {
-        return Ok(());
-    }
-    Err(format!(
-        "pairs per step the supply can switch: {pairs} pairs (coils) on after a step need at \
-         least {} coils on at once, and plan.max_coils_on is {max_coils_on} (a step's new \
-         coils go on before the held ones go off)",
-        pairs.min
-    ))
-}
-
-/// Parses pairs per step written `K` (exactly K) or `2-K` (2 to K, chosen per step).
-pub fn parse_pairs_per_step(s: &str) -> Option<PairsPerStep> {
-    match s.split_once('-') {
-        None => s.trim().parse().ok().map(PairsPerStep::exactly),
-        Some((lo, hi)) => {
-            let (lo, hi) = (lo.trim().parse().ok()?, hi.trim().parse().ok()?);
-            Some(PairsPerStep { min: lo, max: hi })
-        }
-    }
-}
-
-/// The pairs per step a model takes when none are given: the paper's 2 for the pivot model,
-/// any of 2 to 4 chosen per step for the dynamic model (and coils for the coil-set model).
-pub fn default_pairs_per_step(model: StepModel) -> PairsPerStep {
-    match model {
-        StepModel::Pivot => PairsPerStep::exactly(2),
-        StepModel::Dynamic | StepModel::Coils => PairsPerStep::up_to(4),
-    }
-}
-
-/// Parses `x,y,z` into a unit vector (normalised; zero and NaN refused).
-pub fn parse_axis(text: &str, arg: &str) -> Result<UnitVec> {
-    let v = parse_numbers::<3>(text, arg, "x,y,z")?;
-    unit(Vector3::new(v[0], v[1], v[2])).ok_or_else(|| Error::Arg {
-        arg: arg.into(),
-        expected: format!("a non-zero, finite vector x,y,z, got '{text}'"),
-    })
-}
-
-/// Parses `qx,qy,qz,qw` into an orientation (normalised; zero and NaN refused).
-pub fn parse_orientation(text: &str, arg: &str) -> Result<crate::model::geometry::Orientation> {
-    let v = parse_numbers::<4>(text, arg, "qx,qy,qz,qw")?;
-    crate::model::geometry::orientation_from_xyzw(v[0], v[1], v[2], v[3]).ok_or_else(|| {
-        Error::Arg {
-            arg: arg.into(),
-            expected: format!("a non-zero, finite quaternion qx,qy,qz,qw, got '{text}'"),
-        }
-    })
-}
-
-fn parse_numbers<const N: usize>(text: &str, arg: &str, form: &str) -> Result<[f64; N]> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    let bad = || Error::Arg {
-        arg: arg.into(),
-        expected: format!("{N} numbers {form}, got '{text}'"),
-    };
-    if parts.len() != N {
-        return Err(bad());
-    }
-    let mut out = [0.0; N];
-    for (o, p) in out.iter_mut().zip(&parts) {
-        *o = p.parse::<f64>().map_err(|_| bad())?;
-    }
-    Ok(out)
-}
-
 /// Field checks with the file name at hand.
-struct Checker<'a> {
-    file: &'a Path,
+pub(super) struct Checker<'a> {
+    pub(super) file: &'a Path,
     /// The files read so far (point files, tables).
-    read: std::cell::RefCell<Vec<PathBuf>>,
+    pub(super) read: std::cell::RefCell<Vec<PathBuf>>,
 }
 
 impl Checker<'_> {
-    fn err(&self, field: &str, expected: impl Into<String>) -> Error {
+    pub(super) fn err(&self, field: &str, expected: impl Into<String>) -> Error {
         Error::field(self.file, field, expected)
     }
 
-    fn positive(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
+    pub(super) fn positive(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
         match v {
             None => Ok(default),
             Some(x) if x.is_finite() && x > 0.0 => Ok(x),
@@ -558,7 +41,7 @@ impl Checker<'_> {
         }
     }
 
-    fn non_negative(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
+    pub(super) fn non_negative(&self, field: &str, v: Option<f64>, default: f64) -> Result<f64> {
         match v {
             None => Ok(default),
             Some(x) if x.is_finite() && x >= 0.0 => Ok(x),
@@ -566,7 +49,7 @@ impl Checker<'_> {
         }
     }
 
-    fn unit(&self, field: &str, v: [f64; 3]) -> Result<UnitVec> {
+    pub(super) fn unit(&self, field: &str, v: [f64; 3]) -> Result<UnitVec> {
         unit(Vector3::new(v[0], v[1], v[2])).ok_or_else(|| {
             self.err(
                 field,
@@ -580,7 +63,7 @@ impl Checker<'_> {
         })
     }
 
-    fn relative(&self, p: &str) -> PathBuf {
+    pub(super) fn relative(&self, p: &str) -> PathBuf {
         let p = Path::new(p);
         if p.is_absolute() {
             p.to_path_buf()
@@ -594,7 +77,7 @@ impl Checker<'_> {
 
     /// A packing given as the orbit of generator points under a symmetry group, optionally
     /// cut to a spherical cap.
-    fn group_packing(
+    pub(super) fn group_packing(
         &self,
         group: Group,
         generators: Option<Vec<[f64; 3]>>,
@@ -640,7 +123,12 @@ impl Checker<'_> {
     }
 
     /// An error unless the packing's points are distinct (named by where they came from).
-    fn check_distinct(&self, pk: &Packing, section: &str, given_flags: &[bool; 4]) -> Result<()> {
+    pub(super) fn check_distinct(
+        &self,
+        pk: &Packing,
+        section: &str,
+        given_flags: &[bool; 4],
+    ) -> Result<()> {
         if let Some((a, b)) = pk.coincident(COINCIDENT_TOL) {
             let what = if section == "rotor" {
                 "magnets"
@@ -665,7 +153,7 @@ impl Checker<'_> {
         Ok(())
     }
 
-    fn packing(&self, raw: RawPacking, section: &str) -> Result<Packing> {
+    pub(super) fn packing(&self, raw: RawPacking, section: &str) -> Result<Packing> {
         let given_flags = [
             raw.preset.is_some(),
             raw.points.is_some(),
@@ -730,7 +218,7 @@ impl Checker<'_> {
         Ok(pk)
     }
 
-    fn magnets(&self, raw: RawMagnets) -> Result<(Well, Interaction)> {
+    pub(super) fn magnets(&self, raw: RawMagnets) -> Result<(Well, Interaction)> {
         let shape = raw.shape.unwrap_or(Shape::Gaussian);
         let max_deg = raw.max_attraction_deg.unwrap_or(DEFAULT_MAX_ATTRACTION_DEG);
         if !(max_deg.is_finite() && max_deg > 0.0 && max_deg <= 180.0) {
@@ -787,7 +275,7 @@ impl Checker<'_> {
     /// shape = "dipole": the parts, the well they make (attracting out to where its pull
     /// ends, unless `max_attraction_deg` says otherwise) and the interaction ("coils" unless
     /// given: every energised coil acts on every magnet).
-    fn dipole_magnets(&self, raw: &RawMagnets) -> Result<(Well, Interaction)> {
+    pub(super) fn dipole_magnets(&self, raw: &RawMagnets) -> Result<(Well, Interaction)> {
         for (k, v) in [("strength_j", raw.strength_j), ("width_deg", raw.width_deg)] {
             if v.is_some() {
                 return Err(self.err(
@@ -810,7 +298,7 @@ impl Checker<'_> {
     }
 
     /// A message of `magnetics` ("field: expected ...") as a scenario error on `magnets.field`.
-    fn dipole_err(&self, m: &str) -> Error {
+    pub(super) fn dipole_err(&self, m: &str) -> Error {
         match m.split_once(": expected ") {
             Some((field, rest)) if !field.contains(' ') => {
                 // the parts' ampere-turns are the scenario's coil_ampere_turns (or turns x current)
@@ -821,32 +309,38 @@ impl Checker<'_> {
         }
     }
 
-    /// The physical parts of shape = "dipole": the magnet by its moment, or by its remanence
-    /// and volume (or disc diameter and thickness); the coil by its ampere-turns, or turns and
-    /// current; the ball's radius (default the prototype's) and the core's gain (default 1).
-    fn dipole_parts(&self, raw: &RawMagnets) -> Result<DipoleParts> {
-        let required = |k: &str, v: Option<f64>, what: &str| {
-            let field = format!("magnets.{k}");
-            match v {
-                None => Err(self.err(&field, format!("{what} when shape = \"dipole\""))),
-                Some(x) => self.positive(&field, Some(x), 0.0),
-            }
-        };
-        // a product of valid values may still overflow (or vanish): named by what was given
+    /// A field `magnets.{k}` that shape = "dipole" needs: a finite number > 0.
+    fn dipole_required(&self, k: &str, v: Option<f64>, what: &str) -> Result<f64> {
+        let field = format!("magnets.{k}");
+        match v {
+            None => Err(self.err(&field, format!("{what} when shape = \"dipole\""))),
+            Some(x) => self.positive(&field, Some(x), 0.0),
+        }
+    }
+
+    /// A product of valid values, which may still overflow (or vanish): named by what was
+    /// given (`parts`).
+    fn dipole_finite(&self, field: &str, what: &str, v: f64, parts: String) -> Result<f64> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.err(
+                field,
+                format!(
+                    "a magnet whose {what} is a finite number > 0, got {} from {parts}",
+                    crate::error::shown(v)
+                ),
+            ))
+        }
+    }
+
+    /// The magnet's moment (A m^2): given, or from its remanence and volume (or disc size).
+    fn dipole_moment(&self, raw: &RawMagnets) -> Result<f64> {
+        let required = |k: &str, v: Option<f64>, what: &str| self.dipole_required(k, v, what);
         let finite = |field: &str, what: &str, v: f64, parts: String| {
-            if v.is_finite() && v > 0.0 {
-                Ok(v)
-            } else {
-                Err(self.err(
-                    field,
-                    format!(
-                        "a magnet whose {what} is a finite number > 0, got {} from {parts}",
-                        crate::error::shown(v)
-                    ),
-                ))
-            }
+            self.dipole_finite(field, what, v, parts)
         };
-        let moment = match (raw.magnet_moment_am2, raw.remanence_t) {
+        Ok(match (raw.magnet_moment_am2, raw.remanence_t) {
             (Some(m), None) => self.positive("magnets.magnet_moment_am2", Some(m), 0.0)?,
             (None, Some(br)) => {
                 let br = self.positive("magnets.remanence_t", Some(br), 0.0)?;
@@ -894,42 +388,57 @@ impl Checker<'_> {
                     "the magnet's moment (A m^2), or remanence_t (T) with its size, when shape = \"dipole\"",
                 ))
             }
-        };
-        let turns_amps = match (raw.coil_ampere_turns, raw.coil_turns, raw.coil_current_a) {
-            (Some(ni), None, None) => ni,
-            (None, Some(n), Some(i)) => {
-                let n = self.positive("magnets.coil_turns", Some(n), 0.0)?;
-                if !(i.is_finite() && i > 0.0) {
-                    return Err(self.err(
-                        "magnets.coil_current_a",
-                        format!(
-                            "a finite current > 0 (A; a well is a coil that attracts), got {}",
-                            crate::error::shown(i)
-                        ),
-                    ));
+        })
+    }
+
+    /// The coil's ampere-turns (A): given, or its turns times its current.
+    fn dipole_ampere_turns(&self, raw: &RawMagnets) -> Result<f64> {
+        Ok(
+            match (raw.coil_ampere_turns, raw.coil_turns, raw.coil_current_a) {
+                (Some(ni), None, None) => ni,
+                (None, Some(n), Some(i)) => {
+                    let n = self.positive("magnets.coil_turns", Some(n), 0.0)?;
+                    if !(i.is_finite() && i > 0.0) {
+                        return Err(self.err(
+                            "magnets.coil_current_a",
+                            format!(
+                                "a finite current > 0 (A; a well is a coil that attracts), got {}",
+                                crate::error::shown(i)
+                            ),
+                        ));
+                    }
+                    let ni = n * i;
+                    if !(ni.is_finite() && ni > 0.0) {
+                        return Err(self.err(
+                            "magnets.coil_turns",
+                            format!(
+                                "coil_turns x coil_current_a finite and > 0, got {} x {} A = {} A",
+                                crate::error::shown(n),
+                                crate::error::shown(i),
+                                crate::error::shown(ni)
+                            ),
+                        ));
+                    }
+                    ni
                 }
-                let ni = n * i;
-                if !(ni.is_finite() && ni > 0.0) {
+                _ => {
                     return Err(self.err(
-                        "magnets.coil_turns",
-                        format!(
-                            "coil_turns x coil_current_a finite and > 0, got {} x {} A = {} A",
-                            crate::error::shown(n),
-                            crate::error::shown(i),
-                            crate::error::shown(ni)
-                        ),
-                    ));
-                }
-                ni
-            }
-            _ => {
-                return Err(self.err(
-                    "magnets.coil_ampere_turns",
-                    "the coil's ampere-turns (A), or coil_turns and coil_current_a, when \
+                        "magnets.coil_ampere_turns",
+                        "the coil's ampere-turns (A), or coil_turns and coil_current_a, when \
                      shape = \"dipole\"",
-                ))
-            }
-        };
+                    ))
+                }
+            },
+        )
+    }
+
+    /// The physical parts of shape = "dipole": the magnet by its moment, or by its remanence
+    /// and volume (or disc diameter and thickness); the coil by its ampere-turns, or turns and
+    /// current; the ball's radius (default the prototype's) and the core's gain (default 1).
+    pub(super) fn dipole_parts(&self, raw: &RawMagnets) -> Result<DipoleParts> {
+        let required = |k: &str, v: Option<f64>, what: &str| self.dipole_required(k, v, what);
+        let moment = self.dipole_moment(raw)?;
+        let turns_amps = self.dipole_ampere_turns(raw)?;
         let parts =
             DipoleParts {
                 ball_radius_m: self.positive(
@@ -958,7 +467,7 @@ impl Checker<'_> {
         Ok(parts)
     }
 
-    fn body(&self, raw: RawBody) -> Result<Body> {
+    pub(super) fn body(&self, raw: RawBody) -> Result<Body> {
         let inertia = match raw.inertia_kg_m2 {
             None => Vector3::repeat(DEFAULT_INERTIA_KG_M2),
             Some(Inertia::Scalar(x)) => {
@@ -978,7 +487,7 @@ impl Checker<'_> {
     }
 
     /// An optional whole number >= 1 (`default` when absent).
-    fn count(&self, field: &str, v: Option<usize>, default: usize) -> Result<usize> {
+    pub(super) fn count(&self, field: &str, v: Option<usize>, default: usize) -> Result<usize> {
         match v {
             None => Ok(default),
             Some(0) => Err(self.err(field, "a whole number >= 1, got 0")),
@@ -987,7 +496,12 @@ impl Checker<'_> {
     }
 
     /// An optional angle in (0, 180] degrees (`default` when absent).
-    fn small_angle(&self, field: &str, v: Option<f64>, default: Radians) -> Result<Radians> {
+    pub(super) fn small_angle(
+        &self,
+        field: &str,
+        v: Option<f64>,
+        default: Radians,
+    ) -> Result<Radians> {
         match v {
             None => Ok(default),
             Some(x) if x.is_finite() && x > 0.0 && x <= 180.0 => Ok(Degrees(x).to_radians()),
@@ -999,7 +513,7 @@ impl Checker<'_> {
     }
 
     /// The step limits of the `[plan]` section.
-    fn step_limits(
+    pub(super) fn step_limits(
         &self,
         raw: &RawPlan,
         relay: &crate::relay::RelaySettings,
@@ -1047,7 +561,7 @@ impl Checker<'_> {
     /// ([`default_step_model`]).
     /// `relay`: the scenario's `[relay]` section, whose limits the plans keep to (its
     /// `max_coils_on` unless `plan.max_coils_on` is given, and its on-time limit).
-    fn plan(
+    pub(super) fn plan(
         &self,
         raw: RawPlan,
         torques: &MagnetTorques,
@@ -1118,7 +632,7 @@ impl Checker<'_> {
         })
     }
 
-    fn sweep(&self, raw: RawSweep, plan: &PlanSettings) -> Result<Sweep> {
+    pub(super) fn sweep(&self, raw: RawSweep, plan: &PlanSettings) -> Result<Sweep> {
         let axes = match (raw.axes, raw.axis_count) {
             (None, None) => vec![plan.axis],
             (Some(AxesSpec::Named(n)), count) if n == "sphere" => {
@@ -1180,7 +694,7 @@ impl Checker<'_> {
 
     /// A list of `[sweep]`: `default` when absent, an error when empty (`what` names an entry),
     /// else each entry checked by `each`, which is given the entry's field name.
-    fn sweep_list<R, T>(
+    pub(super) fn sweep_list<R, T>(
         &self,
         name: &str,
         what: &str,
@@ -1202,7 +716,7 @@ impl Checker<'_> {
     }
 
     /// One entry of `sweep.models`: a model name, or `dynamic:K` / `dynamic:2-K`.
-    fn sweep_model(&self, field: &str, n: &str) -> Result<(StepModel, PairsPerStep)> {
+    pub(super) fn sweep_model(&self, field: &str, n: &str) -> Result<(StepModel, PairsPerStep)> {
         let bad = || {
             self.err(
                 field,
@@ -1232,7 +746,7 @@ impl Checker<'_> {
     /// The settle test holds wherever the torque is below `settle.torque_tol`: a well whose
     /// strongest torque is below it would hold the ball anywhere at t = 0, so such a scenario
     /// is refused, naming what makes the well (`strength_j`, the table, the parts).
-    fn well_scale(&self, well: &Well, settle: &SettleParams) -> Result<()> {
+    pub(super) fn well_scale(&self, well: &Well, settle: &SettleParams) -> Result<()> {
         let peak = well.peak_torque();
         if peak.is_finite() && peak > settle.torque_tol {
             return Ok(());
@@ -1254,7 +768,7 @@ impl Checker<'_> {
         ))
     }
 
-    fn settle(&self, raw: RawSettle) -> Result<SettleParams> {
+    pub(super) fn settle(&self, raw: RawSettle) -> Result<SettleParams> {
         let d = SettleParams::default();
         Ok(SettleParams {
             omega_tol: self.positive("settle.omega_tol", raw.omega_tol, d.omega_tol)?,
@@ -1269,7 +783,7 @@ impl Checker<'_> {
 }
 
 /// Reads a torque table CSV: header `angle_deg,torque_nm` (required), then rows.
-fn read_table(path: &Path) -> std::result::Result<TorqueTable, String> {
+pub(super) fn read_table(path: &Path) -> std::result::Result<TorqueTable, String> {
     let mut rdr = csv::Reader::from_path(path).map_err(|e| e.to_string())?;
     let headers = rdr.headers().map_err(|e| format!("line 1: {e}"))?.clone();
     packing::check_header(&headers, &["angle_deg", "torque_nm"], "row")?;
@@ -1291,20 +805,4 @@ fn read_table(path: &Path) -> std::result::Result<TorqueTable, String> {
         rows.push((num(0)?, num(1)?));
     }
     TorqueTable::from_rows(&rows)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn relay_section_is_checked() {
-        let e = Scenario::from_toml("[relay]\nmax_coils_on = 0\n", Path::new("s.toml"))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("s.toml") && e.contains("`relay.max_coils_on`"),
-            "{e}"
-        );
-    }
 }
