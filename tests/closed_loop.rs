@@ -109,7 +109,9 @@ fn a_loop_planned_in_the_pair_model_fits_the_broad_wells_and_arrives() {
     let (csv, fit) = play_with(model, plant, "1,0,0", &o(true, true));
     let r = &fit.run;
     assert!(r.reached && r.final_error_deg < 3.0, "{r:?}");
-    assert!(r.steps <= 2 * fit.planned_steps, "{r:?}");
+    // within the default budget (the plant's broad wells give short steps)
+    let budget = spherestep::commands::closed_loop::default_max_steps(fit.planned_steps);
+    assert!(r.steps <= budget, "{r:?}");
     let name = r.fitted.as_deref().unwrap_or_default();
     assert!(name.contains("every coil pulls"), "{name}");
     let k = r.fitted_after_step.expect("the fit steered");

@@ -444,7 +444,8 @@ impl<'a> Controller<'a> {
         };
         let before = id.steer();
         id.observe(self.model, &o);
-        if id.steer().is_some() && id.steer() != before {
+        // the step the fitted wells first took over from the model
+        if id.steer().is_some() && before.is_none() {
             self.fitted_at = Some(self.steps - 1);
         }
     }
