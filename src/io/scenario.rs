@@ -50,6 +50,7 @@ pub(crate) struct RawScenario {
     sweep: Option<RawSweep>,
     relay: Option<crate::relay::RelayConfig>,
     report: Option<RawReport>,
+    sensor: Option<super::sensor_section::RawSensor>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -251,6 +252,8 @@ pub struct Scenario {
     pub report: ReportSettings,
     /// Relay board (or boards), coil map and replay limits (`[relay]`, see `crate::relay::config`).
     pub relay: crate::relay::RelaySettings,
+    /// The orientation sensor's mounting (`[sensor]`, see `crate::io::sensor_section`).
+    pub sensor: super::sensor_section::SensorSettings,
 }
 
 impl Scenario {
@@ -352,6 +355,7 @@ impl Scenario {
             sweep,
             report,
             relay,
+            sensor: super::sensor_section::check(raw.sensor, path)?,
         })
     }
 
