@@ -16,9 +16,9 @@ use spherestep::commands::replay::ReplayOptions;
 use spherestep::io::scenario::Scenario;
 use spherestep::model::geometry::{rot_q, rotation_angle, Orientation, Radians, UnitVec};
 use spherestep::planning::closed_loop::{Controller, Decision};
+use spherestep::rehearse::sensor::Bno055Emulator;
 use spherestep::relay::closed::ClosedSummary;
 use spherestep::relay::Link;
-use spherestep::rehearse::sensor::Bno055Emulator;
 use spherestep::sensor::frame::Frame;
 use spherestep::sensor::{self, quat_csv::parse_line, SensorFormat};
 use std::collections::BTreeSet;
@@ -166,7 +166,12 @@ fn offline(inputs: &ClosedInputs, stray: Option<usize>) -> (Script, usize) {
 }
 
 /// An LCUS board's far end: records the bytes and tells the plant what it switched.
-fn board(mut port: TTYPort, index: usize, plant: Shared, done: Arc<AtomicBool>) -> JoinHandle<Vec<u8>> {
+fn board(
+    mut port: TTYPort,
+    index: usize,
+    plant: Shared,
+    done: Arc<AtomicBool>,
+) -> JoinHandle<Vec<u8>> {
     std::thread::spawn(move || {
         port.set_timeout(Duration::from_millis(5)).unwrap();
         let (mut got, mut buf, start) = (Vec::new(), [0u8; 64], Instant::now());
@@ -189,12 +194,21 @@ fn board(mut port: TTYPort, index: usize, plant: Shared, done: Arc<AtomicBool>) 
 }
 
 /// A quat-csv far end printing what the sensor reads every 10 ms (nothing when `silent`).
-fn printer(mut port: TTYPort, plant: Shared, silent: bool, done: Arc<AtomicBool>) -> JoinHandle<()> {
+fn printer(
+    mut port: TTYPort,
+    plant: Shared,
+    silent: bool,
+    done: Arc<AtomicBool>,
+) -> JoinHandle<()> {
     std::thread::spawn(move || {
         let start = Instant::now();
         while !done.load(Ordering::SeqCst) && start.elapsed() < GUARD {
             let s = plant.lock().unwrap().sensed();
-            if !silent && port.write_all(format!("{}\r\n", line_of(&s)).as_bytes()).is_err() {
+            if !silent
+                && port
+                    .write_all(format!("{}\r\n", line_of(&s)).as_bytes())
+                    .is_err()
+            {
                 return;
             }
             std::thread::sleep(Duration::from_millis(10));
@@ -229,7 +243,13 @@ struct Ran {
     log: String,
 }
 
-fn run(inputs: &ClosedInputs, script: Script, frame: Frame, format: SensorFormat, silent: bool) -> Ran {
+fn run(
+    inputs: &ClosedInputs,
+    script: Script,
+    frame: Frame,
+    format: SensorFormat,
+    silent: bool,
+) -> Ran {
     let plant: Shared = Arc::new(Mutex::new(Plant {
         script,
         rest: inputs.open.rows[0].q,
@@ -309,8 +329,14 @@ fn same_decisions(format: SensorFormat, stray: Option<usize>, tol: f64) -> (Ran,
 
     let a = run(&plain, script.clone(), unrotated(), format, false);
     let b = run(&mounted, script.clone(), truth, format, false);
-    let sa = a.result.as_ref().unwrap_or_else(|e| panic!("{e}\n{}", a.text));
-    let sb = b.result.as_ref().unwrap_or_else(|e| panic!("{e}\n{}", b.text));
+    let sa = a
+        .result
+        .as_ref()
+        .unwrap_or_else(|e| panic!("{e}\n{}", a.text));
+    let sb = b
+        .result
+        .as_ref()
+        .unwrap_or_else(|e| panic!("{e}\n{}", b.text));
     assert_eq!((sa.steps, sa.replans), (script.len() - 1, replans));
     assert_eq!((sb.steps, sb.replans), (sa.steps, sa.replans));
     assert!(sb.distance_deg < 1.5, "{sb:?}");
@@ -331,14 +357,16 @@ fn same_decisions(format: SensorFormat, stray: Option<usize>, tol: f64) -> (Ran,
     let off = ang(&tare[0].1, &truth.reference);
     assert!(off < tol, "the tare is {off:e} rad off");
     assert!(
-        b.text.contains("sensor tare: its reference is the world turned 140.00 deg about ["),
+        b.text
+            .contains("sensor tare: its reference is the world turned 140.00 deg about ["),
         "{}",
         b.text
     );
     assert!(b.text.contains("; mounted 50.00 deg about ["), "{}", b.text);
     // the unrotated sensor's tare finds (about) nothing
     assert!(
-        a.text.contains("sensor tare: its reference is the world turned 0.00 deg"),
+        a.text
+            .contains("sensor tare: its reference is the world turned 0.00 deg"),
         "{}",
         a.text
     );
@@ -373,7 +401,10 @@ fn a_tare_without_a_reading_stops_before_any_byte_reaches_a_board() {
     let ran = run(&inputs, script, rotated(), SensorFormat::QuatCsv, true);
     let e = ran.result.err().expect("refused").to_string();
     assert!(e.starts_with("sensor "), "{e}");
-    assert!(e.contains("(quat-csv): no reading within 300 ms (nothing received)"), "{e}");
+    assert!(
+        e.contains("(quat-csv): no reading within 300 ms (nothing received)"),
+        "{e}"
+    );
     assert!(
         e.contains("it was the tare reading (the ball at rest at the plan's start), taken before any coil is switched: no coil was switched"),
         "{e}"
@@ -386,9 +417,17 @@ fn a_tare_without_a_reading_stops_before_any_byte_reaches_a_board() {
 fn a_bad_mounting_is_refused_naming_the_file_and_the_field() {
     let dir = tempfile::tempdir().unwrap();
     for (section, field, says) in [
-        ("mount = [0, 0, 0, 0]", "sensor.mount", "a unit quaternion [qx, qy, qz, qw]"),
+        (
+            "mount = [0, 0, 0, 0]",
+            "sensor.mount",
+            "a unit quaternion [qx, qy, qz, qw]",
+        ),
         ("mount = [0, 0, 1, 90]", "sensor.mount", "of norm 90.005"),
-        ("mount_axis = [0, 0, 0]\nmount_angle_deg = 30", "sensor.mount_axis", "non-zero"),
+        (
+            "mount_axis = [0, 0, 0]\nmount_angle_deg = 30",
+            "sensor.mount_axis",
+            "non-zero",
+        ),
         ("mounting = [0, 0, 0, 1]", "", "unknown field `mounting`"),
     ] {
         let path = scenario(dir.path(), Some(section));

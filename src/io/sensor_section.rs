@@ -137,10 +137,15 @@ mod tests {
 
     #[test]
     fn sensor_section_reads_both_forms_and_defaults_to_identity() {
-        assert_eq!(check(None, Path::new("s.toml")).unwrap().mount, Orientation::identity());
+        assert_eq!(
+            check(None, Path::new("s.toml")).unwrap().mount,
+            Orientation::identity()
+        );
         assert_eq!(parse("").unwrap().mount, Orientation::identity());
         let q = parse("mount = [0, 0, 0.7071068, 0.7071068]").unwrap().mount;
-        let a = parse("mount_axis = [0, 0, 2]\nmount_angle_deg = 90").unwrap().mount;
+        let a = parse("mount_axis = [0, 0, 2]\nmount_angle_deg = 90")
+            .unwrap()
+            .mount;
         assert!(ang(&q, &a) < 1e-6, "{q} {a}");
         assert!((q.quaternion().norm() - 1.0).abs() < 1e-15);
         let z = Vector3::z_axis();
@@ -153,13 +158,41 @@ mod tests {
             ("mount = [0, 0, 0, 0]", "sensor.mount", "got [0, 0, 0, 0]"),
             ("mount = [0, 0, 1, 90]", "sensor.mount", "of norm 90.005"),
             ("mount = [0, 0, 1]", "sensor.mount", "got 3 numbers"),
-            ("mount = [0, 0, nan, 1]", "sensor.mount", "got [0, 0, NaN, 1]"),
-            ("mount = [0, 0, 0, 1]\nmount_angle_deg = 3", "sensor.mount", "not both"),
-            ("mount_axis = [0, 0, 0]\nmount_angle_deg = 3", "sensor.mount_axis", "non-zero"),
-            ("mount_axis = [0, 1]\nmount_angle_deg = 3", "sensor.mount_axis", "[0, 1]"),
-            ("mount_axis = [0, 0, 1]\nmount_angle_deg = inf", "sensor.mount_angle_deg", "finite"),
-            ("mount_axis = [0, 0, 1]", "sensor.mount_angle_deg", "with sensor.mount_axis"),
-            ("mount_angle_deg = 4", "sensor.mount_axis", "with sensor.mount_angle_deg"),
+            (
+                "mount = [0, 0, nan, 1]",
+                "sensor.mount",
+                "got [0, 0, NaN, 1]",
+            ),
+            (
+                "mount = [0, 0, 0, 1]\nmount_angle_deg = 3",
+                "sensor.mount",
+                "not both",
+            ),
+            (
+                "mount_axis = [0, 0, 0]\nmount_angle_deg = 3",
+                "sensor.mount_axis",
+                "non-zero",
+            ),
+            (
+                "mount_axis = [0, 1]\nmount_angle_deg = 3",
+                "sensor.mount_axis",
+                "[0, 1]",
+            ),
+            (
+                "mount_axis = [0, 0, 1]\nmount_angle_deg = inf",
+                "sensor.mount_angle_deg",
+                "finite",
+            ),
+            (
+                "mount_axis = [0, 0, 1]",
+                "sensor.mount_angle_deg",
+                "with sensor.mount_axis",
+            ),
+            (
+                "mount_angle_deg = 4",
+                "sensor.mount_axis",
+                "with sensor.mount_angle_deg",
+            ),
         ] {
             let e = parse(text).unwrap_err().to_string();
             assert!(

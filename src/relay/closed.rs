@@ -153,8 +153,8 @@ pub fn execute_closed(
     }
     // the tare, before any byte goes to a board: the ball is at rest at the plan's start
     let start = controller.plan()[0].q;
-    let (sensor, tare) = Tared::tare(sensor, mount, &start)
-        .map_err(|e| SensorError::Tare { cause: Box::new(e) })?;
+    let (sensor, tare) =
+        Tared::tare(sensor, mount, &start).map_err(|e| SensorError::Tare { cause: Box::new(e) })?;
     let frame = sensor.frame();
     writeln!(
         out,

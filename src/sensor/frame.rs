@@ -16,6 +16,12 @@
 use super::{Cancel, OrientationSensor, Reading, SensorError};
 use crate::model::geometry::{rotation_angle, Orientation};
 
+/// A tare offset smaller than this (radians) is none: it is the rounding of a reading that is
+/// the start itself (a sensor already in the ball's frame, its line printed and parsed back),
+/// eight orders of magnitude below any sensor's resolution; such a sensor's readings then pass
+/// through bit for bit.
+pub const NO_OFFSET: f64 = 1e-12;
+
 /// The mounting and the reference of a sensor, once tared.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
@@ -28,12 +34,16 @@ pub struct Frame {
 impl Frame {
     /// The frame of a sensor mounted `mount` that reads `reading` while the ball is at rest at
     /// `start`: `W = s0 * M^-1 * q0^-1` (normalised).
+    /// An offset under [`NO_OFFSET`] is taken as none (the identity).
     pub fn tare(mount: Orientation, start: &Orientation, reading: &Orientation) -> Frame {
         let w = reading.quaternion() * mount.inverse().quaternion() * start.inverse().quaternion();
-        Frame {
-            mount,
-            reference: Orientation::new_normalize(w),
-        }
+        let w = Orientation::new_normalize(w);
+        let reference = if rotation_angle(&w).0 < NO_OFFSET {
+            Orientation::identity()
+        } else {
+            w
+        };
+        Frame { mount, reference }
     }
 
     /// The ball's orientation from a reading: `q = W^-1 * s * M^-1`.
@@ -207,6 +217,17 @@ mod tests {
         assert_eq!(f.reference, Orientation::identity());
         let s = rot([1.0, -2.0, 0.5], 80.0);
         assert_eq!(f.ball(&s), s);
+    }
+
+    #[test]
+    fn frame_offset_of_rounding_is_none() {
+        let q0 = rot([0.2, 0.1, 1.0], 33.0);
+        let tiny = rot([1.0, 0.0, 0.0], 1e-14f64.to_degrees()) * q0;
+        let f = Frame::tare(Orientation::identity(), &q0, &tiny);
+        assert_eq!(f.reference, Orientation::identity());
+        let small = rot([1.0, 0.0, 0.0], 1e-9f64.to_degrees()) * q0;
+        let f = Frame::tare(Orientation::identity(), &q0, &small);
+        assert!((ang(&f.reference, &Orientation::identity()) - 1e-9).abs() < 1e-15);
     }
 
     #[test]
