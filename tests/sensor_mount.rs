@@ -399,7 +399,7 @@ fn a_tare_without_a_reading_stops_before_any_byte_reaches_a_board() {
     let inputs = prepared(dir.path(), None, SensorFormat::QuatCsv);
     let (script, _) = offline(&inputs, None);
     let ran = run(&inputs, script, rotated(), SensorFormat::QuatCsv, true);
-    let e = ran.result.err().expect("refused").to_string();
+    let e = ran.result.expect_err("refused").to_string();
     assert!(e.starts_with("sensor "), "{e}");
     assert!(
         e.contains("(quat-csv): no reading within 300 ms (nothing received)"),
