@@ -75,13 +75,7 @@ fn main() -> Result<()> {
             let p = plan(&mm, &settings);
             let goal = goal_of(&settings, &p.rows).context("no plan")?;
             // the plant's own fewest steps from where the model's initial set leaves the ball
-            let r0 = settle(
-                &pm.torques,
-                &p.rows[0].active,
-                &p.rows[0].q,
-                pm.body,
-                pm.settle,
-            );
+            let r0 = settle(&pm.torques, &p.rows[0].active, &p.rows[0].q, pm.body, pm.settle);
             let root = CommutationState {
                 q: r0.q,
                 active: p.rows[0].active.clone(),
@@ -93,7 +87,7 @@ fn main() -> Result<()> {
                 per_step: settings.pairs,
                 max_coils_on: settings.limits.max_coils_on,
                 goal,
-                ranked: None,
+        ranked: None,
             };
             let ahead = seek.search(&root, 12, 32, WITHIN_DEG.to_radians());
             let best = ahead

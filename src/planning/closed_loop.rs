@@ -440,11 +440,7 @@ impl<'a> Controller<'a> {
         let s0 = id.settles();
         id.observe(self.model, &o);
         if std::env::var_os("SS_DEBUG").is_some() {
-            eprintln!(
-                "   fit: {} settles {:.0} ms",
-                id.settles() - s0,
-                t0.elapsed().as_secs_f64() * 1e3
-            );
+            eprintln!("   fit: {} settles {:.0} ms", id.settles() - s0, t0.elapsed().as_secs_f64() * 1e3);
         }
         if std::env::var_os("SS_DEBUG").is_some() {
             let b = id.best();
@@ -517,10 +513,7 @@ impl<'a> Controller<'a> {
         }
         let Some(end) = path.states.last() else {
             let name = match steer {
-                Some(_) => format!(
-                    "the fitted {}",
-                    self.fitted().map(|f| f.0).unwrap_or_default()
-                ),
+                Some(_) => format!("the fitted {}", self.fitted().map(|f| f.0).unwrap_or_default()),
                 None => "the model".into(),
             };
             return Err(format!(

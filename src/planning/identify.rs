@@ -29,8 +29,8 @@ pub const GAUSSIAN_WIDTHS_DEG: [f64; 6] = [5.0, 7.0, 10.0, 14.0, 20.0, 28.0];
 /// grid leaves the fit in the wrong basin of its refinement); a gaussian's reach is at least
 /// its width (where its pull peaks).
 pub const REACHES_DEG: [f64; 19] = [
-    15.0, 17.5, 20.0, 22.5, 25.0, 27.5, 30.0, 32.5, 35.0, 37.5, 40.0, 42.5, 45.0, 47.5, 50.0, 52.5,
-    55.0, 57.5, 60.0,
+    15.0, 17.5, 20.0, 22.5, 25.0, 27.5, 30.0, 32.5, 35.0, 37.5, 40.0, 42.5, 45.0, 47.5, 50.0,
+    52.5, 55.0, 57.5, 60.0,
 ];
 /// Stiffnesses of the grid's candidates, as fractions of the model's single-pair stiffness
 /// (the equilibria do not depend on it, only which basin a step ends in: the refinement
@@ -71,9 +71,7 @@ pub struct Observation {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Shape {
     /// Gaussian wells of this width (degrees).
-    Gaussian {
-        width_deg: f64,
-    },
+    Gaussian { width_deg: f64 },
     Cosine,
 }
 
@@ -390,11 +388,8 @@ impl Identifier {
             let mut score = self.evaluate(motor, &at).0;
             let mut level = 0;
             for _ in 0..POLLS {
-                let tries: Vec<WellParams> = at
-                    .neighbours(level)
-                    .into_iter()
-                    .filter(|p| p.within(k))
-                    .collect();
+                let tries: Vec<WellParams> =
+                    at.neighbours(level).into_iter().filter(|p| p.within(k)).collect();
                 let scored: Vec<f64> = tries.iter().map(|p| self.evaluate(motor, p).0).collect();
                 self.settles += tries.len() * self.observations.len();
                 let best = (0..tries.len())

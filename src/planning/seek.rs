@@ -140,12 +140,7 @@ impl Seek<'_> {
             let mut keyed: Vec<(f64, usize)> = pairs
                 .iter()
                 .enumerate()
-                .map(|(i, p)| {
-                    (
-                        self.distance(&predicted_orientation(torques, &from.q, p)),
-                        i,
-                    )
-                })
+                .map(|(i, p)| (self.distance(&predicted_orientation(torques, &from.q, p)), i))
                 .collect();
             keyed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             keyed.truncate(k);
