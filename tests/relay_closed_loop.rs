@@ -40,15 +40,17 @@ type Script = Vec<(BTreeSet<usize>, Orientation)>;
 /// What the far ends share: the script, the coils on (both boards), how far the script went.
 struct Plant {
     script: Script,
+    /// Where the ball rests before anything is switched (the plan's start: the tare reads it).
+    rest: Orientation,
     on: BTreeSet<usize>,
     /// The script entry whose coils were switched last.
     at: Option<usize>,
 }
 
 impl Plant {
-    /// The orientation the ball has now (at rest at the script's start before anything).
+    /// The orientation the ball has now (at rest at the plan's start before anything).
     fn now(&self) -> Orientation {
-        self.script[self.at.unwrap_or(0)].1
+        self.at.map_or(self.rest, |k| self.script[k].1)
     }
 
     /// Coil `coil` switched: advance to the next entry when its coils are the ones on.
@@ -216,9 +218,9 @@ enum Fault {
     Close(usize),
     /// Prints this line instead of readings.
     Garbage(usize, &'static str),
-    /// Prints this line from the start, whatever the plant does.
+    /// Prints this line from step 0 on (after the tare), whatever the plant does.
     Always(&'static str),
-    /// Never prints anything.
+    /// Prints nothing from step 0 on (after the tare).
     Silent,
     /// (BNO055) reports this CALIB_STAT byte (else 0xFF, all calibrated).
     Calibration(u8),
@@ -241,8 +243,8 @@ fn printer(
             let line = match fault {
                 Fault::Close(k) if at == Some(k) => return,
                 Fault::Garbage(k, text) if at == Some(k) => text.to_string(),
-                Fault::Always(text) => text.to_string(),
-                Fault::Silent => {
+                Fault::Always(text) if at.is_some() => text.to_string(),
+                Fault::Silent if at.is_some() => {
                     std::thread::sleep(Duration::from_millis(10));
                     continue;
                 }
@@ -329,6 +331,7 @@ fn run_with(
 ) -> Ran {
     let plant: Shared = Arc::new(Mutex::new(Plant {
         script,
+        rest: inputs.open.rows[0].q,
         on: BTreeSet::new(),
         at: None,
     }));
@@ -639,13 +642,13 @@ fn closed_loop_on_a_bno055_reads_after_every_step() {
     assert!(s.distance_deg < 0.05, "{s:?}");
     assert_eq!(ran.frames, expected_frames(&sets(&script)), "{}", ran.text);
     // CONFIGMODE, then IMU (no magnetometer: it would read the motor's magnets), the
-    // calibration status, then a reading after every step
+    // calibration status, the tare's reading, then a reading after every step
     let mut want = vec![
         vec![0xAA, 0x00, 0x3D, 0x01, 0x00],
         vec![0xAA, 0x00, 0x3D, 0x01, 0x08],
         vec![0xAA, 0x01, 0x35, 0x01],
     ];
-    want.extend((0..script.len()).map(|_| vec![0xAA, 0x01, 0x20, 0x08]));
+    want.extend((0..=script.len()).map(|_| vec![0xAA, 0x01, 0x20, 0x08]));
     assert_eq!(ran.requests, want);
     // the raw frames in the log, in hex
     let rows: Vec<&str> = ran.log.lines().filter(|l| l.contains(",sensor,")).collect();

@@ -218,6 +218,7 @@ pub fn execute(
         controller,
         settings: inputs.cl,
         stator_coils: inputs.scenario.stator.len(),
+        mount: inputs.scenario.sensor.mount,
         cancel,
     };
     Ok(execute_closed(&inputs.prep, links, sensing, stop, out)?)

@@ -1,10 +1,11 @@
 //! The files: scenarios in TOML (`scenario`), plans in CSV (`planfile`), simulate results
-//! (`simfile`), closed-loop results (`loopfile`), the one CSV reader (`table`) and the one place that writes a file whole or not
+//! (`simfile`), closed-loop results (`loopfile`), the scenario's `[sensor]` section (`sensor_section`), the one CSV reader (`table`) and the one place that writes a file whole or not
 //! at all (`output`).
 
 pub mod loopfile;
 pub mod output;
 pub mod planfile;
 pub mod scenario;
+pub mod sensor_section;
 pub mod simfile;
 pub mod table;

@@ -26,7 +26,8 @@ use crate::planning::closed_loop::{
     drive, Controller, Decide, Decision, Ending, LoopSettings, Plant,
 };
 use crate::planning::plan::PlanRow;
-use crate::sensor::{OrientationSensor, Reading};
+use crate::sensor::frame::{axis_angle_text, Tared};
+use crate::sensor::{OrientationSensor, Reading, SensorError};
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
@@ -74,6 +75,8 @@ pub struct Sensing<'a> {
     pub settings: LoopSettings,
     /// The stator's coil count (a replanned coil must be on it).
     pub stator_coils: usize,
+    /// The sensor's mounting in the ball (the scenario's `[sensor]`): sensor to body.
+    pub mount: Orientation,
     /// The token the controller's motor was built with ([`crate::planning::commutation::Motor`]'s
     /// `cancel`): set to abandon a replan when the coils must go off. The sensor is given it
     /// too.
@@ -130,35 +133,54 @@ pub fn refuse_options(drive: &Drive, dry_run: bool) -> Result<(), RelayError> {
 pub fn execute_closed(
     prep: &Prepared,
     links: Vec<Link>,
-    mut sensing: Sensing,
+    sensing: Sensing,
     stop: Arc<AtomicBool>,
     out: &mut dyn Write,
 ) -> Result<ClosedSummary, RelayError> {
     refuse_options(&prep.drive, links.iter().all(Link::is_dry_run))?;
-    sensing.sensor.set_cancel(sensing.cancel.clone());
+    let Sensing {
+        mut sensor,
+        mut controller,
+        settings: s,
+        stator_coils,
+        mount,
+        cancel,
+    } = sensing;
+    sensor.set_cancel(cancel.clone());
     // before any byte goes to a board: a sensor that cannot measure yet is refused
-    if let Some(c) = sensing.sensor.ready()? {
+    if let Some(c) = sensor.ready()? {
         writeln!(out, "sensor calibration: {c}").map_err(stdout_error)?;
     }
-    let s = &sensing.settings;
+    // the tare, before any byte goes to a board: the ball is at rest at the plan's start
+    let start = controller.plan()[0].q;
+    let (sensor, tare) =
+        Tared::tare(sensor, mount, &start).map_err(|e| SensorError::Tare { cause: Box::new(e) })?;
+    let frame = sensor.frame();
     writeln!(
         out,
         "closed loop: {}; replan beyond {:.2} deg from the plan, done within {:.2} deg of the goal, at most {} steps",
-        sensing.sensor.describe(),
+        sensor.describe(),
         s.replan_beyond.0.to_degrees(),
         s.goal_tolerance.0.to_degrees(),
         s.max_steps
     )
     .map_err(stdout_error)?;
+    let w = frame.reference;
+    writeln!(
+        out,
+        "sensor tare: its reference is the world turned {} (qx,qy,qz,qw = {:.6},{:.6},{:.6},{:.6}); mounted {} in the ball; tare reading \"{}\"",
+        axis_angle_text(&w),
+        w.i,
+        w.j,
+        w.k,
+        w.w,
+        axis_angle_text(&frame.mount),
+        tare.raw.to_string().escape_debug()
+    )
+    .map_err(stdout_error)?;
     let mut r = Runner::start(prep, links, stop, None, out, LogKind::ClosedLoop)?;
     r.log_start(0)?;
-    let Sensing {
-        sensor,
-        mut controller,
-        cancel,
-        stator_coils,
-        ..
-    } = sensing;
+    log_tare(&mut r, &w, &tare)?;
     let mut hw = Hardware {
         prep,
         entries: prep.schedule.entries.clone(),
@@ -167,7 +189,7 @@ pub fn execute_closed(
         steps: 0,
         last: None,
         goal: controller.goal(),
-        sensor,
+        sensor: Box::new(sensor),
         cancel,
         stator_coils,
         r: &mut r,
@@ -470,6 +492,27 @@ fn measured(
     log.row(&cols)?;
     log.flush()?;
     Ok(to_goal)
+}
+
+/// Logs the tare: a `tare` row at step 0 with the offset `w` of the sensor's reference in
+/// the quaternion's columns and the tare reading as the sensor sent it.
+fn log_tare(r: &mut Runner, w: &Orientation, tare: &Reading) -> Result<(), RelayError> {
+    let t = format!("{:.3}", r.now().as_secs_f64());
+    let Some(log) = r.log.as_mut() else {
+        return Ok(());
+    };
+    let q = [w.w, w.i, w.j, w.k].map(|c| c.to_string());
+    let raw = csv_field(&tare.raw.to_string());
+    let mut cols = vec![t.as_str(), "0", "tare", ""];
+    cols.extend(if log.listed {
+        &["", "", ""][..]
+    } else {
+        &["", ""][..]
+    });
+    cols.extend(q.iter().map(String::as_str));
+    cols.extend(["", raw.as_str()]);
+    log.row(&cols)?;
+    log.flush()
 }
 
 /// A CSV field: quoted, its quotes doubled.

@@ -6,12 +6,16 @@
 //!   an IMU library);
 //! - [`bno055`]: the Bosch BNO055 in UART mode, polled through its register protocol.
 //!
+//! [`frame`] maps any sensor's readings to the ball's orientation: its mounting in the ball and
+//! the offset of its reference, found by a tare at the plan's start.
+//!
 //! Every reading is an [`Orientation`] (body to world, normalised) together with the raw bytes
 //! received, for the replay's log. Every error names the sensor format and the port.
 //! A driver sits on the serial layer's [`Port`] (anything `Read + Write + Send`: a serial port,
 //! or a pseudo-terminal in the tests).
 
 pub mod bno055;
+pub mod frame;
 pub mod quat_csv;
 
 use crate::error::printable;
@@ -211,6 +215,9 @@ pub enum SensorError {
     /// The wait for a reading was given up from outside (the replay is switching off).
     #[error("sensor {port} ({sensor}): the wait for a reading was abandoned (everything is being switched off)")]
     Abandoned { sensor: SensorFormat, port: String },
+    /// The tare reading, taken before any coil is switched, failed.
+    #[error("{cause}; it was the tare reading (the ball at rest at the plan's start), taken before any coil is switched: no coil was switched")]
+    Tare { cause: Box<SensorError> },
     /// The BNO055 reports the zero quaternion: its fusion is not running (yet).
     #[error("sensor {port} ({sensor}): the quaternion is all zero: sensor fusion is not running yet (it starts shortly after a fusion mode is set; a reset returns the sensor to CONFIG mode)")]
     NotFused { sensor: SensorFormat, port: String },

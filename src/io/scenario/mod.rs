@@ -91,6 +91,8 @@ pub struct Scenario {
     pub report: ReportSettings,
     /// Relay board (or boards), coil map and replay limits (`[relay]`, see `crate::relay::config`).
     pub relay: crate::relay::RelaySettings,
+    /// The orientation sensor's mounting (`[sensor]`, see `crate::io::sensor_section`).
+    pub sensor: crate::io::sensor_section::SensorSettings,
 }
 
 impl Scenario {
@@ -192,6 +194,7 @@ impl Scenario {
             sweep,
             report,
             relay,
+            sensor: crate::io::sensor_section::check(raw.sensor, path)?,
         })
     }
 

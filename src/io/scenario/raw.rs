@@ -21,6 +21,7 @@ pub(super) struct RawScenario {
     pub(super) sweep: Option<RawSweep>,
     pub(super) relay: Option<crate::relay::RelayConfig>,
     pub(super) report: Option<RawReport>,
+    pub(super) sensor: Option<crate::io::sensor_section::RawSensor>,
 }
 
 #[derive(Debug, Default, Deserialize)]
