@@ -50,14 +50,13 @@ fn the_fit_finds_the_wells_that_made_the_steps() {
     for o in &obs {
         id.observe(&model.motor(), o);
     }
-    // every candidate scored on the first step; the unlikely ones dropped after
+    // every candidate scored on the first step, at least those kept on the others
     assert!(
         id.settles() >= grid + 3 * id.len(),
         "{} {}",
         id.settles(),
         id.len()
     );
-    assert!(id.len() < grid);
     // the pair model's sharp wells do not make these steps ...
     assert!(
         id.rms(0).0.to_degrees() > 5.0,

@@ -797,8 +797,8 @@ fn closed_loop_switches_off_before_the_on_time_limit_while_the_sensor_is_silent(
 
 #[test]
 fn closed_loop_switches_off_before_the_on_time_limit_while_it_replans() {
-    // a sensor that reads 180 degrees about Z whatever the ball does: the replan from there
-    // takes seconds in the broad wells, the coils of step 0 are allowed 1 s
+    // a sensor that reads 180 degrees about Z whatever the ball does: the fit and the replans
+    // from there take long in the broad wells, the coils are allowed 1 s
     let dir = tempfile::tempdir().unwrap();
     let inputs = limited(dir.path(), 1.0, 500);
     let (script, _) = offline(&inputs, None);
@@ -809,10 +809,14 @@ fn closed_loop_switches_off_before_the_on_time_limit_while_it_replans() {
         Duration::from_secs(1),
         "deciding (fitting the wells, replanning)",
     );
-    // the reading was taken and logged before the coils went off
-    assert_eq!(
-        sensor_rows(&ran.log),
-        vec![(0, [0.0, 0.0, 0.0, 1.0])],
+    // every reading was taken and logged before the coils went off (the far reading is
+    // replanned from, and the next decision is where the limit comes)
+    let rows = sensor_rows(&ran.log);
+    assert!(!rows.is_empty(), "{}", ran.log);
+    assert!(
+        rows.iter()
+            .enumerate()
+            .all(|(k, r)| *r == (k, [0.0, 0.0, 0.0, 1.0])),
         "{}",
         ran.log
     );

@@ -237,7 +237,7 @@ fn recorder(mut port: TTYPort, done: Arc<AtomicBool>) -> (Frames, JoinHandle<()>
 /// What the sensor's far end does during a closed-loop replay.
 #[derive(Clone, Copy)]
 enum Sensor {
-    /// Never answers (the replay waits for it).
+    /// Answers the tare, then never again (the replay waits for it).
     Silent,
     /// Reads 180 degrees about Z whatever the ball does (the replay replans, for seconds).
     Far,
@@ -259,11 +259,19 @@ fn signal_mid_closed_loop(signal: &str, sensor: Sensor) {
     let (b0, c0) = pty();
     let (b1, c1) = pty();
     let (mut s_far, s_near) = pty();
+    // the silent sensor answers the tare (taken before any coil is switched), then falls
+    // silent once step 0's coils are on
+    let switched = Arc::new(AtomicBool::new(false));
     let printer = {
         let done = done.clone();
+        let switched = switched.clone();
         std::thread::spawn(move || {
             while !done.load(Ordering::SeqCst) {
-                if let Sensor::Far = sensor {
+                let talks = match sensor {
+                    Sensor::Far => true,
+                    Sensor::Silent => !switched.load(Ordering::SeqCst),
+                };
+                if talks {
                     let _ = s_far.write_all(b"0,0,0,1\r\n");
                 }
                 std::thread::sleep(Duration::from_millis(10));
@@ -292,6 +300,7 @@ fn signal_mid_closed_loop(signal: &str, sensor: Sensor) {
         assert!(start.elapsed() < GUARD, "step 0 never switched");
         std::thread::sleep(Duration::from_millis(5));
     }
+    switched.store(true, Ordering::SeqCst);
     std::thread::sleep(Duration::from_millis(400));
     let sent = Instant::now();
     let killed = Command::new("kill")
