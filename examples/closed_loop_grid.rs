@@ -11,8 +11,9 @@
 //! ```
 
 use anyhow::{bail, Context, Result};
+use spherestep::commands::args::parse_axis;
 use spherestep::io::scenario::Scenario;
-use spherestep::model::geometry::{rot_q, unit, Degrees, Radians};
+use spherestep::model::geometry::{Degrees, Radians};
 use spherestep::physics::dynamics::settle;
 use spherestep::planning::closed_loop::{goal_of, run_closed_loop, LoopSettings};
 use spherestep::planning::commutation::CommutationState;
@@ -23,18 +24,6 @@ use std::path::Path;
 
 /// Within this of the goal a run counts as there (degrees).
 const WITHIN_DEG: f64 = 3.0;
-
-fn parse_axis(s: &str) -> Result<nalgebra::Vector3<f64>> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("axis {s}: expected x,y,z"))?;
-    if v.len() != 3 {
-        bail!("axis {s}: expected x,y,z");
-    }
-    Ok(nalgebra::Vector3::new(v[0], v[1], v[2]))
-}
 
 fn main() -> Result<()> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
@@ -67,7 +56,7 @@ fn main() -> Result<()> {
         let pm = plant.motor();
         let (mut closed_ok, mut open_ok, mut n) = (0, 0, 0);
         for a in axes.split(':') {
-            let axis = unit(parse_axis(a)?).context("axis: not zero")?;
+            let axis = parse_axis(a, "--axes")?;
             let settings = PlanSettings {
                 axis,
                 angle: Degrees(angle_deg).to_radians(),
@@ -112,7 +101,6 @@ fn main() -> Result<()> {
                 .or(best)
                 .map_or(12, |k| k + 1);
             let max_steps = 2 * fewest;
-            let _ = rot_q;
             for &seed in &seeds {
                 let noise = Radians(noise_deg.to_radians());
                 for closed in [false, true] {

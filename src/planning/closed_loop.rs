@@ -344,8 +344,7 @@ impl<'a> Controller<'a> {
         }
         self.learn(&row.active, measured);
         if let Some(l) = self.settings.limits.on_time {
-            let dwell = l.dwell(row.settle_time_s);
-            on_time::hold(&mut self.on, coils_of(&row.active), self.steps - 1, dwell);
+            on_time::hold_row(&mut self.on, &row, &l);
         }
         loop {
             let steer = self.steering();

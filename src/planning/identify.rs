@@ -246,6 +246,13 @@ fn cost(predicted: &Orientation, settled: bool, to: &Orientation, scale: f64) ->
     (c, e)
 }
 
+/// The cost and the error of `torques`' prediction of the step `o` (settled with `motor`'s body
+/// and settle), the noise unit `scale`.
+fn predict(torques: &MagnetTorques, o: &Observation, motor: &Motor, scale: f64) -> (f64, f64) {
+    let r = settle(torques, &o.active, &o.from, motor.body, motor.settle);
+    cost(&r.q, r.settled, &o.to, scale)
+}
+
 /// The candidates and how well each has explained the steps measured so far.
 pub struct Identifier {
     model: MagnetTorques,
@@ -288,10 +295,7 @@ impl Identifier {
         let scored: Vec<(f64, f64)> = self
             .candidates
             .par_iter()
-            .map(|c| {
-                let r = settle(&c.torques, &o.active, &o.from, motor.body, motor.settle);
-                cost(&r.q, r.settled, &o.to, scale)
-            })
+            .map(|c| predict(&c.torques, o, motor, scale))
             .collect();
         for (k, (c, e)) in scored.into_iter().enumerate() {
             self.costs[k].push(c);
@@ -355,10 +359,7 @@ impl Identifier {
         let scored: Vec<(f64, f64)> = self
             .observations
             .par_iter()
-            .map(|o| {
-                let r = settle(&torques, &o.active, &o.from, motor.body, motor.settle);
-                cost(&r.q, r.settled, &o.to, scale)
-            })
+            .map(|o| predict(&torques, o, motor, scale))
             .collect();
         let costs: Vec<f64> = scored.iter().map(|s| s.0).collect();
         let errors = scored.iter().map(|s| s.1).collect();

@@ -4,6 +4,8 @@
 //! the dwell factor, at least the dwell floor; a coil's continuous on-time is the sum of the
 //! dwells of the consecutive steps it stays on in, counting the step that switched it on.
 
+use crate::model::geometry::CoilId;
+use crate::planning::plan::PlanRow;
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -84,6 +86,16 @@ pub fn hold<K: Ord + Copy>(
         });
         h.on += dwell;
     }
+}
+
+/// One row of a plan replayed: its coils held for the row's dwell under `limit` (see [`hold`]).
+pub fn hold_row(on: &mut OnTimes<CoilId>, row: &PlanRow, limit: &OnTimeLimit) {
+    hold(
+        on,
+        row.active.iter().map(|p| p.coil),
+        row.step,
+        limit.dwell(row.settle_time_s),
+    );
 }
 
 /// The first relay (in key order) of `on` that has been on longer than `max`, if any.

@@ -673,12 +673,7 @@ fn on_times_of(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> OnTimes<CoilId> 
     let mut on = OnTimes::new();
     if let Some(l) = limit {
         for r in rows {
-            on_time::hold(
-                &mut on,
-                r.active.iter().map(|p| p.coil),
-                r.step,
-                l.dwell(r.settle_time_s),
-            );
+            on_time::hold_row(&mut on, r, &l);
         }
     }
     on
@@ -691,12 +686,7 @@ pub fn over_on_time(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> Option<Stri
     let l = limit?;
     let mut on = OnTimes::new();
     for r in rows {
-        on_time::hold(
-            &mut on,
-            r.active.iter().map(|p| p.coil),
-            r.step,
-            l.dwell(r.settle_time_s),
-        );
+        on_time::hold_row(&mut on, r, &l);
         if let Some((coil, h)) = on_time::over(&on, l.max_on) {
             let o = OverTime {
                 coil,
