@@ -7,7 +7,7 @@
 //! the searches of `search`, which it shares with the pair models.
 
 use crate::model::geometry::{angular_distance, CoilId, Orientation, Pair, Radians, UnitVec};
-use crate::physics::dynamics::{settle_many, SettleResult, Stop};
+use crate::physics::dynamics::{settle, SettleParams, SettleResult, Stop};
 use crate::physics::torque::{Interaction, MagnetTorques};
 use crate::planning::commutation::{
     admissible, bottom_coil, combinations, holds, nearest_magnet, pivot_error,
@@ -15,6 +15,7 @@ use crate::planning::commutation::{
 };
 use crate::planning::plan::PlanSettings;
 use crate::planning::search::{predicted_rank, weighed, Frontier, StepSource};
+use rayon::prelude::*;
 
 /// How many of a state's candidate sets that the weighing left unheld are followed again (as
 /// `simulate` settles them: at tight tolerances, ten times the cost of a settle). In broad
@@ -222,23 +223,68 @@ pub fn settle_following(
     q: &Orientation,
     motor: &Motor,
     follow: usize,
-    rank: impl Fn(&Orientation) -> f64,
+    rank: impl Fn(&Orientation) -> f64 + Sync,
 ) -> (Vec<SettleResult>, usize) {
-    let mut results = settle_many(torques, pairs, q, motor.body, motor.weighing());
-    let mut unheld: Vec<(f64, usize)> = results
+    let (mut all, spent) = settle_following_each(torques, &[(*q, pairs)], motor, follow, rank);
+    (all.pop().unwrap_or_default(), spent)
+}
+
+/// [`settle_following`] for several starts at once, each `(q, pairs)` with its own `follow`
+/// sets followed, all of a phase's settles in one parallel batch (the results are those of one
+/// call per start: a settle does not depend on what runs beside it): per start its results,
+/// and the settles spent in all.
+pub fn settle_following_each(
+    torques: &MagnetTorques,
+    starts: &[(Orientation, &[Vec<Pair>])],
+    motor: &Motor,
+    follow: usize,
+    rank: impl Fn(&Orientation) -> f64 + Sync,
+) -> (Vec<Vec<SettleResult>>, usize) {
+    let jobs: Vec<(usize, &Vec<Pair>)> = starts
         .iter()
         .enumerate()
-        .filter(|(_, r)| r.stop == Stop::Unheld)
-        .map(|(k, r)| (rank(&r.q), k))
+        .flat_map(|(j, (_, pairs))| pairs.iter().map(move |p| (j, p)))
         .collect();
-    unheld.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    unheld.truncate(follow);
-    let again: Vec<Vec<Pair>> = unheld.iter().map(|&(_, k)| pairs[k].clone()).collect();
-    let followed = settle_many(torques, &again, q, motor.body, motor.settle);
-    for ((_, k), r) in unheld.iter().zip(followed) {
-        results[*k] = r;
+    let weigh = motor.weighing();
+    let flat = settle_jobs(torques, &jobs, starts, motor, weigh);
+    let mut results: Vec<Vec<SettleResult>> = starts.iter().map(|_| Vec::new()).collect();
+    for ((j, _), r) in jobs.iter().zip(flat) {
+        results[*j].push(r);
     }
-    (results, pairs.len() + again.len())
+    let mut again: Vec<(usize, &Vec<Pair>)> = Vec::new();
+    let mut places: Vec<(usize, usize)> = Vec::new();
+    for (j, rs) in results.iter().enumerate() {
+        let mut unheld: Vec<(f64, usize)> = rs
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.stop == Stop::Unheld)
+            .map(|(k, r)| (rank(&r.q), k))
+            .collect();
+        unheld.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        unheld.truncate(follow);
+        for &(_, k) in &unheld {
+            again.push((j, &starts[j].1[k]));
+            places.push((j, k));
+        }
+    }
+    let followed = settle_jobs(torques, &again, starts, motor, motor.settle);
+    for ((j, k), r) in places.into_iter().zip(followed) {
+        results[j][k] = r;
+    }
+    (results, jobs.len() + again.len())
+}
+
+/// Settles each job (a start's index and a set) from its start, in parallel.
+fn settle_jobs(
+    torques: &MagnetTorques,
+    jobs: &[(usize, &Vec<Pair>)],
+    starts: &[(Orientation, &[Vec<Pair>])],
+    motor: &Motor,
+    params: SettleParams,
+) -> Vec<SettleResult> {
+    jobs.par_iter()
+        .map(|&(j, p)| settle(torques, p, &starts[j].0, motor.body, params))
+        .collect()
 }
 
 /// The coils of an active set, sorted.

@@ -8,7 +8,7 @@
 use crate::model::geometry::{CoilId, Orientation, Pair};
 use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{
-    coil_sets, coils_in_reach, coils_of, label, settle_following, FOLLOWED_PER_STATE,
+    coil_sets, coils_in_reach, coils_of, label, settle_following_each, FOLLOWED_PER_STATE,
 };
 use crate::planning::commutation::{predicted_orientation, CommutationState, Motor, PairsPerStep};
 use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
@@ -85,9 +85,11 @@ impl Seek<'_> {
             };
             let mut next: Vec<(Option<usize>, CommutationState)> = Vec::new();
             let mut next_on: Vec<OnTimes<CoilId>> = Vec::new();
-            for (parent, st) in parents {
+            let froms: Vec<&CommutationState> = parents.iter().map(|p| p.1).collect();
+            let children = self.successors_each(&froms, &mut settles);
+            for ((parent, _), cs) in parents.into_iter().zip(children) {
                 let on = parent.map_or(&self.held, |i| &kept_on[i]);
-                for c in self.successors(st, &mut settles) {
+                for c in cs {
                     let mut held = on.clone();
                     if let Some(l) = self.on_time {
                         let dwell = l.dwell(c.settle_time_s);
@@ -148,44 +150,78 @@ impl Seek<'_> {
         from: &CommutationState,
         settles: &mut usize,
     ) -> Vec<CommutationState> {
+        self.successors_each(&[from], settles)
+            .pop()
+            .unwrap_or_default()
+    }
+
+    /// [`Seek::successors`] of each of `froms`, their settles run as one parallel batch (the
+    /// same states as one call each, in less time on several threads).
+    pub fn successors_each(
+        &self,
+        froms: &[&CommutationState],
+        settles: &mut usize,
+    ) -> Vec<Vec<CommutationState>> {
         if self.motor.cancel.is_cancelled() {
-            return Vec::new();
+            return froms.iter().map(|_| Vec::new()).collect();
         }
         let torques = self.torques;
-        let held = coils_of(&from.active);
-        let reach = coils_in_reach(torques, &from.q);
-        let mut sets = coil_sets(&held, &reach, self.per_step, self.max_coils_on);
-        let mut pairs: Vec<Vec<Pair>> = sets.iter().map(|c| label(torques, c, &from.q)).collect();
-        if let Some(k) = self.ranked.filter(|&k| k < sets.len()) {
-            let mut keyed: Vec<(f64, usize)> = pairs
-                .iter()
-                .enumerate()
-                .map(|(i, p)| {
-                    (
-                        self.distance(&predicted_orientation(torques, &from.q, p)),
-                        i,
-                    )
-                })
-                .collect();
-            keyed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-            keyed.truncate(k);
-            keyed.sort_by_key(|&(_, i)| i);
-            sets = keyed.iter().map(|&(_, i)| sets[i].clone()).collect();
-            pairs = keyed.iter().map(|&(_, i)| pairs[i].clone()).collect();
-        }
+        let sets: Vec<Vec<Vec<CoilId>>> = froms.iter().map(|f| self.sets_from(f)).collect();
+        let pairs: Vec<Vec<Vec<Pair>>> = froms
+            .iter()
+            .zip(&sets)
+            .map(|(f, ss)| ss.iter().map(|c| label(torques, c, &f.q)).collect())
+            .collect();
+        let starts: Vec<(Orientation, &[Vec<Pair>])> = froms
+            .iter()
+            .zip(&pairs)
+            .map(|(f, p)| (f.q, p.as_slice()))
+            .collect();
         let rank = |q: &Orientation| self.distance(q);
         let follow = FOLLOWED_PER_STATE;
-        let (results, spent) = settle_following(torques, &pairs, &from.q, self.motor, follow, rank);
+        let (results, spent) = settle_following_each(torques, &starts, self.motor, follow, rank);
         *settles += spent;
         results
             .into_iter()
             .zip(&sets)
-            .filter(|(r, _)| r.settled)
-            .map(|(r, coils)| CommutationState {
-                q: r.q,
-                active: label(torques, coils, &r.q),
-                settle_time_s: r.settle_time_s,
+            .map(|(rs, ss)| {
+                rs.into_iter()
+                    .zip(ss)
+                    .filter(|(r, _)| r.settled)
+                    .map(|(r, coils)| CommutationState {
+                        q: r.q,
+                        active: label(torques, coils, &r.q),
+                        settle_time_s: r.settle_time_s,
+                    })
+                    .collect()
             })
             .collect()
+    }
+
+    /// The coil sets tried from `from`: those the supply allows among the coils in reach; with
+    /// [`Seek::ranked`], the `k` whose cheap prediction lies nearest the goal, in their order.
+    fn sets_from(&self, from: &CommutationState) -> Vec<Vec<CoilId>> {
+        let torques = self.torques;
+        let held = coils_of(&from.active);
+        let reach = coils_in_reach(torques, &from.q);
+        let sets = coil_sets(&held, &reach, self.per_step, self.max_coils_on);
+        let Some(k) = self.ranked.filter(|&k| k < sets.len()) else {
+            return sets;
+        };
+        let mut keyed: Vec<(f64, usize)> = sets
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let p = label(torques, c, &from.q);
+                (
+                    self.distance(&predicted_orientation(torques, &from.q, &p)),
+                    i,
+                )
+            })
+            .collect();
+        keyed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        keyed.truncate(k);
+        keyed.sort_by_key(|&(_, i)| i);
+        keyed.iter().map(|&(_, i)| sets[i].clone()).collect()
     }
 }
