@@ -14,44 +14,71 @@ pub enum Error {
     /// A scenario file's field holds a value that is not allowed.
     #[error("{file}: field `{field}`: expected {expected}")]
     Field {
+        /// The scenario file.
         file: PathBuf,
+        /// The field, as the file names it (`section.key`).
         field: String,
+        /// What the field may hold.
         expected: String,
     },
     /// A file could not be parsed at all (syntax, unknown key, wrong type).
     #[error("{file}: {message}")]
-    Parse { file: PathBuf, message: String },
+    Parse {
+        /// The file.
+        file: PathBuf,
+        /// The parser's message.
+        message: String,
+    },
     /// A command-line argument is malformed.
     #[error("argument {arg}: expected {expected}")]
-    Arg { arg: String, expected: String },
+    Arg {
+        /// The argument, as the caller names it (a flag on the command line).
+        arg: String,
+        /// What the argument may be.
+        expected: String,
+    },
     /// A row of a CSV input file is malformed.
     #[error("{file}: line {line}: {message}")]
     Row {
+        /// The CSV file.
         file: PathBuf,
+        /// The line in the file, from 1.
         line: usize,
+        /// What is wrong with the row.
         message: String,
     },
     /// Drawing a figure failed (the backend's error, or data the figure cannot show).
     #[error("{path}: plotting failed: {message}")]
-    Plot { path: PathBuf, message: String },
+    Plot {
+        /// The figure's file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
     /// Writing CSV failed (`what` names the file or stream).
     #[error("{what}: writing CSV failed")]
     Csv {
+        /// The file or stream written.
         what: String,
+        /// The CSV writer's error.
         #[source]
         source: csv::Error,
     },
     /// Writing JSON failed (`what` names what was written).
     #[error("{what}: writing JSON failed")]
     Json {
+        /// What was written.
         what: String,
+        /// The JSON writer's error.
         #[source]
         source: serde_json::Error,
     },
     /// The worker threads could not be started.
     #[error("starting {threads} worker threads failed")]
     Threads {
+        /// The number of threads asked for.
         threads: usize,
+        /// Why the pool could not be built.
         #[source]
         source: rayon::ThreadPoolBuildError,
     },
@@ -60,7 +87,9 @@ pub enum Error {
     /// does not say it twice.)
     #[error("{path}: {cause}")]
     Io {
+        /// The file.
         path: PathBuf,
+        /// The system's error.
         cause: std::io::Error,
     },
     /// A relay board, or a replay on the boards, failed (the message says whether the coils
@@ -85,6 +114,7 @@ impl Error {
         }
     }
 
+    /// A [`Error::Field`]: `file`'s `field` should hold `expected`.
     pub fn field(file: impl Into<PathBuf>, field: &str, expected: impl Into<String>) -> Self {
         Error::Field {
             file: file.into(),
@@ -93,6 +123,7 @@ impl Error {
         }
     }
 
+    /// An [`Error::Io`]: reading or writing `path` failed with `cause`.
     pub fn io(path: impl Into<PathBuf>, cause: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
@@ -100,6 +131,7 @@ impl Error {
         }
     }
 
+    /// An [`Error::Csv`]: writing CSV to `what` failed.
     pub fn csv(what: impl std::fmt::Display, source: csv::Error) -> Self {
         Error::Csv {
             what: what.to_string(),
@@ -107,6 +139,7 @@ impl Error {
         }
     }
 
+    /// An [`Error::Json`]: writing `what` as JSON failed.
     pub fn json(what: impl std::fmt::Display, source: serde_json::Error) -> Self {
         Error::Json {
             what: what.to_string(),
