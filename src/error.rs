@@ -29,6 +29,15 @@ pub enum Error {
         /// The parser's message.
         message: String,
     },
+    /// A value given to a library call that it does not accept; `input` names the parameter
+    /// (the command line words it as its flag: `commands::args::as_flag`).
+    #[error("{input}: expected {expected}")]
+    Input {
+        /// The parameter.
+        input: Input,
+        /// What the parameter may be.
+        expected: String,
+    },
     /// A command-line argument is malformed.
     #[error("argument {arg}: expected {expected}")]
     Arg {
@@ -99,6 +108,35 @@ pub enum Error {
     /// An orientation sensor failed (the message names the sensor and its port).
     #[error(transparent)]
     Sensor(#[from] SensorError),
+}
+
+/// The parameter of a library call an [`Error::Input`] is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Input {
+    /// The angle step of a well's torque curve, degrees (`step_deg`).
+    WellStep,
+    /// An output file, which must not be one of the files read (`out`).
+    Output,
+    /// The simulated orientations shown beside a plan (`sim`), which must be the plan's steps.
+    Simulation,
+}
+
+impl Input {
+    /// The parameter's name in the library.
+    pub fn name(self) -> &'static str {
+        match self {
+            Input::WellStep => "step_deg",
+            Input::Output => "out",
+            Input::Simulation => "sim",
+        }
+    }
+}
+
+impl std::fmt::Display for Input {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "`{}`", self.name())
+    }
 }
 
 /// Result with the library's error.

@@ -3,7 +3,7 @@
 //! (the peak pull, the width, the stiffness). What `spherestep wells` and
 //! [`crate::Motor::wells`] compute.
 
-use crate::error::{shown, Error, Result};
+use crate::error::{shown, Error, Input, Result};
 use crate::physics::torque::Well;
 use serde::Serialize;
 
@@ -22,8 +22,8 @@ pub const MAX_STEP_DEG: f64 = 10.0;
 /// the step in [`MIN_STEP_DEG`, `MAX_STEP_DEG`].
 pub fn well_curve(well: &Well, step_deg: f64) -> Result<Vec<(f64, f64)>> {
     if !(step_deg.is_finite() && (MIN_STEP_DEG..=MAX_STEP_DEG).contains(&step_deg)) {
-        return Err(Error::Arg {
-            arg: "--step-deg".into(),
+        return Err(Error::Input {
+            input: Input::WellStep,
             expected: format!(
                 "an angle step in [{MIN_STEP_DEG}, {MAX_STEP_DEG}] degrees, got {}",
                 shown(step_deg)

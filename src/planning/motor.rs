@@ -114,8 +114,8 @@ impl Motor {
     ///
     /// # Errors
     ///
-    /// [`crate::Error::Arg`] for a `step_deg` that is not a number in
-    /// [`MIN_STEP_DEG`, `MAX_STEP_DEG`].
+    /// [`crate::Error::Input`] ([`crate::error::Input::WellStep`]) for a `step_deg` that is
+    /// not a number in [`MIN_STEP_DEG`, `MAX_STEP_DEG`].
     ///
     /// # Examples
     ///

@@ -96,18 +96,19 @@ impl Scheme {
 pub const MAX_TARGET_DEG: f64 = 180.0;
 
 /// A target angle given in degrees, checked to lie in (0, [`MAX_TARGET_DEG`]], or what was
-/// expected instead (with the reason, and how to plan a longer turn).
-pub fn target_angle(deg: f64) -> std::result::Result<Radians, String> {
+/// expected instead (with the reason, and how to plan a longer turn: moves, each starting where
+/// the last one ended, `start` naming where a move's start is given).
+pub fn target_angle(deg: f64, start: &str) -> std::result::Result<Radians, String> {
     if deg.is_finite() && deg > 0.0 && deg <= MAX_TARGET_DEG {
         Ok(Degrees(deg).to_radians())
     } else {
         let longer = match deg.is_finite() && deg > MAX_TARGET_DEG {
-            true => {
+            true => format!(
                 "; a turn of more than 180 degrees ends where a shorter one about the opposite \
                  axis does and cannot be measured as one rotation: plan it as moves of at most \
-                 180 degrees, each starting (--from) where the last one ended"
-            }
-            false => "",
+                 180 degrees, each starting ({start}) where the last one ended"
+            ),
+            false => String::new(),
         };
         Err(format!(
             "a target angle in (0, {MAX_TARGET_DEG}] degrees, got {}{longer}",
