@@ -1,8 +1,7 @@
 //! `spherestep settle`: settles the ball under one active set or under many, in parallel.
 
 use anyhow::Result;
-use spherestep::commands::args::check_out;
-use spherestep::commands::args::parse_orientation;
+use spherestep::commands::args::{check_out, parse_orientation};
 use spherestep::commands::{self as app};
 use spherestep::io::output::write_atomic;
 use spherestep::io::scenario::Scenario;

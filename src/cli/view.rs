@@ -1,8 +1,7 @@
 //! `spherestep view`: writes the self-contained 3-D page of a plan.
 
 use anyhow::Result;
-use spherestep::commands::args::parse_axis;
-use spherestep::commands::args::{as_flag, check_out};
+use spherestep::commands::args::{as_flag, check_out, parse_axis};
 use spherestep::error::Input;
 use spherestep::io::scenario::Scenario;
 use std::io::Write;

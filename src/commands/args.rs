@@ -1,6 +1,7 @@
 //! Parsers of the command line's argument strings: an axis `x,y,z` and an orientation
 //! `qx,qy,qz,qw`, each error naming the argument (`arg`) and what was expected. (Scenario and
-//! plan files are read by `io`; these are for what is typed.)
+//! plan files are read by `io`; these are for what is typed.) And the wording of the library's
+//! errors about a parameter ([`Error::Input`]) as the flag that gives it ([`as_flag`]).
 
 use crate::error::{Error, Input, Result};
 use crate::io::output::check_not_input;
