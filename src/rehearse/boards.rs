@@ -1,7 +1,7 @@
 //! The relay boards as their far end: each protocol of `crate::relay` (LCUS, KMTronic, Numato,
 //! Modbus RTU) parsed from the bytes a driver sends and answered byte for byte as the board
 //! does (read-back, the Numato echo and prompt, Modbus CRCs and exception replies), with the
-//! relays it switches. Pure bytes, no port: [`super::run`] feeds it what arrives on a
+//! relays it switches. Pure bytes, no port: [`super::live::run`] feeds it what arrives on a
 //! pseudo-terminal, and the tests can feed it directly.
 
 use crate::relay::modbus::crc16;
