@@ -1,11 +1,22 @@
 #!/usr/bin/env python3
-# Usage: python3 .ci/long-fns.py [LIMIT [DIR]] (default 80 src): the functions over LIMIT lines,
-# longest first. The integrator's loop (physics/integrator.rs integrate_until) is the one allowed.
+# Usage: python3 .ci/long-fns.py [--check] [LIMIT [DIR]] (default 80 src): the functions over
+# LIMIT lines, longest first. With --check, only those not in ALLOWED below, and the exit status
+# is 1 when there are any (.ci/run uses it).
 # Lists Rust functions longer than N lines (default 80): from the `fn` line to its closing brace,
 # found by brace matching (strings, chars and comments skipped roughly).
 import sys, re, glob
-limit = int(sys.argv[1]) if len(sys.argv) > 1 else 80
-root = sys.argv[2] if len(sys.argv) > 2 else 'src'
+# The long functions allowed, as (file, function).
+ALLOWED = {
+    # the integrator's loop: one step of the integration, kept whole to be read as one
+    ('physics/integrator.rs', 'integrate_until'),
+    # pending: being shortened in its own branch, which removes it from here
+    ('planning/closed_loop.rs', 'search'),
+}
+args = sys.argv[1:]
+check = '--check' in args
+args = [a for a in args if a != '--check']
+limit = int(args[0]) if len(args) > 0 else 80
+root = args[1] if len(args) > 1 else 'src'
 fn_re = re.compile(r'^\s*(pub(\([^)]*\))?\s+)?(const\s+)?(async\s+)?(unsafe\s+)?(extern\s+"[^"]*"\s+)?fn\s+(\w+)')
 def strip(line):
     # drop line comments and string contents
@@ -43,5 +54,15 @@ for f in sorted(glob.glob(root + '/**/*.rs', recursive=True)):
             if opened:
                 res.append((j - start + 1, f, start + 1, name))
         i += 1
+def allowed(f, name):
+    rel = f[len(root):].lstrip('/') if f.startswith(root) else f
+    return (rel, name) in ALLOWED
+found = 0
 for n, f, l, name in sorted(res, reverse=True):
-    if n > limit: print(f"{n:5} {f}:{l} {name}")
+    if n > limit and not (check and allowed(f, name)):
+        print(f"{n:5} {f}:{l} {name}")
+        found += 1
+if check and found:
+    print(f"{found} function(s) over {limit} lines: split them (or, for a reason, add to ALLOWED "
+          "in .ci/long-fns.py)", file=sys.stderr)
+    sys.exit(1)

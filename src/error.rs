@@ -14,44 +14,80 @@ pub enum Error {
     /// A scenario file's field holds a value that is not allowed.
     #[error("{file}: field `{field}`: expected {expected}")]
     Field {
+        /// The scenario file.
         file: PathBuf,
+        /// The field, as the file names it (`section.key`).
         field: String,
+        /// What the field may hold.
         expected: String,
     },
     /// A file could not be parsed at all (syntax, unknown key, wrong type).
     #[error("{file}: {message}")]
-    Parse { file: PathBuf, message: String },
+    Parse {
+        /// The file.
+        file: PathBuf,
+        /// The parser's message.
+        message: String,
+    },
+    /// A value given to a library call that it does not accept; `input` names the parameter
+    /// (the command line words it as its flag: `commands::args::as_flag`).
+    #[error("{input}: expected {expected}")]
+    Input {
+        /// The parameter.
+        input: Input,
+        /// What the parameter may be.
+        expected: String,
+    },
     /// A command-line argument is malformed.
     #[error("argument {arg}: expected {expected}")]
-    Arg { arg: String, expected: String },
+    Arg {
+        /// The argument, as the caller names it (a flag on the command line).
+        arg: String,
+        /// What the argument may be.
+        expected: String,
+    },
     /// A row of a CSV input file is malformed.
     #[error("{file}: line {line}: {message}")]
     Row {
+        /// The CSV file.
         file: PathBuf,
+        /// The line in the file, from 1.
         line: usize,
+        /// What is wrong with the row.
         message: String,
     },
     /// Drawing a figure failed (the backend's error, or data the figure cannot show).
     #[error("{path}: plotting failed: {message}")]
-    Plot { path: PathBuf, message: String },
+    Plot {
+        /// The figure's file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
     /// Writing CSV failed (`what` names the file or stream).
     #[error("{what}: writing CSV failed")]
     Csv {
+        /// The file or stream written.
         what: String,
+        /// The CSV writer's error.
         #[source]
         source: csv::Error,
     },
     /// Writing JSON failed (`what` names what was written).
     #[error("{what}: writing JSON failed")]
     Json {
+        /// What was written.
         what: String,
+        /// The JSON writer's error.
         #[source]
         source: serde_json::Error,
     },
     /// The worker threads could not be started.
     #[error("starting {threads} worker threads failed")]
     Threads {
+        /// The number of threads asked for.
         threads: usize,
+        /// Why the pool could not be built.
         #[source]
         source: rayon::ThreadPoolBuildError,
     },
@@ -60,7 +96,9 @@ pub enum Error {
     /// does not say it twice.)
     #[error("{path}: {cause}")]
     Io {
+        /// The file.
         path: PathBuf,
+        /// The system's error.
         cause: std::io::Error,
     },
     /// A relay board, or a replay on the boards, failed (the message says whether the coils
@@ -70,6 +108,35 @@ pub enum Error {
     /// An orientation sensor failed (the message names the sensor and its port).
     #[error(transparent)]
     Sensor(#[from] SensorError),
+}
+
+/// The parameter of a library call an [`Error::Input`] is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Input {
+    /// The angle step of a well's torque curve, degrees (`step_deg`).
+    WellStep,
+    /// An output file, which must not be one of the files read (`out`).
+    Output,
+    /// The simulated orientations shown beside a plan (`sim`), which must be the plan's steps.
+    Simulation,
+}
+
+impl Input {
+    /// The parameter's name in the library.
+    pub fn name(self) -> &'static str {
+        match self {
+            Input::WellStep => "step_deg",
+            Input::Output => "out",
+            Input::Simulation => "sim",
+        }
+    }
+}
+
+impl std::fmt::Display for Input {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "`{}`", self.name())
+    }
 }
 
 /// Result with the library's error.
@@ -85,6 +152,7 @@ impl Error {
         }
     }
 
+    /// A [`Error::Field`]: `file`'s `field` should hold `expected`.
     pub fn field(file: impl Into<PathBuf>, field: &str, expected: impl Into<String>) -> Self {
         Error::Field {
             file: file.into(),
@@ -93,6 +161,7 @@ impl Error {
         }
     }
 
+    /// An [`Error::Io`]: reading or writing `path` failed with `cause`.
     pub fn io(path: impl Into<PathBuf>, cause: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
@@ -100,6 +169,7 @@ impl Error {
         }
     }
 
+    /// An [`Error::Csv`]: writing CSV to `what` failed.
     pub fn csv(what: impl std::fmt::Display, source: csv::Error) -> Self {
         Error::Csv {
             what: what.to_string(),
@@ -107,6 +177,7 @@ impl Error {
         }
     }
 
+    /// An [`Error::Json`]: writing `what` as JSON failed.
     pub fn json(what: impl std::fmt::Display, source: serde_json::Error) -> Self {
         Error::Json {
             what: what.to_string(),

@@ -5,16 +5,16 @@
 //!
 //! The modules are layers; data flows one way and no module imports a layer above its own:
 //!
-//! 1. [`model`]: geometry, symmetry groups and the packings of magnets and coils;
-//! 2. [`physics`]: magnet torques, the integrator and the rotor's dynamics (the settle);
-//! 3. [`planning`]: commutation, the planners, the simulation of a plan and the closed loop;
-//! 4. [`relay`]: relay boards, the serial link and the timed replay of a plan;
-//!    [`sensor`] (the same level): orientation sensors read over a port (quat-csv, BNO055);
-//!    [`rehearse`] (above them): the virtual motor, their far ends on pseudo-terminals driving
+//! 1. `model`: geometry, symmetry groups and the packings of magnets and coils;
+//! 2. `physics`: magnet torques, the integrator and the rotor's dynamics (the settle);
+//! 3. `planning`: commutation, the planners, the simulation of a plan and the closed loop;
+//! 4. `relay`: relay boards, the serial link and the timed replay of a plan;
+//!    `sensor` (the same level): orientation sensors read over a port (quat-csv, BNO055);
+//!    `rehearse` (above them): the virtual motor, their far ends on pseudo-terminals driving
 //!    a simulated ball;
-//! 5. [`io`]: the files: scenarios (TOML), plans and results (CSV), atomic writes;
-//! 6. [`figures`]: the pictures, the 3-D page and the batch report;
-//! 7. [`commands`]: one function per command of the binary, and batches of scenarios.
+//! 5. `io`: the files: scenarios (TOML), plans and results (CSV), atomic writes;
+//! 6. `figures`: the pictures, the 3-D page and the batch report;
+//! 7. `commands`: one function per command of the binary, and batches of scenarios.
 //!
 //! [`error`] is shared by all layers.
 //!
@@ -44,22 +44,37 @@
 //! assert!(r.settled && r.residual_torque_nm < sc.settle.torque_tol);
 //! ```
 //!
-//! Features (all on by default): `cli` (the [`commands`] layer and the binary), `hardware`
+//! Features (all on by default): `cli` (the `commands` layer and the binary), `hardware`
 //! (opening serial devices), `figures` (the pictures). Without them the library is the
 //! physics, the planners and the files.
 
+#![warn(missing_docs)]
+
+// The layers' modules are public so that the tests, examples and benchmarks can reach every
+// part, but hidden from the documentation: the library's interface is what this root
+// re-exports (and `error`).
 #[cfg(feature = "cli")]
+#[doc(hidden)]
 pub mod commands;
 pub mod error;
 #[cfg(feature = "figures")]
+#[doc(hidden)]
 pub mod figures;
+#[doc(hidden)]
 pub mod io;
+#[doc(hidden)]
 pub mod model;
+#[doc(hidden)]
 pub mod physics;
+#[doc(hidden)]
 pub mod planning;
+#[doc(hidden)]
 pub mod rehearse;
+#[doc(hidden)]
 pub mod relay;
+#[doc(hidden)]
 pub mod sensor;
+#[doc(hidden)]
 pub mod serial;
 
 pub use error::{Error, Result};
@@ -68,11 +83,14 @@ pub use model::geometry::{
     parse_pairs, CoilId, Degrees, MagnetId, Orientation, Pair, Radians, UnitVec,
 };
 pub use physics::dynamics::{Body, SettleParams, SettleResult, Stop};
+pub use physics::torque::{MagnetTorques, Well, WellShape};
+pub use physics::well_curve::{WellSummary, MAX_STEP_DEG, MIN_STEP_DEG};
 pub use planning::cancel::Cancel;
 pub use planning::closed_loop::{
-    drive, Controller, Decision, Ending, LoopRun, LoopSettings, LoopSummary, Plant,
+    drive, goal_of, Controller, Decision, Ending, LoopRow, LoopRun, LoopSettings, LoopSummary,
+    Noise, Plant,
 };
-pub use planning::commutation::{CommutationState, Motor, StepModel};
-pub use planning::plan::{Plan, PlanRow, PlanSettings};
+pub use planning::commutation::{CommutationState, Motor, PairsPerStep, StepLimits, StepModel};
+pub use planning::plan::{Plan, PlanRow, PlanSettings, PlanSummary, Scheme};
 pub use planning::planner::max_axis_error_deg;
 pub use planning::simulate::SimRow;

@@ -3,8 +3,8 @@
 
 use super::CsvOutput;
 use anyhow::Result;
+use spherestep::commands::args::check_out;
 use spherestep::commands::{self as app};
-use spherestep::io::output::check_not_input;
 use spherestep::io::scenario::Scenario;
 use std::io::Write;
 use std::path::PathBuf;
@@ -73,7 +73,7 @@ impl Args {
         } = self;
         let sc = Scenario::load(&scenario)?;
         if let Some(o) = &out_file {
-            check_not_input(o, &sc.files)?;
+            check_out(o, &sc.files)?;
         }
         let o = what.overrides();
         let settings = app::plan_settings(&sc, &o)?;

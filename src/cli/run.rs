@@ -3,9 +3,9 @@
 
 use super::{CsvOutput, LoopArgs};
 use anyhow::Result;
+use spherestep::commands::args::check_out;
 use spherestep::commands::closed_loop::{run_command, Report};
 use spherestep::commands::{self as app};
-use spherestep::io::output::check_not_input;
 use spherestep::io::scenario::Scenario;
 use std::io::Write;
 use std::path::PathBuf;
@@ -31,7 +31,7 @@ impl Args {
         let sc = Scenario::load(&self.scenario)?;
         let plant = Scenario::load(&self.plant)?;
         if let Some(o) = &self.output.out {
-            check_not_input(o, &[&sc.files[..], &plant.files[..]].concat())?;
+            check_out(o, &[&sc.files[..], &plant.files[..]].concat())?;
         }
         let o = self.what.overrides();
         let settings = app::plan_settings(&sc, &o)?;

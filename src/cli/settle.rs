@@ -1,9 +1,9 @@
 //! `spherestep settle`: settles the ball under one active set or under many, in parallel.
 
 use anyhow::Result;
-use spherestep::commands::args::parse_orientation;
+use spherestep::commands::args::{check_out, parse_orientation};
 use spherestep::commands::{self as app};
-use spherestep::io::output::{check_not_input, write_atomic};
+use spherestep::io::output::write_atomic;
 use spherestep::io::scenario::Scenario;
 use std::io::Write;
 use std::path::PathBuf;
@@ -49,7 +49,7 @@ impl Args {
         if let Some(o) = &out_file {
             let mut read = sc.files.clone();
             read.extend(sets.clone());
-            check_not_input(o, &read)?;
+            check_out(o, &read)?;
         }
         if reference {
             sc.settle = sc.settle.reference();

@@ -3,8 +3,9 @@
 
 use super::{CsvOutput, LoopArgs};
 use anyhow::Result;
+use spherestep::commands::args::check_out;
 use spherestep::commands::{self as app};
-use spherestep::io::output::{check_not_input, emit_csv};
+use spherestep::io::output::emit_csv;
 use spherestep::io::scenario::Scenario;
 use spherestep::io::simfile::write_sim;
 use std::io::Write;
@@ -58,7 +59,7 @@ impl Args {
                     .chain(plant.iter().flat_map(|p| &p.files))
                     .cloned(),
             );
-            check_not_input(o, &read)?;
+            check_out(o, &read)?;
         }
         if looping.closed_loop || model.is_some() {
             let Some(plant) = plant else {

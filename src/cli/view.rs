@@ -1,8 +1,8 @@
 //! `spherestep view`: writes the self-contained 3-D page of a plan.
 
 use anyhow::Result;
-use spherestep::commands::args::parse_axis;
-use spherestep::io::output::check_not_input;
+use spherestep::commands::args::{as_flag, check_out, parse_axis};
+use spherestep::error::Input;
 use spherestep::io::scenario::Scenario;
 use std::io::Write;
 use std::path::PathBuf;
@@ -40,9 +40,10 @@ impl Args {
         };
         let mut read = vec![plan.clone()];
         read.extend(sc.files.iter().cloned().chain(sim.clone()));
-        check_not_input(&page, &read)?;
+        check_out(&page, &read)?;
         let axis = axis.map(|a| parse_axis(&a, "--axis")).transpose()?;
-        let data = spherestep::figures::view::write_view(&plan, &sc, sim.as_deref(), axis, &page)?;
+        let data = spherestep::figures::view::write_view(&plan, &sc, sim.as_deref(), axis, &page)
+            .map_err(|e| as_flag(e, Input::Simulation, "--sim"))?;
         writeln!(out, "wrote {} ({} steps)", page.display(), data.steps.len())?;
         Ok(())
     }

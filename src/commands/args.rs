@@ -1,10 +1,30 @@
 //! Parsers of the command line's argument strings: an axis `x,y,z` and an orientation
 //! `qx,qy,qz,qw`, each error naming the argument (`arg`) and what was expected. (Scenario and
-//! plan files are read by `io`; these are for what is typed.)
+//! plan files are read by `io`; these are for what is typed.) And the wording of the library's
+//! errors about a parameter ([`Error::Input`]) as the flag that gives it ([`as_flag`]).
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Input, Result};
+use crate::io::output::check_not_input;
 use crate::model::geometry::{orientation_from_xyzw, unit, Orientation, UnitVec};
 use nalgebra::Vector3;
+use std::path::Path;
+
+/// A library error about the parameter `input` worded as the command line's argument `flag`
+/// (an [`Error::Arg`], as the command line words every argument); any other error as it is.
+pub fn as_flag(e: Error, input: Input, flag: &str) -> Error {
+    match e {
+        Error::Input { input: i, expected } if i == input => Error::Arg {
+            arg: flag.into(),
+            expected,
+        },
+        e => e,
+    }
+}
+
+/// [`check_not_input`] for an output given as `--out` (or written into its folder).
+pub fn check_out<P: AsRef<Path>>(out: &Path, inputs: &[P]) -> Result<()> {
+    check_not_input(out, inputs).map_err(|e| as_flag(e, Input::Output, "--out"))
+}
 
 /// Parses `x,y,z` into a unit vector (normalised; zero and NaN refused).
 pub fn parse_axis(text: &str, arg: &str) -> Result<UnitVec> {

@@ -311,7 +311,7 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
         move |expected| Error::Arg { arg, expected }
     };
     if let Some(a) = o.angle_deg {
-        s.angle = target_angle(a).map_err(arg("--angle"))?;
+        s.angle = target_angle(a, "--from").map_err(arg("--angle"))?;
     }
     if let Some(n) = &o.scheme {
         s.scheme = Scheme::parse(n).map_err(arg("--scheme"))?;

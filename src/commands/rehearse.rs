@@ -137,6 +137,45 @@ fn stuck_relay(text: &str, boards: &[BoardSetup]) -> Result<Slot> {
 
 /// Reads the plant and checks every option: what the virtual motor runs with.
 pub fn prepare(o: &VirtualOptions) -> Result<Options> {
+    let max_seconds = check_numbers(o)?;
+    let mount: Orientation = match &o.mount {
+        None => Orientation::identity(),
+        Some(m) => parse_orientation(m, "--mount")?,
+    };
+    let sc = Scenario::load(&o.plant)?;
+    let boards = boards(&sc, o)?;
+    let coil_of = coil_of(&sc, &boards);
+    let stuck = match &o.stuck_relay {
+        None => None,
+        Some(t) => Some(stuck_relay(t, &boards)?),
+    };
+    let (start, hint) = start_and_hint(&sc, o)?;
+    Ok(Options {
+        boards,
+        coil_of,
+        max_coils_on: sc.relay.max_coils_on,
+        max_on_time: sc.relay.max_on_time,
+        ball: Ball::new(sc.torques.clone(), sc.body, start, hint),
+        sensor: o.sensor,
+        sensor_noise: Degrees(o.sensor_noise_deg).to_radians(),
+        seed: o.seed,
+        speed: o.speed,
+        mount,
+        link_dir: o.link_dir.clone(),
+        log: o.log.clone(),
+        faults: Faults {
+            drop_after_frames: o.drop_after_frames,
+            sensor_stall_after: o.sensor_stall_after,
+            sensor_garble: o.sensor_garble,
+            stuck_relay: stuck,
+        },
+        max_seconds,
+    })
+}
+
+/// Checks the options that are numbers (speed, noise, faults, time limit) before the plant is
+/// read: the time limit.
+fn check_numbers(o: &VirtualOptions) -> Result<Option<Duration>> {
     if !(o.speed.is_finite() && o.speed > 0.0 && o.speed <= MAX_SPEED) {
         return Err(arg(
             "--speed",
@@ -177,25 +216,21 @@ pub fn prepare(o: &VirtualOptions) -> Result<Options> {
     if o.drop_after_frames == Some(0) {
         return Err(arg("--drop-after-frames", "a number of frames >= 1, got 0"));
     }
-    let max_seconds = match o.max_seconds {
-        None => None,
-        Some(s) if s.is_finite() && s > 0.0 && s <= 1e6 => Some(Duration::from_secs_f64(s)),
-        Some(s) => {
-            return Err(arg(
-                "--max-seconds",
-                format!("seconds > 0 and <= 1000000, got {}", crate::error::shown(s)),
-            ))
-        }
-    };
-    let mount: Orientation = match &o.mount {
-        None => Orientation::identity(),
-        Some(m) => parse_orientation(m, "--mount")?,
-    };
-    let sc = Scenario::load(&o.plant)?;
-    let boards = boards(&sc, o)?;
-    let coils = sc.stator.points.len();
+    match o.max_seconds {
+        None => Ok(None),
+        Some(s) if s.is_finite() && s > 0.0 && s <= 1e6 => Ok(Some(Duration::from_secs_f64(s))),
+        Some(s) => Err(arg(
+            "--max-seconds",
+            format!("seconds > 0 and <= 1000000, got {}", crate::error::shown(s)),
+        )),
+    }
+}
+
+/// The coil on each relay of `boards` (the plant's coil map; a single board's slots all on
+/// board 0); coils mapped to no channel of the boards are left out.
+fn coil_of(sc: &Scenario, boards: &[BoardSetup]) -> BTreeMap<Slot, CoilId> {
     let mut coil_of = BTreeMap::new();
-    for c in 0..coils {
+    for c in 0..sc.stator.points.len() {
         let Some(mut slot) = sc.relay.map.slot(CoilId(c)) else {
             continue;
         };
@@ -209,43 +244,22 @@ pub fn prepare(o: &VirtualOptions) -> Result<Options> {
             coil_of.insert(slot, CoilId(c));
         }
     }
-    let stuck = match &o.stuck_relay {
-        None => None,
-        Some(t) => Some(stuck_relay(t, &boards)?),
+    coil_of
+}
+
+/// Where the ball starts and the pairs each row of `--plan` holds (the scenario's start and
+/// none without a plan); the plan's pairs checked against the scenario.
+fn start_and_hint(sc: &Scenario, o: &VirtualOptions) -> Result<(Orientation, Vec<Vec<Pair>>)> {
+    let Some(p) = &o.plan else {
+        return Ok((sc.plan.start, Vec::new()));
     };
-    let (start, hint) = match &o.plan {
-        None => (sc.plan.start, Vec::new()),
-        Some(p) => {
-            let rows = read_plan(p)?;
-            for r in &rows {
-                sc.check_active(&r.active, &format!("{}: step {}", p.display(), r.step))?;
-            }
-            let start = rows.first().map_or(sc.plan.start, |r| r.q);
-            let hint: Vec<Vec<Pair>> = rows.into_iter().map(|r| r.active).collect();
-            (start, hint)
-        }
-    };
-    Ok(Options {
-        boards,
-        coil_of,
-        max_coils_on: sc.relay.max_coils_on,
-        max_on_time: sc.relay.max_on_time,
-        ball: Ball::new(sc.torques.clone(), sc.body, start, hint),
-        sensor: o.sensor,
-        sensor_noise: Degrees(o.sensor_noise_deg).to_radians(),
-        seed: o.seed,
-        speed: o.speed,
-        mount,
-        link_dir: o.link_dir.clone(),
-        log: o.log.clone(),
-        faults: Faults {
-            drop_after_frames: o.drop_after_frames,
-            sensor_stall_after: o.sensor_stall_after,
-            sensor_garble: o.sensor_garble,
-            stuck_relay: stuck,
-        },
-        max_seconds,
-    })
+    let rows = read_plan(p)?;
+    for r in &rows {
+        sc.check_active(&r.active, &format!("{}: step {}", p.display(), r.step))?;
+    }
+    let start = rows.first().map_or(sc.plan.start, |r| r.q);
+    let hint: Vec<Vec<Pair>> = rows.into_iter().map(|r| r.active).collect();
+    Ok((start, hint))
 }
 
 /// Runs the virtual motor with `o` until the replaying side is done or `stop` is set;

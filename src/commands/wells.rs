@@ -3,9 +3,10 @@
 //! `table` format (`angle_deg,torque_nm`, from 0 to the cut-off) that a measurement can be
 //! compared with and a `shape = "table"` scenario reads back, with its picture and a summary.
 
-use crate::error::{printable, Error, Result};
+use crate::commands::args::{as_flag, check_out};
+use crate::error::{printable, Error, Input, Result};
 use crate::figures::{write_figure, WellPlot};
-use crate::io::output::{check_not_input, emit_csv};
+use crate::io::output::emit_csv;
 use crate::io::scenario::Scenario;
 use crate::io::table::csv_bytes;
 use crate::physics::torque::Well;
@@ -72,11 +73,12 @@ pub fn wells_command(
             PathBuf::from(p)
         });
         for p in std::iter::once(path).chain(pictures.iter().map(PathBuf::as_path)) {
-            check_not_input(p, &sc.files)?;
+            check_out(p, &sc.files)?;
         }
     }
     let well = &sc.torques.well;
-    let curve = well_curve(well, step_deg)?;
+    let curve =
+        well_curve(well, step_deg).map_err(|e| as_flag(e, Input::WellStep, "--step-deg"))?;
     let csv = curve_csv(&curve)?;
     let out = emit_csv(&csv, out_file, json, out, note)?;
     let mut pictures = Vec::new();

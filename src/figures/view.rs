@@ -11,7 +11,7 @@
 //! The page is written with `output::write_atomic` (a temporary file next to the output, then
 //! a rename), so an error never leaves a half-written page behind.
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Input, Result};
 use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
 use crate::io::simfile::{read_sim, SimRecord};
@@ -236,8 +236,8 @@ fn view_sim(rows: &[SimRecord], plan: &[PlanRow], first: &PlanRow) -> Result<Vec
         let planned = plan
             .iter()
             .find(|r| r.step == s.step)
-            .ok_or_else(|| Error::Arg {
-                arg: "--sim".into(),
+            .ok_or_else(|| Error::Input {
+                input: Input::Simulation,
                 expected: format!(
                     "steps of the plan ({}..={last}), got step {}",
                     first.step, s.step
@@ -425,7 +425,7 @@ mod tests {
         assert!((sim[1].computed_deviation_deg - 0.2f64.to_degrees()).abs() < 1e-9);
         let far = parse_sim("step,qx,qy,qz,qw\n9,0,0,0,1\n", Path::new("s.csv")).unwrap();
         let e = view_data_with_sim(far).unwrap_err().to_string();
-        assert!(e.contains("--sim") && e.contains("step 9"), "{e}");
+        assert!(e.contains("`sim`") && e.contains("step 9"), "{e}");
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! shared disk) never touch each other's; only the temporaries of dead processes of this
 //! machine are provably stale and removed.
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Input, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -168,8 +168,8 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
 pub fn check_not_input<P: AsRef<Path>>(out: &Path, inputs: &[P]) -> Result<()> {
     match inputs.iter().find(|i| same_file(out, i.as_ref())) {
         None => Ok(()),
-        Some(input) => Err(Error::Arg {
-            arg: "--out".into(),
+        Some(input) => Err(Error::Input {
+            input: Input::Output,
             expected: format!(
                 "a file that is not one of the command's inputs, got {}, the same file as {}",
                 out.display(),

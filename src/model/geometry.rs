@@ -72,11 +72,14 @@ impl fmt::Display for MagnetId {
 /// A pair: stator coil `coil` attracting rotor magnet `magnet`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 pub struct Pair {
+    /// The energised stator coil.
     pub coil: CoilId,
+    /// The rotor magnet it pulls.
     pub magnet: MagnetId,
 }
 
 impl Pair {
+    /// Coil `coil` pulling magnet `magnet`.
     pub fn new(coil: usize, magnet: usize) -> Self {
         Pair {
             coil: CoilId(coil),

@@ -603,9 +603,13 @@ fn angle_from_sin_cos(sin_d: f64, cos_d: f64) -> f64 {
 /// frame), the pair well and the interaction.
 #[derive(Debug, Clone)]
 pub struct MagnetTorques {
+    /// The rotor magnets' positions (body frame), in magnet order.
     pub rotor: Vec<Vector3<f64>>,
+    /// The stator coils' positions (world frame), in coil order.
     pub stator: Vec<Vector3<f64>>,
+    /// The pull of one coil on one magnet against their angular distance.
     pub well: Well,
+    /// Which magnets each energised coil pulls.
     pub interaction: Interaction,
 }
 

@@ -3,7 +3,7 @@
 //! (the peak pull, the width, the stiffness). What `spherestep wells` and
 //! [`crate::Motor::wells`] compute.
 
-use crate::error::{shown, Error, Result};
+use crate::error::{shown, Error, Input, Result};
 use crate::physics::torque::Well;
 use serde::Serialize;
 
@@ -22,8 +22,8 @@ pub const MAX_STEP_DEG: f64 = 10.0;
 /// the step in [`MIN_STEP_DEG`, `MAX_STEP_DEG`].
 pub fn well_curve(well: &Well, step_deg: f64) -> Result<Vec<(f64, f64)>> {
     if !(step_deg.is_finite() && (MIN_STEP_DEG..=MAX_STEP_DEG).contains(&step_deg)) {
-        return Err(Error::Arg {
-            arg: "--step-deg".into(),
+        return Err(Error::Input {
+            input: Input::WellStep,
             expected: format!(
                 "an angle step in [{MIN_STEP_DEG}, {MAX_STEP_DEG}] degrees, got {}",
                 shown(step_deg)
@@ -44,17 +44,21 @@ pub fn well_curve(well: &Well, step_deg: f64) -> Result<Vec<(f64, f64)>> {
 /// What `wells` reports of a curve.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WellSummary {
+    /// The curve's rows (angles sampled).
     pub rows: usize,
     /// The strongest pull and where it is.
     pub peak_torque_nm: f64,
+    /// The angle of the strongest pull, degrees.
     pub peak_angle_deg: f64,
     /// The pull just inside the cut-off (what is lost at once beyond it).
     pub cutoff_deg: f64,
+    /// The pull at [`WellSummary::cutoff_deg`], N m.
     pub cutoff_torque_nm: f64,
     /// dg/dd at 0: how hard one aligned magnet is held, N m / rad.
     pub stiffness_nm_per_rad: f64,
     /// Half the peak pull, reached first and last at these angles (the well's width).
     pub half_peak_from_deg: f64,
+    /// The last angle of half the peak pull, degrees.
     pub half_peak_to_deg: f64,
 }
 

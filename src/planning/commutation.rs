@@ -99,7 +99,9 @@ fn rotor_separation(rotor: &[Vector3<f64>]) -> Radians {
 /// `max - 1` new pairs. The pivot model takes exactly two; the dynamic model any of 2..=8.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PairsPerStep {
+    /// The fewest pairs on after a step, the pivot included.
     pub min: usize,
+    /// The most pairs on after a step, the pivot included.
     pub max: usize,
 }
 
@@ -141,8 +143,11 @@ impl std::fmt::Display for PairsPerStep {
 /// scenario and moves between threads.
 #[derive(Debug, Clone)]
 pub struct Motor {
+    /// The torque model: magnets, coils, the pair well and the interaction.
     pub torques: MagnetTorques,
+    /// The rotor's inertia and damping.
     pub body: Body,
+    /// How a settle is integrated and when it counts as settled.
     pub settle: SettleParams,
     /// Set from another thread to abandon the planning in progress (see
     /// [`crate::planning::cancel`]); [`Cancel::never`] everywhere but the hardware loop.
@@ -166,7 +171,9 @@ impl Motor {
 /// The ball's commutation state: its orientation and what holds it there.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CommutationState {
+    /// The ball's orientation (body to world).
     pub q: Orientation,
+    /// The coil:magnet pairs energised.
     pub active: Vec<Pair>,
     /// Predicted settle time of the move into this state, s (0 for the geometric model).
     pub settle_time_s: f64,

@@ -14,7 +14,13 @@ use crate::planning::simulate::{self, SimRow};
 
 impl Motor {
     /// Settles the ball from `q0` under the coil:magnet pairs `pairs` (see
-    /// [`dynamics::settle`]).
+    /// [`dynamics::settle`]). The pairs' indices must be the motor's (a scenario checks them:
+    /// [`crate::Scenario::check_active`]).
+    ///
+    /// # Errors
+    ///
+    /// None: a ball that does not come to rest within the settle's `t_max` is a result
+    /// (`settled` false, [`SettleResult::stop`] says why), not an error.
     ///
     /// # Examples
     ///
@@ -32,11 +38,36 @@ impl Motor {
 
     /// Settles each of `sets` from `q0`, in parallel; the results in the sets' order, the same
     /// on any number of threads.
+    ///
+    /// # Errors
+    ///
+    /// None, as for [`Motor::settle`]: each result says whether its set settled.
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use spherestep::{parse_pairs, Orientation, Scenario};
+    ///
+    /// let m = Scenario::prototype().motor();
+    /// let sets = vec![
+    ///     parse_pairs("0:14,12:26", "pairs").unwrap(),
+    ///     parse_pairs("0:14", "pairs").unwrap(),
+    /// ];
+    /// let q0 = Orientation::identity();
+    /// let rs = m.settle_many(&sets, &q0);
+    /// assert_eq!(rs.len(), 2);
+    /// assert_eq!(rs[0].q, m.settle(&sets[0], &q0).q);
+    /// ```
     pub fn settle_many(&self, sets: &[Vec<Pair>], q0: &Orientation) -> Vec<SettleResult> {
         dynamics::settle_many(&self.torques, sets, q0, self.body, self.settle)
     }
 
     /// Plans the motion `settings` asks for (axis, angle, step model, limits).
+    ///
+    /// # Errors
+    ///
+    /// None: a plan that does not reach the target is returned as far as it got, with
+    /// `reached` false and [`Plan::message`] saying why.
     ///
     /// # Examples
     ///
@@ -51,7 +82,13 @@ impl Motor {
         planner::plan(self, settings)
     }
 
-    /// Replays a plan's rows through the dynamics: where the ball really settles at each step.
+    /// Replays a plan's rows through the dynamics: where the ball really settles at each step
+    /// (from row 0's orientation, each row's set from where the last left the ball). No rows,
+    /// no steps.
+    ///
+    /// # Errors
+    ///
+    /// None: a step that does not settle is a row with `settled` false.
     ///
     /// # Examples
     ///
@@ -75,6 +112,11 @@ impl Motor {
     /// [`MIN_STEP_DEG`]: crate::physics::well_curve::MIN_STEP_DEG
     /// [`MAX_STEP_DEG`]: crate::physics::well_curve::MAX_STEP_DEG
     ///
+    /// # Errors
+    ///
+    /// [`crate::Error::Input`] ([`crate::error::Input::WellStep`]) for a `step_deg` that is
+    /// not a number in [`MIN_STEP_DEG`, `MAX_STEP_DEG`].
+    ///
     /// # Examples
     ///
     /// ```
@@ -92,8 +134,34 @@ impl Motor {
     }
 
     /// Plays `open` (a plan of this motor's for `settings`) on `plant` with the closed loop
-    /// `cl` towards `goal` (see [`run_closed_loop`]); this motor is the model the replans are
-    /// made in.
+    /// `cl` towards `goal` (see [`run_closed_loop`]; [`crate::goal_of`] gives a plan's goal):
+    /// `plant` settles each set, a simulated sensor measures it, and the loop replans in this
+    /// motor, its model, when the measurement strays.
+    ///
+    /// # Errors
+    ///
+    /// None: a run that cannot go on (no initial state, no step towards the goal, the step
+    /// limit) ends with [`LoopSummary::reached`] false and [`LoopSummary::message`] saying
+    /// why.
+    ///
+    /// [`LoopSummary::reached`]: crate::LoopSummary::reached
+    /// [`LoopSummary::message`]: crate::LoopSummary::message
+    ///
+    /// # Examples
+    ///
+    /// The prototype's plan played open loop on the motor itself, with a noiseless sensor:
+    ///
+    /// ```
+    /// use spherestep::{goal_of, LoopSettings, Radians, Scenario};
+    ///
+    /// let sc = Scenario::prototype();
+    /// let m = sc.motor();
+    /// let p = m.plan(&sc.plan);
+    /// let goal = goal_of(&sc.plan, &p.rows).unwrap();
+    /// let run = m.run(&m, &sc.plan, &p, goal, &LoopSettings::open(Radians(0.0), 1));
+    /// assert_eq!(run.summary.replans, 0);
+    /// assert!(!run.rows.is_empty());
+    /// ```
     pub fn run(
         &self,
         plant: &Motor,

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 /// One step of a plan.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlanRow {
+    /// The step's number: 0 for the initial commutation, then 1, 2, ...
     pub step: usize,
     /// The held pair that stays on through the step (none for step 0).
     pub pivot: Option<Pair>,
@@ -19,9 +20,14 @@ pub struct PlanRow {
     pub active: Vec<Pair>,
     /// Predicted orientation after the step (body to world).
     pub q: Orientation,
+    /// The step's rotation angle about the target axis, degrees (signed).
     pub step_angle_deg: f64,
+    /// The angle between the step's rotation axis and the target axis, degrees.
     pub step_axis_error_deg: f64,
+    /// The rotation from row 0 to this row, its angle about the target axis, degrees
+    /// (tracked continuously past 180).
     pub cum_angle_deg: f64,
+    /// The axis error of the rotation from row 0 to this row, degrees.
     pub cum_axis_error_deg: f64,
     /// Predicted settle time of the step, s (t_max where it does not settle).
     pub settle_time_s: f64,
@@ -90,18 +96,19 @@ impl Scheme {
 pub const MAX_TARGET_DEG: f64 = 180.0;
 
 /// A target angle given in degrees, checked to lie in (0, [`MAX_TARGET_DEG`]], or what was
-/// expected instead (with the reason, and how to plan a longer turn).
-pub fn target_angle(deg: f64) -> std::result::Result<Radians, String> {
+/// expected instead (with the reason, and how to plan a longer turn: moves, each starting where
+/// the last one ended, `start` naming where a move's start is given).
+pub fn target_angle(deg: f64, start: &str) -> std::result::Result<Radians, String> {
     if deg.is_finite() && deg > 0.0 && deg <= MAX_TARGET_DEG {
         Ok(Degrees(deg).to_radians())
     } else {
         let longer = match deg.is_finite() && deg > MAX_TARGET_DEG {
-            true => {
+            true => format!(
                 "; a turn of more than 180 degrees ends where a shorter one about the opposite \
                  axis does and cannot be measured as one rotation: plan it as moves of at most \
-                 180 degrees, each starting (--from) where the last one ended"
-            }
-            false => "",
+                 180 degrees, each starting ({start}) where the last one ended"
+            ),
+            false => String::new(),
         };
         Err(format!(
             "a target angle in (0, {MAX_TARGET_DEG}] degrees, got {}{longer}",
@@ -113,14 +120,19 @@ pub fn target_angle(deg: f64) -> std::result::Result<Radians, String> {
 /// What to plan.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlanSettings {
+    /// The target rotation's axis (world frame).
     pub axis: UnitVec,
+    /// The target rotation's angle about `axis`.
     pub angle: Radians,
+    /// How the next step is chosen.
     pub scheme: Scheme,
+    /// How a step is predicted: the geometry of a pivot, or the dynamics.
     pub model: StepModel,
     /// Pairs on after each step (pivot + new ones): exactly 2 for the paper's model.
     pub pairs: PairsPerStep,
     /// Start orientation, before the initial commutation.
     pub start: Orientation,
+    /// What counts as a step (smallest angle, largest axis error, ...).
     pub limits: StepLimits,
     /// Give up after this many steps.
     pub max_steps: usize,
@@ -137,7 +149,9 @@ pub struct PlanSettings {
 /// A plan and how it ended.
 #[derive(Debug, Clone)]
 pub struct Plan {
+    /// The steps, row 0 the initial commutation.
     pub rows: Vec<PlanRow>,
+    /// Whether the plan reaches the target within the angle tolerance.
     pub reached: bool,
     /// Why the plan stopped short, when it did.
     pub message: Option<String>,
@@ -149,14 +163,23 @@ pub struct Plan {
 /// The summary printed by `plan --json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct PlanSummary {
+    /// The steps after the initial commutation.
     pub steps: usize,
+    /// The last row's cumulative angle, degrees.
     pub final_angle_deg: f64,
+    /// The worst cumulative axis error along the plan, degrees.
     pub max_axis_error_deg: f64,
+    /// See [`Plan::reached`].
     pub reached: bool,
+    /// The steps' predicted settle times added up, s.
     pub total_settle_time_s: f64,
+    /// The scheme's name, as a scenario writes it.
     pub scheme: String,
+    /// The step model's name, as a scenario writes it.
     pub model: String,
+    /// The most pairs on after a step (see [`PlanSettings::pairs`]).
     pub pairs_per_step: usize,
+    /// See [`Plan::message`].
     pub message: Option<String>,
     /// See [`Plan::settles`].
     pub settles: usize,
@@ -165,6 +188,7 @@ pub struct PlanSummary {
 }
 
 impl Plan {
+    /// The plan's summary, with the names of the settings `s` it was planned with.
     pub fn summary(&self, s: &PlanSettings) -> PlanSummary {
         PlanSummary {
             steps: self.rows.len().saturating_sub(1),

@@ -11,12 +11,16 @@ use serde::Serialize;
 /// One replayed step.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SimRow {
+    /// The plan row's step.
     pub step: usize,
+    /// Where the ball settled (body to world).
     #[serde(skip)]
     pub q: Orientation,
     /// Angle between the simulated and the predicted orientation, degrees.
     pub deviation_deg: f64,
+    /// Whether the ball settled within the settle's time limit.
     pub settled: bool,
+    /// How long the settle took, s.
     pub settle_time_s: f64,
 }
 

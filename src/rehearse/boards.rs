@@ -1,7 +1,7 @@
 //! The relay boards as their far end: each protocol of `crate::relay` (LCUS, KMTronic, Numato,
 //! Modbus RTU) parsed from the bytes a driver sends and answered byte for byte as the board
 //! does (read-back, the Numato echo and prompt, Modbus CRCs and exception replies), with the
-//! relays it switches. Pure bytes, no port: [`super::run`] feeds it what arrives on a
+//! relays it switches. Pure bytes, no port: [`super::live::run`] feeds it what arrives on a
 //! pseudo-terminal, and the tests can feed it directly.
 
 use crate::relay::modbus::crc16;
@@ -286,11 +286,44 @@ impl BoardEmulator {
     /// Modbus RTU: 05 (8 bytes), 01 (8 bytes), 0F (9 + n bytes); CRC checked; exceptions
     /// 01 (function), 02 (address), 03 (value).
     fn modbus(&mut self) -> Option<Frame> {
+        let len = self.modbus_len()?;
+        if self.buf.len() < len {
+            return None;
+        }
+        let bytes = self.take(len);
+        let (data, crc) = bytes.split_at(len - 2);
+        if crc16(data) != crc {
+            return Some(Frame {
+                bytes: bytes.clone(),
+                action: Action::Unknown("a bad CRC: not answered".into()),
+                reply: Vec::new(),
+            });
+        }
+        if bytes[0] != self.slave_address {
+            return Some(Frame {
+                action: Action::Unknown(format!(
+                    "addressed to slave {}, this is slave {}: not answered",
+                    bytes[0], self.slave_address
+                )),
+                bytes,
+                reply: Vec::new(),
+            });
+        }
+        let (action, reply) = self.modbus_answer(&bytes);
+        Some(Frame {
+            bytes,
+            action,
+            reply,
+        })
+    }
+
+    /// The length of the Modbus frame the buffer starts with, `None` while too little has
+    /// arrived to tell.
+    fn modbus_len(&self) -> Option<usize> {
         if self.buf.len() < 2 {
             return None;
         }
-        let function = self.buf[1];
-        let len = match function {
+        Some(match self.buf[1] {
             0x05 | 0x01 => 8,
             0x0F => {
                 if self.buf.len() < 7 {
@@ -301,38 +334,21 @@ impl BoardEmulator {
             // no length is known: what has arrived is the frame (a real slave waits for the
             // line's silence)
             _ => self.buf.len().max(4),
-        };
-        if self.buf.len() < len {
-            return None;
-        }
-        let bytes = self.take(len);
-        let (data, crc) = bytes.split_at(len - 2);
-        let unknown = |why: String| Action::Unknown(why);
-        if crc16(data) != crc {
-            return Some(Frame {
-                bytes: bytes.clone(),
-                action: unknown("a bad CRC: not answered".into()),
-                reply: Vec::new(),
-            });
-        }
-        if bytes[0] != self.slave_address {
-            return Some(Frame {
-                action: unknown(format!(
-                    "addressed to slave {}, this is slave {}: not answered",
-                    bytes[0], self.slave_address
-                )),
-                bytes,
-                reply: Vec::new(),
-            });
-        }
+        })
+    }
+
+    /// What a whole Modbus frame to this slave, its CRC checked, does and the reply: the
+    /// echo, the coils read or an exception.
+    fn modbus_answer(&self, bytes: &[u8]) -> (Action, Vec<u8>) {
+        let function = bytes[1];
         let n = usize::from(self.channels);
         let exception = |code: u8, why: String| {
             let mut r = vec![bytes[0], function | 0x80, code];
             r.extend(crc16(&r));
-            (unknown(why), r)
+            (Action::Unknown(why), r)
         };
         let word = |i: usize| usize::from(u16::from_be_bytes([bytes[i], bytes[i + 1]]));
-        let (action, reply) = match function {
+        match function {
             0x05 => {
                 let (addr, value) = (word(2), word(4));
                 if addr >= n {
@@ -340,7 +356,10 @@ impl BoardEmulator {
                 } else if value != 0xFF00 && value != 0 {
                     exception(0x03, format!("value {value:04X} (FF00 on, 0000 off)"))
                 } else {
-                    (Action::Set(addr as u16 + 1, value == 0xFF00), bytes.clone())
+                    (
+                        Action::Set(addr as u16 + 1, value == 0xFF00),
+                        bytes.to_vec(),
+                    )
                 }
             }
             0x0F => {
@@ -365,25 +384,25 @@ impl BoardEmulator {
                 if start + count > n || count == 0 {
                     exception(0x02, format!("coils {start}..{} of 0..{n}", start + count))
                 } else {
-                    let mut r = vec![bytes[0], 0x01, count.div_ceil(8) as u8];
-                    let mut packed = vec![0u8; count.div_ceil(8)];
-                    for i in 0..count {
-                        if self.relays[start + i] {
-                            packed[i / 8] |= 1 << (i % 8);
-                        }
-                    }
-                    r.extend(packed);
-                    r.extend(crc16(&r));
-                    (Action::Read, r)
+                    (Action::Read, self.modbus_coils(bytes[0], start, count))
                 }
             }
             f => exception(0x01, format!("function {f:02X} (05, 0F and 01 are served)")),
-        };
-        Some(Frame {
-            bytes,
-            action,
-            reply,
-        })
+        }
+    }
+
+    /// The reply to a read of coils `start..start + count` (function 01), packed and CRC'd.
+    fn modbus_coils(&self, slave: u8, start: usize, count: usize) -> Vec<u8> {
+        let mut r = vec![slave, 0x01, count.div_ceil(8) as u8];
+        let mut packed = vec![0u8; count.div_ceil(8)];
+        for i in 0..count {
+            if self.relays[start + i] {
+                packed[i / 8] |= 1 << (i % 8);
+            }
+        }
+        r.extend(packed);
+        r.extend(crc16(&r));
+        r
     }
 }
 

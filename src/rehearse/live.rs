@@ -65,6 +65,85 @@ struct World {
 }
 
 impl World {
+    /// The world at the start: the ball where the options put it, every relay open.
+    fn new(opts: &Options, log: Option<std::io::BufWriter<std::fs::File>>) -> World {
+        World {
+            ball: opts.ball.clone(),
+            started: Instant::now(),
+            speed: opts.speed,
+            t: 0.0,
+            boards: (opts.boards.iter())
+                .map(|b| BoardEmulator::new(b.kind, b.channels, b.slave_address))
+                .collect(),
+            coil_of: opts.coil_of.clone(),
+            stuck: opts.faults.stuck_relay,
+            on_since: BTreeMap::new(),
+            max_coils_on: opts.max_coils_on,
+            max_on_time: opts.max_on_time.as_secs_f64(),
+            violations: Vec::new(),
+            violations_total: 0,
+            frames: vec![0; opts.boards.len()],
+            unknown_frames: 0,
+            readings: 0,
+            garbled: 0,
+            noise: Noise::new(opts.seed, opts.sensor_noise),
+            mount: opts.mount,
+            garble: opts.faults.sensor_garble,
+            garble_rng: Noise::new(
+                opts.seed ^ 0x5EED_6A4B_1E00_0001,
+                crate::model::geometry::Radians(0.0),
+            ),
+            log,
+            log_path: opts.log.clone(),
+            log_error: None,
+            peak_on: 0,
+        }
+    }
+
+    /// The end, once every port's thread has stopped: the relays still on reported, the log
+    /// closed, the summary.
+    fn finish(&mut self, ports: Vec<PortInfo>, ended_by: String) -> Summary {
+        self.update();
+        let on_at_end = self.closed();
+        if !on_at_end.is_empty() {
+            let names: Vec<String> = on_at_end.iter().map(|&s| self.coil_name(s)).collect();
+            self.violation(format!(
+                "{} still on at the end ({})",
+                if names.len() == 1 {
+                    "a relay is"
+                } else {
+                    "relays are"
+                },
+                names.join(", ")
+            ));
+        }
+        self.log_row("-", "end", &format!("ended by {ended_by}"));
+        if let Some(mut l) = self.log.take() {
+            if let Err(e) = l.flush() {
+                self.log_error.get_or_insert(e.to_string());
+            }
+        }
+        let q = self.ball.orientation();
+        let c = q.quaternion();
+        Summary {
+            ports,
+            ended_by,
+            virtual_time_s: self.t,
+            frames: self.frames.clone(),
+            unknown_frames: self.unknown_frames,
+            sensor_readings: self.readings,
+            garbled_readings: self.garbled,
+            most_relays_on: self.peak_on,
+            relays_on_at_end: on_at_end.iter().map(|s| s.to_string()).collect(),
+            coils_on_at_end: self.coils_on().iter().map(|c| c.0).collect(),
+            final_orientation: [c.i, c.j, c.k, c.w],
+            violations: self.violations.clone(),
+            violations_total: self.violations_total,
+            log: self.log_path.clone(),
+            log_error: self.log_error.clone(),
+        }
+    }
+
     fn now(&self) -> f64 {
         self.started.elapsed().as_secs_f64() * self.speed
     }
@@ -360,88 +439,77 @@ pub fn run(
             reason: e.to_string(),
         })?;
     }
-    let log = match &opts.log {
-        None => None,
-        Some(p) => {
-            let mut f = std::fs::File::create(p).map_err(|e| RehearseError::Log {
-                path: p.clone(),
-                reason: e.to_string(),
-            })?;
-            f.write_all(b"t_s,port,frame,what,coils_on,qw,qx,qy,qz\n")
-                .map_err(|e| RehearseError::Log {
-                    path: p.clone(),
-                    reason: e.to_string(),
-                })?;
-            Some(std::io::BufWriter::new(f))
-        }
-    };
+    let log = open_log(opts)?;
     let mut masters = Vec::new();
     let mut infos = Vec::new();
     for (k, b) in opts.boards.iter().enumerate() {
-        let (m, path) = open_pty()?;
-        let link = match &opts.link_dir {
-            Some(d) => Some(link(d, &format!("board{k}"), &path)?),
-            None => None,
-        };
-        infos.push(PortInfo {
-            what: format!("board {k} ({}, {} channels)", b.kind, b.channels),
-            path,
-            link,
-        });
+        let what = format!("board {k} ({}, {} channels)", b.kind, b.channels);
+        let (m, info) = make_port(opts, &format!("board{k}"), what)?;
+        infos.push(info);
         masters.push(m);
     }
     let sensor = match opts.sensor {
         None => None,
         Some(f) => {
-            let (m, path) = open_pty()?;
-            let link = match &opts.link_dir {
-                Some(d) => Some(link(d, "sensor", &path)?),
-                None => None,
-            };
-            infos.push(PortInfo {
-                what: format!("sensor ({f})"),
-                path,
-                link,
-            });
+            let (m, info) = make_port(opts, "sensor", format!("sensor ({f})"))?;
+            infos.push(info);
             Some((f, m))
         }
     };
-    let world = Arc::new(Mutex::new(World {
-        ball: opts.ball.clone(),
-        started: Instant::now(),
-        speed: opts.speed,
-        t: 0.0,
-        boards: (opts.boards.iter())
-            .map(|b| BoardEmulator::new(b.kind, b.channels, b.slave_address))
-            .collect(),
-        coil_of: opts.coil_of.clone(),
-        stuck: opts.faults.stuck_relay,
-        on_since: BTreeMap::new(),
-        max_coils_on: opts.max_coils_on,
-        max_on_time: opts.max_on_time.as_secs_f64(),
-        violations: Vec::new(),
-        violations_total: 0,
-        frames: vec![0; opts.boards.len()],
-        unknown_frames: 0,
-        readings: 0,
-        garbled: 0,
-        noise: Noise::new(opts.seed, opts.sensor_noise),
-        mount: opts.mount,
-        garble: opts.faults.sensor_garble,
-        garble_rng: Noise::new(
-            opts.seed ^ 0x5EED_6A4B_1E00_0001,
-            crate::model::geometry::Radians(0.0),
-        ),
-        log,
-        log_path: opts.log.clone(),
-        log_error: None,
-        peak_on: 0,
-    }));
+    let world = Arc::new(Mutex::new(World::new(opts, log)));
     ready(&infos);
     let conns: Vec<Arc<Conn>> = (0..infos.len())
         .map(|_| Arc::new(Conn::default()))
         .collect();
     let done = Arc::new(AtomicBool::new(false));
+    let threads = serve(opts, masters, sensor, &world, &conns, &done);
+    let ended_by = watch(opts, &world, &conns, &stop);
+    done.store(true, Ordering::SeqCst);
+    for t in threads {
+        let _ = t.join();
+    }
+    let mut w = lock(&world);
+    Ok(w.finish(infos, ended_by))
+}
+
+/// The log CSV, its header written (none without `opts.log`).
+fn open_log(opts: &Options) -> Result<Option<std::io::BufWriter<std::fs::File>>, RehearseError> {
+    let Some(p) = &opts.log else {
+        return Ok(None);
+    };
+    let err = |e: std::io::Error| RehearseError::Log {
+        path: p.clone(),
+        reason: e.to_string(),
+    };
+    let mut f = std::fs::File::create(p).map_err(err)?;
+    f.write_all(b"t_s,port,frame,what,coils_on,qw,qx,qy,qz\n")
+        .map_err(err)?;
+    Ok(Some(std::io::BufWriter::new(f)))
+}
+
+/// A pseudo-terminal for `what`, with its link `name` in the link directory if there is one.
+fn make_port(
+    opts: &Options,
+    name: &str,
+    what: String,
+) -> Result<(TTYPort, PortInfo), RehearseError> {
+    let (m, path) = open_pty()?;
+    let link = match &opts.link_dir {
+        Some(d) => Some(link(d, name, &path)?),
+        None => None,
+    };
+    Ok((m, PortInfo { what, path, link }))
+}
+
+/// Starts a thread serving each port: the boards' (in order), then the sensor's.
+fn serve(
+    opts: &Options,
+    masters: Vec<TTYPort>,
+    sensor: Option<(SensorFormat, TTYPort)>,
+    world: &Arc<Mutex<World>>,
+    conns: &[Arc<Conn>],
+    done: &Arc<AtomicBool>,
+) -> Vec<std::thread::JoinHandle<()>> {
     let mut threads = Vec::new();
     for (k, m) in masters.into_iter().enumerate() {
         let (w, c, done) = (world.clone(), conns[k].clone(), done.clone());
@@ -458,14 +526,20 @@ pub fn run(
             serve_sensor(f, m, &w, &c, &done, stall)
         }));
     }
-    let ended_by = loop {
+    threads
+}
+
+/// Keeps the ball up to date every tick until a signal, the time limit or the replaying side
+/// closing every port it opened: which of them ended it.
+fn watch(opts: &Options, world: &Mutex<World>, conns: &[Arc<Conn>], stop: &AtomicBool) -> String {
+    loop {
         std::thread::sleep(TICK);
-        lock(&world).update();
+        lock(world).update();
         if stop.load(Ordering::SeqCst) {
             break "a signal (Ctrl-C or SIGTERM)".to_string();
         }
         if let Some(limit) = opts.max_seconds {
-            if lock(&world).started.elapsed() >= limit {
+            if lock(world).started.elapsed() >= limit {
                 break format!("its time limit ({} s)", limit.as_secs_f64());
             }
         }
@@ -476,51 +550,7 @@ pub fn run(
         if any_was && all_closed {
             break "the replaying side closing its ports".to_string();
         }
-    };
-    done.store(true, Ordering::SeqCst);
-    for t in threads {
-        let _ = t.join();
     }
-    let mut w = lock(&world);
-    w.update();
-    let on_at_end = w.closed();
-    if !on_at_end.is_empty() {
-        let names: Vec<String> = on_at_end.iter().map(|&s| w.coil_name(s)).collect();
-        w.violation(format!(
-            "{} still on at the end ({})",
-            if names.len() == 1 {
-                "a relay is"
-            } else {
-                "relays are"
-            },
-            names.join(", ")
-        ));
-    }
-    w.log_row("-", "end", &format!("ended by {ended_by}"));
-    if let Some(mut l) = w.log.take() {
-        if let Err(e) = l.flush() {
-            w.log_error.get_or_insert(e.to_string());
-        }
-    }
-    let q = w.ball.orientation();
-    let c = q.quaternion();
-    Ok(Summary {
-        ports: infos,
-        ended_by,
-        virtual_time_s: w.t,
-        frames: w.frames.clone(),
-        unknown_frames: w.unknown_frames,
-        sensor_readings: w.readings,
-        garbled_readings: w.garbled,
-        most_relays_on: w.peak_on,
-        relays_on_at_end: on_at_end.iter().map(|s| s.to_string()).collect(),
-        coils_on_at_end: w.coils_on().iter().map(|c| c.0).collect(),
-        final_orientation: [c.i, c.j, c.k, c.w],
-        violations: w.violations.clone(),
-        violations_total: w.violations_total,
-        log: w.log_path.clone(),
-        log_error: w.log_error.clone(),
-    })
 }
 
 /// Serves one board's pty until the end (or the fault that drops it).
@@ -625,40 +655,7 @@ fn serve_sensor(
             Seen::Bytes(b) => {
                 conn.seen(true);
                 if format == SensorFormat::Bno055 {
-                    let mut w = lock(world);
-                    let mut garble = false;
-                    let mut reads = 0usize;
-                    let mut now = || {
-                        reads += 1;
-                        let (q, g) = w.reading();
-                        garble |= g;
-                        q
-                    };
-                    let served_before = served;
-                    let replies = if stalled(served_before) {
-                        Vec::new()
-                    } else {
-                        bno.feed(&b, &mut now)
-                    };
-                    served += reads;
-                    for (req, mut reply) in replies {
-                        if let Request::Unknown(why) = &req {
-                            let why = why.clone();
-                            w.violation(format!("sensor: a request not understood: {why}"));
-                        }
-                        if garble
-                            && matches!(
-                                req,
-                                Request::Read {
-                                    quaternion: true,
-                                    ..
-                                }
-                            )
-                        {
-                            reply[0] = 0x5A; // corrupted on the wire
-                        }
-                        send(fd, &reply);
-                    }
+                    served += answer_bno(&mut bno, &b, fd, world, stalled(served));
                 }
             }
         }
@@ -668,17 +665,64 @@ fn serve_sensor(
             if next_line < Instant::now() {
                 next_line = Instant::now() + LINE_PERIOD;
             }
-            let line = {
-                let mut w = lock(world);
-                let (q, g) = w.reading();
-                if g {
-                    garbled_line(&q)
-                } else {
-                    quat_csv_line(&q)
-                }
-            };
+            let line = csv_line(world);
             served += 1;
             send(fd, line.as_bytes());
         }
+    }
+}
+
+/// Answers the BNO055 requests in `bytes` (nothing once the sensor has stalled), a reading
+/// garbled on the wire when the fault says so: how many readings were taken.
+fn answer_bno(
+    bno: &mut Bno055Emulator,
+    bytes: &[u8],
+    fd: i32,
+    world: &Mutex<World>,
+    stalled: bool,
+) -> usize {
+    let mut w = lock(world);
+    let mut garble = false;
+    let mut reads = 0usize;
+    let mut now = || {
+        reads += 1;
+        let (q, g) = w.reading();
+        garble |= g;
+        q
+    };
+    let replies = if stalled {
+        Vec::new()
+    } else {
+        bno.feed(bytes, &mut now)
+    };
+    for (req, mut reply) in replies {
+        if let Request::Unknown(why) = &req {
+            let why = why.clone();
+            w.violation(format!("sensor: a request not understood: {why}"));
+        }
+        if garble
+            && matches!(
+                req,
+                Request::Read {
+                    quaternion: true,
+                    ..
+                }
+            )
+        {
+            reply[0] = 0x5A; // corrupted on the wire
+        }
+        send(fd, &reply);
+    }
+    reads
+}
+
+/// The quat-csv line the sensor prints now (a garbled one when the fault says so).
+fn csv_line(world: &Mutex<World>) -> String {
+    let mut w = lock(world);
+    let (q, g) = w.reading();
+    if g {
+        garbled_line(&q)
+    } else {
+        quat_csv_line(&q)
     }
 }

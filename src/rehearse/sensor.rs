@@ -2,7 +2,7 @@
 //! line `w,x,y,z` a sketch prints, and the Bosch BNO055's UART register protocol (datasheet
 //! BST-BNO055-DS000 section 4.7: `AA 00 reg len data` written and answered `EE 01`, `AA 01 reg
 //! len` read and answered `BB len data`, or `EE status`), with its operating mode, the
-//! calibration status and the quaternion registers. Pure bytes: [`super::run`] serves them on
+//! calibration status and the quaternion registers. Pure bytes: [`super::live::run`] serves them on
 //! a pseudo-terminal. The faults a rehearsal injects (a garbled reply, a sensor that stalls)
 //! are decided by the caller.
 

@@ -11,8 +11,9 @@ mod files;
 mod progress;
 mod summary;
 
+use crate::commands::args::check_out;
 use crate::error::{Error, Result};
-use crate::io::output::{check_not_input, remove_stale_temporaries, write_atomic};
+use crate::io::output::{remove_stale_temporaries, write_atomic};
 use crate::io::scenario::Scenario;
 use cases::{cases, run_cases, saves_progress, Case};
 use files::{
@@ -206,7 +207,7 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
         .flat_map(|(file, sc, _)| std::iter::once(file.clone()).chain(sc.files.iter().cloned()))
         .collect();
     for name in ["summary.csv", "timing.csv"] {
-        check_not_input(&opts.out.join(name), &read)?;
+        check_out(&opts.out.join(name), &read)?;
     }
     for (file, sc, text) in loaded {
         let Some(mut job) = job_for(file, sc, text, opts, &mut plain_index) else {
@@ -217,7 +218,7 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
             files::hash_path(&job.csv),
             progress::progress_path(&job.csv),
         ];
-        if let Err(e) = written.iter().try_for_each(|w| check_not_input(w, &read)) {
+        if let Err(e) = written.iter().try_for_each(|w| check_out(w, &read)) {
             report
                 .failed
                 .push((job.file.display().to_string(), e.to_string()));

@@ -568,7 +568,7 @@ impl Checker<'_> {
         relay: &crate::relay::RelaySettings,
     ) -> Result<PlanSettings> {
         let axis = self.unit("plan.axis", raw.axis.unwrap_or([0.0, 0.0, 1.0]))?;
-        let angle = target_angle(raw.angle_deg.unwrap_or(90.0))
+        let angle = target_angle(raw.angle_deg.unwrap_or(90.0), "`plan.start`")
             .map_err(|m| self.err("plan.angle_deg", m))?;
         let scheme = match raw.scheme.as_deref() {
             None => Scheme::Search,
@@ -663,7 +663,7 @@ impl Checker<'_> {
             "angle",
             raw.angles_deg,
             vec![plan.angle],
-            |f, a| target_angle(*a).map_err(|m| self.err(f, m)),
+            |f, a| target_angle(*a, "`plan.start`").map_err(|m| self.err(f, m)),
         )?;
         let schemes = self.sweep_list(
             "schemes",

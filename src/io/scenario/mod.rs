@@ -76,12 +76,19 @@ pub struct Scenario {
     /// The files it was read from: `path` (when loaded from it) and the files it names
     /// (point files, a torque table), as they were opened; what an output must not replace.
     pub files: Vec<PathBuf>,
+    /// The scenario's name.
     pub name: String,
+    /// What the scenario is for, as its file says.
     pub description: String,
+    /// Where the rotor's magnets are (body frame).
     pub rotor: Packing,
+    /// Where the stator's coils are (world frame).
     pub stator: Packing,
+    /// The torque model built from the packings and the well.
     pub torques: MagnetTorques,
+    /// The rotor's inertia and damping.
     pub body: Body,
+    /// The settle's tolerances, time limit and integrator.
     pub settle: SettleParams,
     /// Planning settings of the `[plan]` section (command-line options override them).
     pub plan: PlanSettings,
@@ -114,6 +121,23 @@ impl Scenario {
     }
 
     /// Reads and checks a scenario file.
+    ///
+    /// # Errors
+    ///
+    /// [`crate::Error::Io`] when a file cannot be read, [`crate::Error::Parse`] for text that
+    /// is not a scenario, [`crate::Error::Field`] for a value not allowed.
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use spherestep::Scenario;
+    /// use std::path::Path;
+    ///
+    /// let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/prototype.toml");
+    /// let sc = Scenario::load(&path).unwrap();
+    /// assert_eq!(sc.path, path);
+    /// assert!(sc.motor().plan(&sc.plan).reached);
+    /// ```
     pub fn load(path: &Path) -> Result<Scenario> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let mut sc = Scenario::from_toml(&text, path)?;
