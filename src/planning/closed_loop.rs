@@ -15,7 +15,7 @@ use crate::planning::identify::{Identifier, Observation};
 use crate::planning::on_time::{self, OnTimes};
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::search::{first_row, step_row};
-use crate::planning::seek::Seek;
+use crate::planning::seek::{Path, Seek};
 use nalgebra::Vector3;
 use serde::Serialize;
 
@@ -493,31 +493,7 @@ impl<'a> Controller<'a> {
             .max_steps
             .saturating_sub(self.steps - 1)
             .clamp(1, REPLAN_DEPTH);
-        let tolerance = self.cl.goal_tolerance.0;
-        let mut path = seek.search(&root, left, REPLAN_BEAM, tolerance);
-        // short of the goal at less than SLOW_DEG a step: the cheap ranking missed the way
-        // (broad wells, where every coil pulls many magnets); the search again, wider
-        let start = angular(est, &self.goal);
-        let slow = path.states.last().is_none_or(|end| {
-            let gain = start - angular(&end.q, &self.goal);
-            angular(&end.q, &self.goal) > tolerance
-                && gain < SLOW_DEG.to_radians() * path.states.len() as f64
-        });
-        if slow {
-            let wide = Seek {
-                ranked: Some(REPLAN_SETS_WIDE),
-                ..seek
-            };
-            let again = wide.search(&root, left, REPLAN_BEAM, tolerance);
-            let end = |p: &crate::planning::seek::Path| {
-                p.states.last().map_or(start, |e| angular(&e.q, &self.goal))
-            };
-            let settles = path.settles + again.settles;
-            if end(&again) < end(&path) {
-                path = again;
-            }
-            path.settles = settles;
-        }
+        let path = self.seek_path(&seek, &root, est, left);
         let Some(end) = path.states.last() else {
             let name = match steer {
                 Some(_) => format!(
@@ -534,9 +510,59 @@ impl<'a> Controller<'a> {
             ));
         };
         let reached = angular(&end.q, &self.goal);
+        let rows = self.rows_of(&root, est, &path);
+        let plan = Plan {
+            rows,
+            reached: reached <= self.cl.goal_tolerance.0,
+            message: None,
+            settles: path.settles,
+        };
+        Ok((plan, reached))
+    }
+
+    /// [`Seek::search`] from `root`, `left` steps deep at most; when it gains less than
+    /// [`SLOW_DEG`] a step short of the goal (the cheap ranking missed the way: broad wells,
+    /// where every coil pulls many magnets), again with [`REPLAN_SETS_WIDE`] sets a state, and
+    /// the nearer of the two (the settles of both counted).
+    fn seek_path(
+        &self,
+        seek: &Seek,
+        root: &CommutationState,
+        est: &Orientation,
+        left: usize,
+    ) -> Path {
+        let tolerance = self.cl.goal_tolerance.0;
+        let mut path = seek.search(root, left, REPLAN_BEAM, tolerance);
+        // short of the goal at less than SLOW_DEG a step: the cheap ranking missed the way
+        // (broad wells, where every coil pulls many magnets); the search again, wider
+        let start = angular(est, &self.goal);
+        let slow = path.states.last().is_none_or(|end| {
+            let gain = start - angular(&end.q, &self.goal);
+            angular(&end.q, &self.goal) > tolerance
+                && gain < SLOW_DEG.to_radians() * path.states.len() as f64
+        });
+        if slow {
+            let wide = Seek {
+                ranked: Some(REPLAN_SETS_WIDE),
+                held: seek.held.clone(),
+                ..*seek
+            };
+            let again = wide.search(root, left, REPLAN_BEAM, tolerance);
+            let end = |p: &Path| p.states.last().map_or(start, |e| angular(&e.q, &self.goal));
+            let settles = path.settles + again.settles;
+            if end(&again) < end(&path) {
+                path = again;
+            }
+            path.settles = settles;
+        }
+        path
+    }
+
+    /// The plan's rows for `path` from `root` (the estimate `est`): row 0 the estimated state.
+    fn rows_of(&self, root: &CommutationState, est: &Orientation, path: &Path) -> Vec<PlanRow> {
         let axis = &self.settings.axis;
         let mut rows = vec![first_row(&root)];
-        let mut from = &root;
+        let mut from = root;
         let mut cum = 0.0;
         for to in &path.states {
             let (angle, axis_error) = cumulative(&from.q, &to.q, axis);
@@ -557,13 +583,7 @@ impl<'a> Controller<'a> {
             rows.push(step_row(rows.len(), &step, c));
             from = to;
         }
-        let plan = Plan {
-            rows,
-            reached: reached <= self.cl.goal_tolerance.0,
-            message: None,
-            settles: path.settles,
-        };
-        Ok((plan, reached))
+        rows
     }
 }
 
