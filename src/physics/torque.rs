@@ -516,16 +516,20 @@ impl Well {
         }
     }
 
-    /// [`Well::pair_torque`] (no early test) within reach, and beyond the cut-off the shape's
-    /// formula continued: the smooth torque of a pair the settle holds within reach between
-    /// its cut-off events ([`TorqueModel::body_torque_within`]).
+    /// [`Well::pair_torque`] (no early test; the same arithmetic) within reach, and beyond the
+    /// cut-off the shape's formula continued: the smooth torque of a pair the settle holds
+    /// within reach between its cut-off events ([`TorqueModel::body_torque_within`]).
     #[inline(always)]
     pub(crate) fn pair_torque_continued(&self, p: &Vector3<f64>, s: &Vector3<f64>) -> Vector3<f64> {
         let c = p.dot(s);
         if c < self.cos_cutoff {
             return self.continued(p, s, c);
         }
-        self.pair_torque(p, s, -2.0)
+        let x = p.cross(s);
+        match &self.profile {
+            Some(profile) => x * profile.value(1.0 - c),
+            None => x * self.formula_f(&x, c),
+        }
     }
 
     /// The pair torque beyond the cut-off by the formula without its cut (out of line: rare).

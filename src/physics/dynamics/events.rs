@@ -6,7 +6,6 @@
 //! the torque, so the loose tolerance's error control holds across a cut-off as anywhere else.
 
 use super::RotorDynamics;
-use crate::physics::dynamics::hermite_weights;
 use crate::physics::integrator::OdeSystem;
 use crate::physics::torque::TorqueModel;
 use std::cell::Cell;
@@ -21,9 +20,6 @@ pub(super) const LAND_TOL: f64 = 1e-9;
 /// Landings tried for one event before the pairs beyond their cut-off are switched where the
 /// step ends.
 pub(super) const MAX_REDOS: u32 = 4;
-
-/// Points of a step's interpolant at which [`leaves`] looks for a crossing.
-const SAMPLES: u32 = 16;
 
 /// The rotor's equations of motion under the smooth torques of [`TorqueModel::body_torque_within`]:
 /// the pairs whose bit is set in `within` pull (by the formula continued beyond the cut-off),
@@ -121,8 +117,9 @@ pub(super) fn seen<M: TorqueModel>(
 /// The first fraction s of a step at which a pair's margin, on its cubic Hermite interpolant
 /// from (m0, dm0/dt) to (m1, dm1/dt) over `h`, goes more than [`LAND_TOL`] beyond its cut-off
 /// on the wrong side of `side` (+1: the pair is held within reach), refined to where it is half
-/// that beyond (or [`LAND_TOL`], where the last sample before is already past half); `None`
-/// where it stays on its side.
+/// that beyond (or [`LAND_TOL`], where the stretch it leaves on begins past half); `None`
+/// where it stays on its side. The cubic is split where its slope vanishes into stretches on
+/// which it is monotone, so the first stretch that ends beyond holds the crossing.
 pub(super) fn leaves(side: f64, (m0, r0): (f64, f64), (m1, r1): (f64, f64), h: f64) -> Option<f64> {
     let (g0, g1) = (side * m0, side * m1);
     let (d0, d1) = (side * r0 * h, side * r1 * h);
@@ -131,25 +128,54 @@ pub(super) fn leaves(side: f64, (m0, r0): (f64, f64), (m1, r1): (f64, f64), h: f
     if g0.min(g1) - 0.25 * ((d0 - dg).abs() + (d1 - dg).abs()) >= -LAND_TOL {
         return None;
     }
-    let g = |s: f64| {
-        let [a0, b0, a1, b1] = hermite_weights(s);
-        a0 * g0 + b0 * d0 + a1 * g1 + b1 * d1
-    };
+    // g(s) = g0 + d0 s + b s^2 + c s^3, g'(s) = d0 + 2 b s + 3 c s^2
+    let (b, c) = (3.0 * dg - 2.0 * d0 - d1, d0 + d1 - 2.0 * dg);
+    let g = |s: f64| g0 + s * (d0 + s * (b + s * c));
+    let mut ends = [1.0; 3];
+    for (k, r) in slope_roots(3.0 * c, 2.0 * b, d0).into_iter().enumerate() {
+        ends[k] = r;
+    }
     let mut lo = 0.0;
-    for j in 1..=SAMPLES {
-        let s = j as f64 / SAMPLES as f64;
-        let gs = if j == SAMPLES { g1 } else { g(s) };
-        if gs < -LAND_TOL {
+    for end in ends {
+        let at_end = if end == 1.0 { g1 } else { g(end) };
+        if at_end < -LAND_TOL {
             let target = if g(lo) >= -0.5 * LAND_TOL {
                 -0.5 * LAND_TOL
             } else {
                 -LAND_TOL
             };
-            return Some(bisect(|s| g(s) - target, lo, s));
+            return Some(bisect(|s| g(s) - target, lo, end));
         }
-        lo = s;
+        lo = end;
     }
     None
+}
+
+/// The roots of a s^2 + b s + c strictly within (0, 1), ascending (1.0 where there is none).
+fn slope_roots(a: f64, b: f64, c: f64) -> [f64; 2] {
+    let mut roots = [1.0; 2];
+    let mut n = 0;
+    let mut keep = |r: f64| {
+        if r > 0.0 && r < 1.0 && r.is_finite() {
+            roots[n] = r;
+            n += 1;
+        }
+    };
+    if a.abs() <= 1e-14 * (b.abs() + c.abs()) {
+        if b != 0.0 {
+            keep(-c / b);
+        }
+    } else {
+        let disc = b * b - 4.0 * a * c;
+        if disc > 0.0 {
+            // the stable pair of formulas
+            let q = -0.5 * (b + b.signum() * disc.sqrt());
+            let (r1, r2) = (q / a, c / q);
+            keep(r1.min(r2));
+            keep(r1.max(r2));
+        }
+    }
+    roots
 }
 
 /// The root of `f` in [lo, hi], f(lo) >= 0 > f(hi), by bisection to 1e-13.
