@@ -145,8 +145,9 @@ fn settle_fast_from<M: TorqueModel>(
         return end_phase_result(sys, &e, params, evaluations, out.steps, at.trace);
     }
     match at.grazed {
-        // where the ball goes from a graze hangs on errors this tolerance allows
-        Some(t_past) if approaches > 0 => {
+        // where the ball goes from a graze hangs on errors this tolerance allows: with cut-off
+        // events the approach to it is integrated again tightly, without them the whole settle
+        Some(t_past) if approaches > 0 && sides.events => {
             let spent = (evaluations, out.steps);
             return approach_tightly(sys, y0, params, t_past, spent, at.trace, approaches);
         }
