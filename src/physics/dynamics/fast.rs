@@ -1,6 +1,7 @@
 //! The fast settle: Bogacki-Shampine 3(2) while the motion is nonlinear, watching the pairs'
-//! cut-offs (the graze watch) and looking for the linear end phase, with a tight fallback where
-//! the loose tolerance cannot be trusted.
+//! cut-offs (the graze watch: cut-off events where the model offers them, `events`, else grazes
+//! and crossings) and looking for the linear end phase, with a tight approach to a graze and a
+//! tight fallback where the loose tolerance cannot be trusted.
 
 use super::end_phase::{EndPhase, EndSearch};
 use super::events::{self, Seen, Sides, MAX_REDOS};
@@ -520,8 +521,8 @@ fn grazes((m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f64) -> bool {
     })
 }
 
-/// Whether a pair's margin, on the wrong side of nothing (cut-off events), turns back from its
-/// cut-off within a step having come within [`GRAZE_EPS`] of it: approaching it at the step's
+/// Whether a pair's margin (cut-off events: the pair on its side) turns back from its cut-off
+/// within a step having come within [`GRAZE_EPS`] of it: approaching it at the step's
 /// start, receding at its end (rates by `side`: +1 for a pair within reach), and within
 /// [`GRAZE_EPS`] of 0 on the cubic Hermite interpolant.
 fn turns_back(side: f64, (m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f64) -> bool {

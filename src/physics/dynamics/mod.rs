@@ -4,8 +4,9 @@
 //!
 //! Two paths reach the same equilibria: the fast path (the default, `fast`), an
 //! allocation-free Bogacki-Shampine 3(2) stepper from `integrator` while the motion is
-//! nonlinear and a closed-form linear end phase about the strict minimum it comes to
-//! (`end_phase`; with a tight fallback where it cannot be sure), and the reference path
+//! nonlinear, the wells' cut-offs crossed as events (`events`), and a closed-form linear end
+//! phase about the strict minimum it comes to (`end_phase`; with a tight fallback where it
+//! cannot be sure), and the reference path
 //! (`reference`), ode_solvers' Dopri5 at whatever tolerances are asked
 //! (`SettleParams::reference()` is tight). This file holds the types, the equations of motion
 //! and the entry points; tests/basins.rs and examples/basins.rs check the one path against the
