@@ -129,13 +129,23 @@ fn a_set_whose_graze_the_reference_crosses_lands_where_the_reference_does() {
     let (torques, body, params) = setup(Shape::Gaussian, 0.7);
     let q0 = Rng::new(17).orientation();
     let p = spherestep::model::geometry::Pair::new;
-    settles_where_the_reference_does(
+    let set = [p(14, 29), p(1, 76), p(6, 54)];
+    settles_where_the_reference_does(&torques, &set, &q0, body, params);
+    // its trace: the tight approach, then the rest, in time order, ending where it settled
+    let mut trace = Vec::new();
+    let r = spherestep::physics::dynamics::settle_traced(
         &torques,
-        &[p(14, 29), p(1, 76), p(6, 54)],
+        &set,
         &q0,
         body,
         params,
+        Some(&mut trace),
     );
+    assert!(
+        trace.windows(2).all(|w| w[0].0 <= w[1].0),
+        "the trace goes back in time"
+    );
+    assert_eq!(trace.last().map(|s| s.0), Some(r.settle_time_s));
 }
 
 /// The "coils" interaction (every magnet within reach of an energised coil pulls): without the

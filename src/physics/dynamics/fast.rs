@@ -131,6 +131,7 @@ fn settle_fast_from<M: TorqueModel>(
     let sides = Sides::new(sys, watch.on.then_some(watch.before.as_slice()));
     // where the watch cannot follow the margins, the approach may have crossed a cut-off
     let trusted = watch.on && sys.model.trusts_uncrossed_cutoffs();
+    let traced = trace.as_deref().map_or(0, |tr| tr.len());
     let mut at = Watchers {
         watch,
         search: scale.map(|k1| EndSearch::new(k1, !trusted)),
@@ -149,7 +150,7 @@ fn settle_fast_from<M: TorqueModel>(
         // where the ball goes from a graze hangs on errors this tolerance allows: with cut-off
         // events the approach to it is integrated again tightly, without them the whole settle
         Some(t_past) if approaches > 0 && sides.events => {
-            let spent = (evaluations, out.steps);
+            let spent = (evaluations, out.steps, traced);
             return approach_tightly(sys, y0, params, t_past, spent, at.trace, approaches);
         }
         Some(_) => return settle_tight(sys, y0, params, evaluations),
@@ -228,13 +229,14 @@ impl Watchers<'_> {
 /// tolerance allows, so the approach to it, from `y0` to `t_past` (past the graze), is
 /// integrated again at the tight fallback's tolerances, and the fast path goes on from there
 /// (with one tight approach fewer left): the rest of the settle, its crossings, its end phase,
-/// at the loose tolerance. `spent`: the evaluations and steps of the loose run given up.
+/// at the loose tolerance. `spent`: the evaluations and steps of the loose run given up, and
+/// the length of the trace before it.
 fn approach_tightly<M: TorqueModel>(
     sys: &RotorDynamics<'_, M>,
     y0: [f64; 7],
     params: SettleParams,
     t_past: f64,
-    spent: (u32, u32),
+    spent: (u32, u32, usize),
     mut trace: Option<&mut Vec<(f64, State)>>,
     approaches: u32,
 ) -> SettleResult {
@@ -245,12 +247,13 @@ fn approach_tightly<M: TorqueModel>(
         t_max: t_h,
         ..params
     };
-    let (mut r, y_h) = dopri5_run(sys, y0, tight, None);
+    if let Some(tr) = trace.as_deref_mut() {
+        // the loose run's steps are given up with it
+        tr.truncate(spent.2);
+    }
+    let (mut r, y_h) = dopri5_run(sys, y0, tight, trace.as_deref_mut());
     r.evaluations = r.evaluations.saturating_add(spent.0);
     r.steps = r.steps.saturating_add(spent.1);
-    if let Some(tr) = trace.as_deref_mut() {
-        tr.push((r.settle_time_s, State::from_column_slice(&y_h)));
-    }
     if r.stop != Stop::TimeLimit || t_h >= params.t_max {
         return r;
     }
