@@ -4,10 +4,17 @@ with Dormand-Prince 5(4) and a standard step-size controller, compiled with numb
 
 Run from the repository root (needs python3 >= 3.11 and PyPI; nothing else):
 
-    python3 benches/numba_settle.py [--sets N] [--scenario FILE]
+    python3 benches/numba_settle.py [--sets N] [--scenario FILE] [--planner [--seed S]]
 
-The script creates its own virtual environment (target/numba-venv), pip-installs numba and
-numpy there, and runs itself again inside it. Both sides run on one thread:
+`--planner`: the planner-like sets of issue 32 instead (`settle_sets --planner`: each from its
+own random start, three pairs within 24 degrees of their coils), read back from the Rust
+example's CSV (set and start), by default on benches/planner-sets.toml:
+
+    python3 benches/numba_settle.py --planner --sets 4000
+
+The script creates its own virtual environment (target/numba-venv, or $NUMBA_VENV),
+pip-installs numba and numpy there, and runs itself again inside it. Both sides run on one
+thread:
 
 - spherestep: `cargo run --release --example settle_sets -- SCENARIO --sets N --out CSV` with
   RAYON_NUM_THREADS=1 (examples/settle_sets.rs: N deterministic 3-pair sets from one start,
@@ -38,7 +45,7 @@ import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-VENV = ROOT / "target" / "numba-venv"
+VENV = Path(os.environ.get("NUMBA_VENV", ROOT / "target" / "numba-venv"))
 
 
 def ensure_venv() -> None:
@@ -321,12 +328,12 @@ def settle(y0, r, s, gauss, k, s2, dmax, inertia, c, omega_tol, torque_tol, t_ma
 # ---------------------------------------------------------------------------------------------
 
 
-def run_rust(scenario: Path, n: int) -> list[dict]:
+def run_rust(scenario: Path, n: int, planner: list[str]) -> list[dict]:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "rust.csv"
         env = dict(os.environ, RAYON_NUM_THREADS="1")
         cmd = ["cargo", "run", "--quiet", "--release", "--example", "settle_sets", "--",
-               str(scenario), "--sets", str(n), "--out", str(out)]
+               str(scenario), "--sets", str(n), *planner, "--out", str(out)]
         print("$ RAYON_NUM_THREADS=1 " + " ".join(cmd), file=sys.stderr)
         subprocess.run(cmd, cwd=ROOT, env=env, check=True, stdout=sys.stderr)
         with open(out, newline="") as f:
@@ -341,34 +348,47 @@ def angle_between(a, b) -> float:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sets", type=int, default=200)
-    ap.add_argument("--scenario", type=Path, default=ROOT / "scenarios" / "prototype.toml")
+    ap.add_argument("--scenario", type=Path, default=None,
+                    help="default scenarios/prototype.toml, with --planner benches/planner-sets.toml")
+    ap.add_argument("--planner", action="store_true",
+                    help="the planner-like sets of settle_sets --planner, read from its CSV")
+    ap.add_argument("--seed", type=int, default=32, help="their seed (with --planner)")
     ap.add_argument("--min-time", type=float, default=0.05,
                     help="seconds of repeated calls per set for the numba timing")
     args = ap.parse_args()
+    if args.scenario is None:
+        args.scenario = ROOT / ("benches/planner-sets.toml" if args.planner
+                                else "scenarios/prototype.toml")
     try:
         m = load(args.scenario)
     except (OSError, SetupError, tomllib.TOMLDecodeError) as e:
         print(f"numba_settle.py: {e}", file=sys.stderr)
         return 2
     numba.set_num_threads(1)
-    rust = run_rust(args.scenario, args.sets)
-    q0 = np.array([float(rust[0][c]) for c in ("qx0", "qy0", "qz0", "qw0")])
-    sets = build_sets(m, q0, args.sets)
+    planner = ["--planner", "--seed", str(args.seed)] if args.planner else []
+    rust = run_rust(args.scenario, args.sets, planner)
+    starts = [np.array([float(row[c]) for c in ("qx0", "qy0", "qz0", "qw0")]) for row in rust]
+    if args.planner:
+        sets = [[tuple(int(v) for v in p.split(":")) for p in row["set"].split(";")]
+                for row in rust]
+    else:
+        sets = build_sets(m, starts[0], args.sets)
     labels = [";".join(f"{c}:{j}" for c, j in s) for s in sets]
     if labels != [row["set"] for row in rust]:
         print("numba_settle.py: the sets differ from the Rust example's", file=sys.stderr)
         return 2
-    y0 = np.array([q0[0], q0[1], q0[2], q0[3], 0.0, 0.0, 0.0])
     s2 = m["sigma"] ** 2
     consts = (m["gauss"], m["k"], s2, m["dmax"], m["inertia"], m["c"], m["omega_tol"],
               m["torque_tol"], m["t_max"], m["rtol"], m["atol"])
     t_compile = time.perf_counter()
     r0 = np.ascontiguousarray(m["rotor"][[j for _, j in sets[0]]])
     s0 = np.ascontiguousarray(m["stator"][[c for c, _ in sets[0]]])
+    y0 = np.array([*starts[0], 0.0, 0.0, 0.0])
     settle(y0, r0, s0, *consts)
     t_compile = time.perf_counter() - t_compile
     py_us, py_ev, worst, both = [], [], 0.0, 0
-    for set_, row in zip(sets, rust):
+    for set_, row, q0 in zip(sets, rust, starts):
+        y0 = np.array([q0[0], q0[1], q0[2], q0[3], 0.0, 0.0, 0.0])
         r = np.ascontiguousarray(m["rotor"][[j for _, j in set_]])
         s = np.ascontiguousarray(m["stator"][[c for c, _ in set_]])
         y, t, ev, ok = settle(y0, r, s, *consts)
@@ -389,16 +409,18 @@ def main() -> int:
     rs_ev = [int(row["evaluations"]) for row in rust]
     med = lambda v: float(np.median(v))  # noqa: E731
     mean = lambda v: float(np.mean(v))  # noqa: E731
+    p99 = lambda v: float(np.percentile(v, 99, method="inverted_cdf"))  # noqa: E731
     n = len(sets)
-    print(f"{n} 3-pair sets of {args.scenario.name}, one thread each; numba {numba.__version__}, "
-          f"numpy {np.__version__}, python {sys.version.split()[0]} (compile {t_compile:.1f} s)")
-    print(f"{'engine':<44} {'mean us':>9} {'median us':>10} {'mean evals':>11} "
-          f"{'median evals':>13}")
-    print(f"{'spherestep (examples/settle_sets.rs)':<44} {mean(rs_us):9.2f} {med(rs_us):10.2f} "
-          f"{mean(rs_ev):11.1f} {med(rs_ev):13.0f}")
-    label = f"numba Dopri5, rtol {m['rtol']:g} atol {m['atol']:g}"
-    print(f"{label:<44} {mean(py_us):9.2f} {med(py_us):10.2f} {mean(py_ev):11.1f} "
-          f"{med(py_ev):13.0f}")
+    kind = "planner-like " if args.planner else ""
+    print(f"{n} {kind}3-pair sets of {args.scenario.name}, one thread each; numba "
+          f"{numba.__version__}, numpy {np.__version__}, python {sys.version.split()[0]} "
+          f"(compile {t_compile:.1f} s)")
+    print(f"{'engine':<44} {'mean us':>9} {'median us':>10} {'p99 us':>9} {'mean evals':>11} "
+          f"{'median evals':>13} {'p99 evals':>10}")
+    for label, us, ev in (("spherestep (examples/settle_sets.rs)", rs_us, rs_ev),
+                          (f"numba Dopri5, rtol {m['rtol']:g} atol {m['atol']:g}", py_us, py_ev)):
+        print(f"{label:<44} {mean(us):9.2f} {med(us):10.2f} {p99(us):9.2f} {mean(ev):11.1f} "
+              f"{med(ev):13.0f} {p99(ev):10.0f}")
     print(f"spherestep is {mean(py_us) / mean(rs_us):.2f}x faster (mean), "
           f"{med(py_us) / med(rs_us):.2f}x (median)")
     print(f"worst disagreement of the final orientations ({both} sets settled by both): "

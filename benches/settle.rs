@@ -8,6 +8,10 @@
 //! - `growth_magnets_coils/N`: settle time of 2 energised coils in "coils" interaction against
 //!   the number N of rotor magnets (evenly spread: `scenario::sphere_axes`), and `rhs_coils/N`;
 //! - `settle_many/threads/T`: 1,000 3-pair sets on a rayon pool of T = 1 and 2 threads;
+//! - `settle_planner/sets/4000`: the 4,000 planner-like sets of issue 32 (`examples/settle_sets.rs
+//!   --planner`, seed 32: each from its own random start, three pairs within 24 degrees of their
+//!   coils) on `benches/planner-sets.toml`, one after the other on one thread (per set: the
+//!   time over 4,000);
 //! - `plan_y_dynamic3/angle/A`: the search planner, dynamic model, 3 pairs per step, about Y,
 //!   against the target angle A in degrees;
 //! - `dipole/rhs/W` and `dipole/settle/W`: physical magnets (`scenarios/prototype-physical.toml`,
@@ -17,7 +21,10 @@
 //!
 //! Run: `cargo bench --bench settle` (a group: `cargo bench --bench settle -- growth_pairs`).
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+#[path = "../tests/basins_common/mod.rs"]
+mod basins_common;
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use nalgebra::Vector3;
 use spherestep::io::scenario::{sphere_axes, Scenario};
 use spherestep::model::geometry::{rot_q, unit, CoilId, Degrees, Orientation, Pair, Radians};
@@ -177,6 +184,23 @@ fn bench_threads(c: &mut Criterion) {
     g.finish();
 }
 
+fn bench_planner_sets(c: &mut Criterion) {
+    let sc = load("benches/planner-sets.toml");
+    let mut rng = basins_common::Rng::new(32);
+    let sets = basins_common::planner_sets(&sc.torques, 4000, 24.0, &mut rng);
+    let mut g = c.benchmark_group("settle_planner");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(sets.len() as u64));
+    g.bench_function(BenchmarkId::new("sets", sets.len()), |b| {
+        b.iter(|| {
+            for (q0, set) in &sets {
+                black_box(settle(&sc.torques, black_box(set), q0, sc.body, sc.settle));
+            }
+        })
+    });
+    g.finish();
+}
+
 fn bench_planner(c: &mut Criterion) {
     let sc = load("scenarios/paper-fig8-y-dynamic3.toml");
     let motor = sc.motor();
@@ -219,6 +243,7 @@ criterion_group!(
     bench_settle,
     bench_growth,
     bench_threads,
+    bench_planner_sets,
     bench_planner,
     bench_dipole
 );

@@ -53,6 +53,31 @@ pub enum End {
     Overflow,
 }
 
+/// What the caller of [`integrate_until`] says of an accepted step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Verdict {
+    /// Go on.
+    Go,
+    /// Stop here: the stop test passed.
+    Stop,
+    /// Take the step again from its start, this long (an event within it: land on it). The
+    /// step-size controller is not told of the step taken back.
+    Redo(f64),
+    /// The system changed at this state (an event landed on): its rate is evaluated again.
+    Changed,
+}
+
+impl From<bool> for Verdict {
+    /// A stop test's answer.
+    fn from(stop: bool) -> Verdict {
+        if stop {
+            Verdict::Stop
+        } else {
+            Verdict::Go
+        }
+    }
+}
+
 /// The most steps (accepted or rejected) one integration tries: 3 evaluations each.
 pub const MAX_ATTEMPTS: u32 = 1_000_000;
 
@@ -68,8 +93,10 @@ const MAX_FACTOR: f64 = 5.0;
 const ALPHA: f64 = 1.0 / 3.0 - 0.75 * BETA;
 const BETA: f64 = 0.08;
 
-/// Integrates from `y0` at t = 0 until `stop(t, y, dy)` returns true on an accepted step (dy is
-/// the exact right-hand side at y) or until `t_max`. The first step is Hairer's estimate, or
+/// Integrates from `y0` at t = 0 until `stop(t, y, dy)` says [`Verdict::Stop`] on an accepted
+/// step (dy is the exact right-hand side at y) or until `t_max`; [`Verdict::Redo`] takes the
+/// step again, shorter, and [`Verdict::Changed`] evaluates the rate at y again (the system
+/// changed there). The first step is Hairer's estimate, or
 /// `first_step` where that is longer (a caller that knows the system's time scale: from rest
 /// the estimate sees only the acceleration, and the controller takes several steps to grow
 /// out of it).
@@ -83,7 +110,7 @@ pub fn integrate_until<const N: usize, S, F>(
 ) -> Outcome<N>
 where
     S: OdeSystem<N>,
-    F: FnMut(f64, &[f64; N], &[f64; N]) -> bool,
+    F: FnMut(f64, &[f64; N], &[f64; N]) -> Verdict,
 {
     let mut y = y0;
     let mut k1 = [0.0; N];
@@ -138,19 +165,33 @@ where
             break;
         }
         if err <= 1.0 {
+            let start = (t, y, k1);
             t = if last { t_max } else { t + h };
             y = y_new;
             k1 = k4;
             steps += 1;
-            if stop(t, &y, &k1) {
-                return Outcome {
-                    t,
-                    y,
-                    evaluations,
-                    steps,
-                    stopped: true,
-                    end: End::Stopped,
-                };
+            match stop(t, &y, &k1) {
+                Verdict::Go => {}
+                Verdict::Stop => {
+                    return Outcome {
+                        t,
+                        y,
+                        evaluations,
+                        steps,
+                        stopped: true,
+                        end: End::Stopped,
+                    }
+                }
+                Verdict::Redo(shorter) => {
+                    (t, y, k1) = start;
+                    steps -= 1;
+                    h = shorter;
+                    continue;
+                }
+                Verdict::Changed => {
+                    sys.rhs(&y, &mut k1);
+                    evaluations += 1;
+                }
             }
             // err^-alpha * err_old^beta, with one logarithm and one exponential per step
             let ln_err = err.max(1e-10).ln();
@@ -246,7 +287,7 @@ mod tests {
                 rtol,
                 atol: rtol * 1e-2,
             };
-            let out = integrate_until(&osc, [1.0, 0.0], 2.0, tol, 0.0, |_, _, _| false);
+            let out = integrate_until(&osc, [1.0, 0.0], 2.0, tol, 0.0, |_, _, _| Verdict::Go);
             assert!(!out.stopped);
             assert_eq!(out.t, 2.0);
             errs.push((out.y[0] - exact(2.0)).abs());
@@ -269,7 +310,7 @@ mod tests {
             let mut f = [0.0; 2];
             osc.rhs(y, &mut f);
             assert_eq!(&f, dy);
-            y[0].abs() < 1e-3 && y[1].abs() < 1e-3
+            Verdict::from(y[0].abs() < 1e-3 && y[1].abs() < 1e-3)
         });
         assert!(out.stopped && out.t < 50.0);
         assert_eq!(seen, out.steps);

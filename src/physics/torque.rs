@@ -70,6 +70,23 @@ pub trait TorqueModel: Sync {
         false
     }
 
+    /// Whether the settle may treat the cut-offs of `active` as events
+    /// ([`TorqueModel::body_torque_within`]): the "pairs" interaction of a well whose torque
+    /// jumps at its cut-off, at most 64 pairs. `false` by default.
+    fn cutoff_events(&self, _active: &[Pair]) -> bool {
+        false
+    }
+
+    /// Body-frame torque at the orientation of an unnormalised quaternion `q` with only the
+    /// pairs of `active` whose bit is set in `within` pulling, each by its well's formula
+    /// continued beyond the cut-off: the smooth torque of one side of each cut-off, which the
+    /// settle integrates between the cut-off events (where a margin of
+    /// [`TorqueModel::cutoff_margins`] changes sign and the bit is flipped). Within reach it
+    /// is [`TorqueModel::body_torque_at`]'s to the bit. By default that torque itself.
+    fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], _within: u64) -> Vector3<f64> {
+        self.body_torque_at(q, active)
+    }
+
     /// Whether the settle may trust a minimum near a well's cut-off that the ball came to
     /// without any margin of [`TorqueModel::cutoff_margins`] changing sign on the way (see
     /// `dynamics::end_phase::CUTOFF_SAFETY`): measured so for the "pairs" interaction, not for "coils".
@@ -499,6 +516,30 @@ impl Well {
         }
     }
 
+    /// [`Well::pair_torque`] (no early test; the same arithmetic) within reach, and beyond the
+    /// cut-off the shape's formula continued: the smooth torque of a pair the settle holds
+    /// within reach between its cut-off events ([`TorqueModel::body_torque_within`]).
+    #[inline(always)]
+    pub(crate) fn pair_torque_continued(&self, p: &Vector3<f64>, s: &Vector3<f64>) -> Vector3<f64> {
+        let c = p.dot(s);
+        if c < self.cos_cutoff {
+            return self.continued(p, s, c);
+        }
+        let x = p.cross(s);
+        match &self.profile {
+            Some(profile) => x * profile.value(1.0 - c),
+            None => x * self.formula_f(&x, c),
+        }
+    }
+
+    /// The pair torque beyond the cut-off by the formula without its cut (out of line: rare).
+    #[inline(never)]
+    fn continued(&self, p: &Vector3<f64>, s: &Vector3<f64>, c: f64) -> Vector3<f64> {
+        let x = p.cross(s);
+        let sin_d = x.norm();
+        x * self.f_within(angle_from_sin_cos(sin_d, c), sin_d)
+    }
+
     /// g(d) / sin d by the shape's formula, for a magnet and coil whose cross product is `x` and
     /// dot product `c`: the wells without a profile. Kept out of line, so that the profiled
     /// evaluation's loop stays small.
@@ -802,6 +843,27 @@ impl TorqueModel for MagnetTorques {
 
     fn trusts_uncrossed_cutoffs(&self) -> bool {
         self.interaction == Interaction::Pairs
+    }
+
+    fn cutoff_events(&self, active: &[Pair]) -> bool {
+        self.interaction == Interaction::Pairs && self.well.cutoff_jump && active.len() <= 64
+    }
+
+    fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], within: u64) -> Vector3<f64> {
+        if self.interaction != Interaction::Pairs {
+            return self.body_torque_at(q, active);
+        }
+        let rot = QuaternionRotation::new(q);
+        let mut tau = Vector3::zeros();
+        for (i, pr) in active.iter().enumerate() {
+            if within >> i & 1 == 1 {
+                let s = rot.to_body(&self.stator[pr.coil.0]);
+                tau += self
+                    .well
+                    .pair_torque_continued(&self.rotor[pr.magnet.0], &s);
+            }
+        }
+        tau
     }
 
     fn cutoff_margins(

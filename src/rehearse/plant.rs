@@ -11,7 +11,7 @@
 
 use crate::model::geometry::{CoilId, MagnetId, Orientation, Pair};
 use crate::physics::dynamics::{Body, RotorDynamics};
-use crate::physics::integrator::{integrate_until, Tolerances};
+use crate::physics::integrator::{integrate_until, Tolerances, Verdict};
 use crate::physics::torque::MagnetTorques;
 use nalgebra::{Quaternion, UnitQuaternion};
 use std::collections::BTreeSet;
@@ -122,7 +122,7 @@ impl Ball {
             return; // at rest, nothing pulling
         }
         let sys = RotorDynamics::new(&self.torques, &self.pairs, self.body);
-        let out = integrate_until(&sys, self.y, dt, TOLERANCES, 0.0, |_, _, _| false);
+        let out = integrate_until(&sys, self.y, dt, TOLERANCES, 0.0, |_, _, _| Verdict::Go);
         let mut y = out.y;
         let n = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3]).sqrt();
         if n.is_finite() && n > 0.0 {

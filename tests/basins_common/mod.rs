@@ -1,6 +1,7 @@
 //! Random active sets for the basin checks (tests/basins.rs and examples/basins.rs share this
 //! file): the setup of issue 17, a deterministic generator, and the comparison of a settle with
-//! the reference.
+//! the reference; also the planner-like sets of issue 32 (`planner_sets`, for
+//! examples/settle_sets.rs and benches/settle.rs).
 #![allow(dead_code)]
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -143,6 +144,52 @@ pub fn random_sets(
         }
     }
     sets
+}
+
+/// `n` sets as a planner meets them (issue 32), each from its own random start: three
+/// distinct coils, each with a distinct magnet within `reach_deg` of it at that start (a start
+/// where fewer than three coils reach a magnet is drawn again).
+pub fn planner_sets(
+    torques: &MagnetTorques,
+    n: usize,
+    reach_deg: f64,
+    rng: &mut Rng,
+) -> Vec<(Orientation, Vec<Pair>)> {
+    let reach = reach_deg.to_radians().cos();
+    let mut out = Vec::with_capacity(n);
+    while out.len() < n {
+        let q0 = rng.orientation();
+        let r = q0.to_rotation_matrix();
+        let in_reach: Vec<(usize, Vec<usize>)> = torques
+            .stator
+            .iter()
+            .enumerate()
+            .map(|(c, s)| {
+                let near = (0..torques.rotor.len())
+                    .filter(|&j| (r * torques.rotor[j]).dot(s) > reach)
+                    .collect();
+                (c, near)
+            })
+            .filter(|(_, near): &(usize, Vec<usize>)| !near.is_empty())
+            .collect();
+        if in_reach.len() < 3 {
+            continue;
+        }
+        let mut set: Vec<Pair> = Vec::with_capacity(3);
+        let mut tries = 0;
+        while set.len() < 3 && tries < 100 {
+            tries += 1;
+            let (c, near) = &in_reach[rng.below(in_reach.len())];
+            let m = near[rng.below(near.len())];
+            if !set.iter().any(|p| p.coil.0 == *c || p.magnet.0 == m) {
+                set.push(Pair::new(*c, m));
+            }
+        }
+        if set.len() == 3 {
+            out.push((q0, set));
+        }
+    }
+    out
 }
 
 /// How a settle compares with the reference's.

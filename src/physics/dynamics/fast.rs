@@ -1,11 +1,13 @@
 //! The fast settle: Bogacki-Shampine 3(2) while the motion is nonlinear, watching the pairs'
-//! cut-offs (the graze watch) and looking for the linear end phase, with a tight fallback where
-//! the loose tolerance cannot be trusted.
+//! cut-offs (the graze watch: cut-off events where the model offers them, `events`, else grazes
+//! and crossings) and looking for the linear end phase, with a tight approach to a graze and a
+//! tight fallback where the loose tolerance cannot be trusted.
 
 use super::end_phase::{EndPhase, EndSearch};
-use super::reference::settle_dopri5;
+use super::events::{self, Seen, Sides, MAX_REDOS};
+use super::reference::{dopri5_run, settle_dopri5};
 use super::{finish, hermite_weights, RotorDynamics, SettleParams, SettleResult, State, Stop};
-use crate::physics::integrator::{integrate_until, End, Outcome, Tolerances};
+use crate::physics::integrator::{integrate_until, End, Outcome, Tolerances, Verdict};
 use crate::physics::torque::{rotation_matrix, TorqueModel};
 use nalgebra::Vector3;
 
@@ -101,7 +103,20 @@ pub(super) fn settle_fast<M: TorqueModel>(
     sys: &RotorDynamics<'_, M>,
     y0: [f64; 7],
     params: SettleParams,
-    mut trace: Option<&mut Vec<(f64, State)>>,
+    trace: Option<&mut Vec<(f64, State)>>,
+) -> SettleResult {
+    settle_fast_from(sys, y0, params, trace, TIGHT_APPROACHES)
+}
+
+/// [`settle_fast`] from the state `y0` (at rest, or moving where a tight approach handed over),
+/// its times from there; after `approaches` tight approaches to grazes the next graze sends it
+/// to the tight fallback.
+fn settle_fast_from<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    y0: [f64; 7],
+    params: SettleParams,
+    trace: Option<&mut Vec<(f64, State)>>,
+    approaches: u32,
 ) -> SettleResult {
     let (scale, rtol) = fast_tolerance(sys, &params);
     let tol = Tolerances {
@@ -112,44 +127,149 @@ pub(super) fn settle_fast<M: TorqueModel>(
     let first_step = scale.map_or(0.0, |k1| {
         FIRST_STEP * (sys.body.inertia.x / (k1 * sys.active.len().max(1) as f64)).sqrt()
     });
-    let mut watch = GrazeWatch::new(sys, y0, scale.is_some());
+    let watch = GrazeWatch::new(sys, y0, scale.is_some());
+    let sides = Sides::new(sys, watch.on.then_some(watch.before.as_slice()));
     // where the watch cannot follow the margins, the approach may have crossed a cut-off
     let trusted = watch.on && sys.model.trusts_uncrossed_cutoffs();
-    let mut search = scale.map(|k1| EndSearch::new(k1, !trusted));
-    let mut grazed = false;
-    let out = integrate_until(sys, y0, params.t_max, tol, first_step, |t, y, dy| {
-        if let Some(tr) = trace.as_deref_mut() {
-            tr.push((t, State::from_column_slice(y)));
+    let traced = trace.as_deref().map_or(0, |tr| tr.len());
+    let mut at = Watchers {
+        watch,
+        search: scale.map(|k1| EndSearch::new(k1, !trusted)),
+        grazed: None,
+        trace,
+    };
+    let out = integrate_until(&sides, y0, params.t_max, tol, first_step, |t, y, dy| {
+        at.verdict(&sides, &params, t, y, dy)
+    });
+    let (newton_evals, end) = at.search.map_or((0, None), |s| (s.evaluations, s.found));
+    let evaluations = out.evaluations + newton_evals;
+    if let Some(e) = end {
+        return end_phase_result(sys, &e, params, evaluations, out.steps, at.trace);
+    }
+    match at.grazed {
+        // where the ball goes from a graze hangs on errors this tolerance allows: with cut-off
+        // events the approach to it is integrated again tightly, without them the whole settle
+        Some(t_past) if approaches > 0 && sides.events => {
+            let spent = (evaluations, out.steps, traced);
+            return approach_tightly(sys, y0, params, t_past, spent, at.trace, approaches);
         }
-        if sys.settled(&params, y, dy) {
-            return true;
-        }
-        if watch.on {
-            match watch.look(sys, t, y) {
+        Some(_) => return settle_tight(sys, y0, params, evaluations),
+        None => {}
+    }
+    conclude(sys, y0, params, &out, evaluations, scale.is_some())
+}
+
+/// What the fast path watches at each accepted step: the graze watch (or the cut-off events),
+/// the search for the end phase, and the trace.
+struct Watchers<'t> {
+    watch: GrazeWatch,
+    search: Option<EndSearch>,
+    /// Where a graze was seen: a time past it (the end of its step plus the step's length).
+    grazed: Option<f64>,
+    trace: Option<&'t mut Vec<(f64, State)>>,
+}
+
+impl Watchers<'_> {
+    /// The integration's verdict on the accepted step ending at (t, y), rate dy.
+    fn verdict<M: TorqueModel>(
+        &mut self,
+        sides: &Sides<'_, '_, M>,
+        params: &SettleParams,
+        t: f64,
+        y: &[f64; 7],
+        dy: &[f64; 7],
+    ) -> Verdict {
+        let sys = sides.sys;
+        let events = self.watch.on && sides.events;
+        if events {
+            let step = t - self.watch.t_before;
+            match self.watch.look(sides, t, y) {
+                Look::Redo(h) => return Verdict::Redo(h),
+                Look::Changed => {
+                    // a pair switched sides here: the rate is evaluated again, the tests wait
+                    self.push(t, y);
+                    return Verdict::Changed;
+                }
                 Look::Grazed => {
-                    grazed = true;
-                    return true;
+                    self.grazed = Some(t + step);
+                    return Verdict::Stop;
+                }
+                Look::Quiet | Look::Crossed => {}
+            }
+        }
+        self.push(t, y);
+        if sys.settled(params, y, dy) {
+            return Verdict::Stop;
+        }
+        if self.watch.on && !events {
+            match self.watch.look(sides, t, y) {
+                Look::Grazed => {
+                    self.grazed = Some(t);
+                    return Verdict::Stop;
                 }
                 Look::Crossed => {
-                    if let Some(s) = search.as_mut() {
+                    if let Some(s) = self.search.as_mut() {
                         s.crossed = true;
                     }
                 }
-                Look::Quiet => {}
+                _ => {}
             }
         }
-        search.as_mut().is_some_and(|s| s.stops(sys, t, y, dy))
-    });
-    let (newton_evals, end) = search.map_or((0, None), |s| (s.evaluations, s.found));
-    let evaluations = out.evaluations + newton_evals;
-    if let Some(e) = end {
-        return end_phase_result(sys, &e, params, evaluations, out.steps, trace);
+        Verdict::from(self.search.as_mut().is_some_and(|s| s.stops(sys, t, y, dy)))
     }
-    if grazed {
-        // where the ball goes from a graze hangs on errors this tolerance allows
-        return settle_tight(sys, y0, params, evaluations);
+
+    fn push(&mut self, t: f64, y: &[f64; 7]) {
+        if let Some(tr) = self.trace.as_deref_mut() {
+            tr.push((t, State::from_column_slice(y)));
+        }
     }
-    conclude(sys, y0, params, &out, evaluations, scale.is_some())
+}
+
+/// A graze seen by the fast path: where the ball goes from it hangs on errors the loose
+/// tolerance allows, so the approach to it, from `y0` to `t_past` (past the graze), is
+/// integrated again at the tight fallback's tolerances, and the fast path goes on from there
+/// (with one tight approach fewer left): the rest of the settle, its crossings, its end phase,
+/// at the loose tolerance. `spent`: the evaluations and steps of the loose run given up, and
+/// the length of the trace before it.
+fn approach_tightly<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    y0: [f64; 7],
+    params: SettleParams,
+    t_past: f64,
+    spent: (u32, u32, usize),
+    mut trace: Option<&mut Vec<(f64, State)>>,
+    approaches: u32,
+) -> SettleResult {
+    let t_h = t_past.min(params.t_max);
+    let tight = SettleParams {
+        rtol: FALLBACK_RTOL,
+        atol: FALLBACK_ATOL,
+        t_max: t_h,
+        ..params
+    };
+    if let Some(tr) = trace.as_deref_mut() {
+        // the loose run's steps are given up with it
+        tr.truncate(spent.2);
+    }
+    let (mut r, y_h) = dopri5_run(sys, y0, tight, trace.as_deref_mut());
+    r.evaluations = r.evaluations.saturating_add(spent.0);
+    r.steps = r.steps.saturating_add(spent.1);
+    if r.stop != Stop::TimeLimit || t_h >= params.t_max {
+        return r;
+    }
+    let rest = SettleParams {
+        t_max: params.t_max - t_h,
+        ..params
+    };
+    let from = trace.as_deref().map_or(0, |tr| tr.len());
+    let mut after = settle_fast_from(sys, y_h, rest, trace.as_deref_mut(), approaches - 1);
+    if let Some(tr) = trace {
+        tr[from..].iter_mut().for_each(|(t, _)| *t += t_h);
+    }
+    after.settle_time_s += t_h;
+    after.evaluations = after.evaluations.saturating_add(r.evaluations);
+    after.steps = after.steps.saturating_add(r.steps);
+    after
 }
 
 /// The settle that ends in the end phase `e`, found after `evaluations` and `steps`: its
@@ -193,6 +313,10 @@ struct GrazeWatch {
     turned: f64,
     /// Whether `now` holds the margins at `y_before` (the last step looked at them).
     looked: bool,
+    /// Landings tried for the event at hand, and whether the next step must be looked at
+    /// (it is one).
+    redos: u32,
+    landing: bool,
 }
 
 /// What the graze watch saw at a step.
@@ -204,6 +328,11 @@ enum Look {
     Crossed,
     /// A pair grazed its cut-off ([`grazes`]).
     Grazed,
+    /// A pair leaves its side of its cut-off within the step (cut-off events): take the step
+    /// again, this long, to land there.
+    Redo(f64),
+    /// Pairs were switched to the other side of their cut-off where the step ends.
+    Changed,
 }
 
 /// The least |margin| of `m`.
@@ -229,11 +358,7 @@ impl GrazeWatch {
     /// regime) and the model offers margins there.
     fn new<M: TorqueModel>(sys: &RotorDynamics<'_, M>, y0: [f64; 7], linear: bool) -> Self {
         let mut before = Vec::new();
-        let r0 = rotation_matrix(y0[0], y0[1], y0[2], y0[3]);
-        let on = linear
-            && sys
-                .model
-                .cutoff_margins(&r0, &Vector3::zeros(), sys.active, &mut before);
+        let on = linear && margins(sys, &y0, &mut before);
         let slack = least(&before) - GRAZE_EPS;
         GrazeWatch {
             on,
@@ -242,31 +367,63 @@ impl GrazeWatch {
             slack,
             y_before: y0,
             t_before: 0.0,
-            w_before: 0.0,
+            w_before: Vector3::new(y0[4], y0[5], y0[6]).norm(),
             turned: 0.0,
             looked: false,
+            redos: 0,
+            landing: false,
         }
     }
 
     /// Looks at the accepted step ending at (t, y); the watch goes off where the model offers
-    /// no margins.
-    fn look<M: TorqueModel>(&mut self, sys: &RotorDynamics<'_, M>, t: f64, y: &[f64; 7]) -> Look {
+    /// no margins. With cut-off events (`sides.events`) it finds them instead of grazes and
+    /// crossings: a step in which a pair leaves its side is taken again to land where it does
+    /// (the watch then stays where the step began), and pairs at their cut-off where a step
+    /// ends, moving on across it, are switched.
+    fn look<M: TorqueModel>(&mut self, sides: &Sides<'_, '_, M>, t: f64, y: &[f64; 7]) -> Look {
+        let sys = sides.sys;
         let w_now = Vector3::new(y[4], y[5], y[6]).norm();
         let h = t - self.t_before;
-        self.turned += 2.0 * w_now.max(self.w_before) * h;
+        let turn = 2.0 * w_now.max(self.w_before) * h;
+        self.turned += turn;
         let mut seen = Look::Quiet;
-        if self.turned >= self.slack {
+        if self.turned >= self.slack || self.landing {
             if self.looked {
                 std::mem::swap(&mut self.before, &mut self.now);
             }
             self.on = (self.looked || margins(sys, &self.y_before, &mut self.before))
                 && margins(sys, y, &mut self.now);
-            let pairs = || self.before.iter().zip(&self.now);
-            if self.on && pairs().any(|(&a, &b)| grazes(a, b, h)) {
-                return Look::Grazed;
-            }
-            if !self.on || pairs().any(|(a, b)| (a.0 < 0.0) != (b.0 < 0.0)) {
-                seen = Look::Crossed;
+            if self.on && sides.events {
+                match events::seen(sides, &self.before, &self.now, h) {
+                    Seen::Redo(s) if self.redos < MAX_REDOS => {
+                        // the step is taken back: the watch stays at its start
+                        std::mem::swap(&mut self.before, &mut self.now);
+                        self.turned -= turn;
+                        (self.looked, self.landing) = (true, true);
+                        self.redos += 1;
+                        return Look::Redo(s * h);
+                    }
+                    Seen::Redo(_) => seen = self.switch_beyond(sides),
+                    Seen::Flip(flips) => {
+                        sides.flip(flips);
+                        seen = Look::Changed;
+                    }
+                    Seen::Quiet => {
+                        let pairs = || self.before.iter().zip(&self.now).enumerate();
+                        if pairs().any(|(i, (&a, &b))| turns_back(sides.side(i), a, b, h)) {
+                            return Look::Grazed;
+                        }
+                    }
+                }
+                (self.redos, self.landing) = (0, false);
+            } else {
+                let pairs = || self.before.iter().zip(&self.now);
+                if self.on && pairs().any(|(&a, &b)| grazes(a, b, h)) {
+                    return Look::Grazed;
+                }
+                if !self.on || pairs().any(|(a, b)| (a.0 < 0.0) != (b.0 < 0.0)) {
+                    seen = Look::Crossed;
+                }
             }
             self.slack = least(&self.now) - GRAZE_EPS;
             self.turned = 0.0;
@@ -276,6 +433,22 @@ impl GrazeWatch {
         }
         (self.y_before, self.t_before, self.w_before) = (*y, t, w_now);
         seen
+    }
+
+    /// After [`MAX_REDOS`] landings on one event: the pairs on the wrong side of their cut-off
+    /// where the step ends are switched there.
+    fn switch_beyond<M: TorqueModel>(&self, sides: &Sides<'_, '_, M>) -> Look {
+        let flips = self
+            .now
+            .iter()
+            .enumerate()
+            .filter(|&(i, &(m, _))| sides.side(i) * m < 0.0)
+            .fold(0u64, |acc, (i, _)| acc | 1 << i);
+        if flips == 0 {
+            return Look::Quiet;
+        }
+        sides.flip(flips);
+        Look::Changed
     }
 }
 
@@ -350,6 +523,28 @@ fn grazes((m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f64) -> bool {
         m.abs() < GRAZE_EPS || m.signum() != m0.signum()
     })
 }
+
+/// Whether a pair's margin (cut-off events: the pair on its side) turns back from its cut-off
+/// within a step having come within [`GRAZE_EPS`] of it: approaching it at the step's
+/// start, receding at its end (rates by `side`: +1 for a pair within reach), and within
+/// [`GRAZE_EPS`] of 0 on the cubic Hermite interpolant.
+fn turns_back(side: f64, (m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f64) -> bool {
+    if !(side * rate0 <= 0.0 && side * rate1 > 0.0) {
+        return false;
+    }
+    let (d0, d1, dm) = (rate0 * h, rate1 * h, m1 - m0);
+    if m0.abs().min(m1.abs()) > GRAZE_EPS + 0.25 * ((d0 - dm).abs() + (d1 - dm).abs()) {
+        return false;
+    }
+    (0..=GRAZE_SAMPLES).any(|j| {
+        let [a0, b0, a1, b1] = hermite_weights(j as f64 / GRAZE_SAMPLES as f64);
+        (a0 * m0 + b0 * d0 + a1 * m1 + b1 * d1).abs() < GRAZE_EPS
+    })
+}
+
+/// Tight approaches to grazes one fast settle may take before the next graze sends it to the
+/// tight fallback.
+const TIGHT_APPROACHES: u32 = 3;
 
 /// At t_max without a strict minimum, the fast path falls back to the tight integration only
 /// if the ball is this close to the settle test (times its tolerances): a free rotation the

@@ -4,14 +4,16 @@
 //!
 //! Two paths reach the same equilibria: the fast path (the default, `fast`), an
 //! allocation-free Bogacki-Shampine 3(2) stepper from `integrator` while the motion is
-//! nonlinear and a closed-form linear end phase about the strict minimum it comes to
-//! (`end_phase`; with a tight fallback where it cannot be sure), and the reference path
+//! nonlinear, the wells' cut-offs crossed as events (`events`), and a closed-form linear end
+//! phase about the strict minimum it comes to (`end_phase`; with a tight fallback where it
+//! cannot be sure), and the reference path
 //! (`reference`), ode_solvers' Dopri5 at whatever tolerances are asked
 //! (`SettleParams::reference()` is tight). This file holds the types, the equations of motion
 //! and the entry points; tests/basins.rs and examples/basins.rs check the one path against the
 //! other on random sets, tests/settle.rs pins 54, and each part's file has its own unit tests.
 
 mod end_phase;
+mod events;
 mod fast;
 mod reference;
 
@@ -208,6 +210,12 @@ impl<'a, M: TorqueModel> RotorDynamics<'a, M> {
     /// dw/dt = I^-1 [ -w x (I w) + N_B - c w ].
     #[inline]
     pub fn derivative(&self, y: &[f64; 7], dy: &mut [f64; 7]) {
+        self.derivative_under(y, self.body_torque(y), dy)
+    }
+
+    /// dy/dt under the body-frame torque `nb` at `y`.
+    #[inline(always)]
+    fn derivative_under(&self, y: &[f64; 7], nb: Vector3<f64>, dy: &mut [f64; 7]) {
         let (q1, q2, q3, q4) = (y[0], y[1], y[2], y[3]);
         let w = Vector3::new(y[4], y[5], y[6]);
         let qv = Vector3::new(q1, q2, q3);
@@ -216,7 +224,6 @@ impl<'a, M: TorqueModel> RotorDynamics<'a, M> {
         dy[1] = dqv.y;
         dy[2] = dqv.z;
         dy[3] = -0.5 * w.dot(&qv);
-        let nb = self.body_torque(y);
         let i = self.body.inertia;
         let mut rhs = nb - w * self.body.damping;
         if !self.isotropic {

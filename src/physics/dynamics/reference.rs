@@ -89,6 +89,16 @@ pub(super) fn settle_dopri5<M: TorqueModel>(
     params: SettleParams,
     trace: Option<&mut Vec<(f64, State)>>,
 ) -> SettleResult {
+    dopri5_run(sys, y0, params, trace).0
+}
+
+/// [`settle_dopri5`], also giving the whole state (orientation and rate) where it ended.
+pub(super) fn dopri5_run<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    y0: [f64; 7],
+    params: SettleParams,
+    trace: Option<&mut Vec<(f64, State)>>,
+) -> (SettleResult, [f64; 7]) {
     let mut run = ReferenceRun {
         dynamics: sys,
         params,
@@ -151,7 +161,10 @@ pub(super) fn settle_dopri5<M: TorqueModel>(
         (Err(IntegrationError::StepSizeUnderflow { .. }), false) => Stop::StepSizeUnderflow,
         (Err(_), false) => Stop::StepLimit,
     };
-    finish(sys.model, sys.active, &y_end, t_end, evals, steps, stop)
+    (
+        finish(sys.model, sys.active, &y_end, t_end, evals, steps, stop),
+        y_end,
+    )
 }
 
 #[cfg(test)]
