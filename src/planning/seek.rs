@@ -247,3 +247,41 @@ impl Seek<'_> {
             .collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::geometry::{rot_q, MagnetId, Radians, UnitVec};
+    use nalgebra::Vector3;
+
+    fn state(coils: &[usize], deg: f64) -> CommutationState {
+        let z = UnitVec::new_normalize(Vector3::z());
+        CommutationState {
+            q: rot_q(&z, Radians(deg.to_radians())),
+            active: (coils.iter())
+                .map(|&c| Pair {
+                    coil: CoilId(c),
+                    magnet: MagnetId(c),
+                })
+                .collect(),
+            settle_time_s: 0.0,
+        }
+    }
+
+    #[test]
+    fn one_equilibrium_met_two_ways_is_ranked_by_the_first_way() {
+        let mut seen = Seen::default();
+        // the first way, then the same equilibrium a settle's stop away, nearer by 1e-9
+        assert_eq!(seen.distance(&state(&[1, 2], 10.0), 0.5), 0.5);
+        assert_eq!(seen.distance(&state(&[2, 1], 10.0 + 1e-7), 0.5 - 1e-9), 0.5);
+        // other coils, or the same coils a degree away: another state, its own distance
+        assert_eq!(seen.distance(&state(&[1, 3], 10.0), 0.4), 0.4);
+        assert_eq!(seen.distance(&state(&[1, 2], 11.0), 0.3), 0.3);
+        // kept from this level: met at the next depth, it keeps its first distance; what was
+        // not kept is forgotten
+        seen.keep_only(&[(0.5, 0), (0.3, 3)]);
+        assert_eq!(seen.distance(&state(&[1, 2], 10.0), 0.2), 0.5);
+        assert_eq!(seen.distance(&state(&[1, 2], 11.0), 0.1), 0.3);
+        assert_eq!(seen.distance(&state(&[1, 3], 10.0), 0.35), 0.35);
+    }
+}
