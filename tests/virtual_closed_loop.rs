@@ -1,14 +1,21 @@
-//! `replay --sensor` through the virtual motor takes the decisions `run --closed-loop` takes
-//! with the same plant and seed: the same coils on at each step, replanned after the same
-//! steps, up to where the two loops' goals part (see the test). The plant is the prototype with every coil pulling every magnet in reach (the model
-//! pairs each coil with one magnet), so the loop must replan. Written against the closed loop
-//! as it is (its controller is being reworked): where they part, this test says at which step.
-//! The virtual clock runs 20 times the wall clock and the replay's dwells and floor are 5 times
-//! shorter than the defaults, so the ball has four times the dwells it needs on the virtual
-//! clock and is at rest when measured, as in `run`; the on-time limit is lifted (the replans'
-//! wall time counts while the coils are on, and the limit is not what this test is about; the
-//! run and the replay plan with the same limits, from the same file). Nothing asserts how fast
-//! anything ran.
+//! `replay --sensor` through the virtual motor against the simulated closed loop with the same
+//! plant and seed, the same plan file and so the same goal: the same coils on and the same
+//! replans over the first steps (see the test for where and why they part later: issue 30 is
+//! open there). The simulated loop is `simulate PLAN --plant PLANT --closed-loop`: a plan file
+//! does not say where `plan` was asked to go (90 degrees about Z here; the plan's last row is
+//! 91.65 degrees), so `replay --sensor` and `simulate` of the same file both aim at its last
+//! row, where `run` aims at the asked target and parts from them once it replans towards it.
+//! The plant is `cosine-35-coils` (cosine wells reaching 35 degrees, every coil pulling every
+//! magnet in reach, half the stiffness; the model pairs each coil with one magnet in gaussian
+//! wells), so the loop replans after every step; the fit of the wells is off in both. Every
+//! step settles in that plant: a step that does not is measured at the settle's time limit in
+//! the simulation and after the dwell on the virtual motor, which are other places. The sensor
+//! is noiseless in both (the virtual sensor draws its noise per line it prints, the simulated
+//! one per step: with noise their readings would be other samples). The virtual clock runs 20
+//! times the wall clock and the replay dwells 400 ms a step, 8 s on the virtual clock (the
+//! settle's own limit is 5 s), so the ball is at rest when measured, as in the simulation; the
+//! on-time limit is lifted (the replans' wall time counts while the coils are on, and the limit
+//! is not what this test is about). Nothing asserts how fast anything ran.
 #![cfg(unix)]
 
 mod common;
@@ -27,7 +34,7 @@ fn write(dir: &Path, name: &str, text: &str) -> String {
     p.display().to_string()
 }
 
-/// Coil sets per step and the steps replanned after, from `run`'s CSV.
+/// Coil sets per step and the steps replanned after, from `simulate`'s (or `run`'s) CSV.
 fn from_run(csv: &str) -> (Vec<BTreeSet<usize>>, Vec<usize>) {
     let mut lines = csv.lines();
     let head: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -78,7 +85,7 @@ fn from_replay_log(csv: &str) -> (Vec<BTreeSet<usize>>, Vec<usize>) {
 }
 
 #[test]
-fn replay_through_the_virtual_motor_decides_as_run_closed_loop() {
+fn replay_through_the_virtual_motor_decides_as_the_simulated_loop_over_the_first_steps() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let model = write(
@@ -86,34 +93,40 @@ fn replay_through_the_virtual_motor_decides_as_run_closed_loop() {
         "model.toml",
         "name = \"model\"\n[relay]\nboard = \"numato\"\ndwell_factor = 0.3\ndwell_floor_ms = 40\nmax_on_time_s = 1000\n",
     );
+    // cosine wells reaching 35 degrees, every coil pulling: every step settles in it, so the
+    // ball is at rest when it is measured, in the simulation and on the virtual motor alike
+    let wells = std::fs::read_to_string("scenarios/plants/cosine-35-coils.toml").unwrap();
     let plant = write(
         d,
         "plant.toml",
-        "name = \"plant\"\n[magnets]\ninteraction = \"coils\"\n[relay]\nboard = \"numato\"\nmax_on_time_s = 1000\n",
+        &format!("{wells}\n[relay]\nboard = \"numato\"\nmax_on_time_s = 1000\n"),
     );
     let plan = d.join("plan.csv").display().to_string();
     let target = ["--axis", "0,0,1", "--angle", "90"];
     let (code, out, err) =
         common::run(&[&["plan", &model][..], &target, &["--out", &plan]].concat());
     assert_eq!(code, 0, "{out}{err}");
-    let run_csv = d.join("run.csv").display().to_string();
-    let (_, out, err) = common::run(
-        &[
-            &[
-                "run",
-                &model,
-                "--plant",
-                &plant,
-                "--closed-loop",
-                "--seed",
-                "7",
-            ][..],
-            &target,
-            &["--out", &run_csv],
-        ]
-        .concat(),
-    );
-    let run = std::fs::read_to_string(&run_csv).unwrap_or_else(|_| panic!("{out}{err}"));
+    // the simulated loop on the plan file, as the replay plays it
+    let sim_csv = d.join("simulated.csv").display().to_string();
+    let (sim_code, out, err) = common::run(&[
+        "simulate",
+        &plan,
+        &model,
+        "--plant",
+        &plant,
+        "--closed-loop",
+        "--no-identify",
+        "--sensor-noise-deg",
+        "0",
+        "--seed",
+        "7",
+        "--json",
+        "--out",
+        &sim_csv,
+    ]);
+    let sim = std::fs::read_to_string(&sim_csv).unwrap_or_else(|_| panic!("{out}{err}"));
+    let summary: serde_json::Value =
+        serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}{err}"));
 
     let links = d.join("dev");
     let links_s = links.display().to_string();
@@ -125,6 +138,8 @@ fn replay_through_the_virtual_motor_decides_as_run_closed_loop() {
             "20",
             "--sensor",
             "quat-csv",
+            "--sensor-noise-deg",
+            "0",
             "--seed",
             "7",
             "--link-dir",
@@ -168,6 +183,9 @@ fn replay_through_the_virtual_motor_decides_as_run_closed_loop() {
             "quat-csv",
             "--log",
             &log,
+            "--dwell-ms",
+            "400",
+            "--no-identify",
         ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -199,23 +217,26 @@ fn replay_through_the_virtual_motor_decides_as_run_closed_loop() {
         std::thread::sleep(Duration::from_millis(50));
     }
     let replay_log = std::fs::read_to_string(&log).unwrap_or_default();
-    let (run_sets, run_replans) = from_run(&run);
+    let (sim_sets, sim_replans) = from_run(&sim);
     let (replay_sets, replay_replans) = from_replay_log(&replay_log);
     assert!(
-        !run_replans.is_empty(),
-        "the plant is the model's: nothing to replan\n{run}"
+        !sim_replans.is_empty(),
+        "the plant is the model's: nothing to replan\n{sim}"
     );
-    // As the closed loop is today, the two agree up to the first step planned in the fitted
-    // wells (step 2 here), and part there: `run` steers towards ROT[axis, angle] applied to
-    // row 0 (90 degrees about Z), `replay --sensor` towards the plan file's last row (91.65
-    // degrees). The steps before it and the replans after steps 0 and 1 are the same.
-    let agreed = 2;
-    for (k, a) in run_sets.iter().enumerate().take(agreed) {
+    // Known to part (issue 30, open): with the same goal and a noiseless sensor the two loops
+    // switch the same sets and replan after the same steps for the first steps (a replan after
+    // every step), and part later, at a step that varies from run to run (5 and 7 seen): the
+    // virtual ball is integrated in real time, so its readings differ from the simulation's by
+    // about 1e-6 and from one rehearsal to the next, and a decision of the replan is still that
+    // sensitive (with the fit of the wells on, the fit's refinement parts them at step 3). This
+    // asserts the first three steps, the replans after each of them included.
+    let agreed = 3;
+    for (k, a) in sim_sets.iter().enumerate().take(agreed) {
         let b = replay_sets.get(k);
         assert_eq!(
             Some(a),
             b,
-            "step {k}: run switched {a:?}, the replay {b:?}\n{said}"
+            "step {k}: the simulation switched {a:?}, the replay {b:?}\n{said}\n{sim}"
         );
     }
     let before = |v: &[usize]| {
@@ -224,6 +245,20 @@ fn replay_through_the_virtual_motor_decides_as_run_closed_loop() {
             .filter(|&k| k < agreed)
             .collect::<Vec<_>>()
     };
-    assert_eq!(before(&run_replans), before(&replay_replans), "{said}");
-    assert_eq!(before(&run_replans), vec![0, 1], "{run}");
+    assert_eq!(
+        before(&sim_replans),
+        before(&replay_replans),
+        "{said}\n{sim}"
+    );
+    assert_eq!(
+        before(&sim_replans),
+        (0..agreed).collect::<Vec<_>>(),
+        "{sim}"
+    );
+    // the simulated run as it ends: at the step limit, no fit
+    assert_eq!(
+        sim_code == 0,
+        summary["reached"].as_bool().unwrap(),
+        "{out}{err}"
+    );
 }

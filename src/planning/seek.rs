@@ -12,6 +12,7 @@ use crate::planning::coilsets::{
 };
 use crate::planning::commutation::{predicted_orientation, CommutationState, Motor, PairsPerStep};
 use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
+use std::collections::BTreeMap;
 
 /// How many states nearest the goal the closed loop's search keeps at each depth, and how deep
 /// it looks at most. For scale (`examples/fewest_steps.rs` on `scenarios/broad-wells.toml`,
@@ -40,6 +41,60 @@ pub struct Seek<'a> {
     /// do not take one ([`crate::planning::on_time`]).
     pub on_time: Option<OnTimeLimit>,
     pub held: OnTimes<CoilId>,
+}
+
+/// Two states with the same coils on whose orientations lie within this (degrees) of each
+/// other are one equilibrium reached two ways: a settle stops within its tolerances of the
+/// equilibrium (`omega_tol`, `torque_tol`), so where it stops depends on where it started, to
+/// far below a sensor's resolution and far below the degrees between two equilibria of one set.
+pub const SAME_STATE_DEG: f64 = 0.25;
+
+/// The equilibria a search has met, by the coils on: each with the distance to the goal it was
+/// first ranked by. An equilibrium met again (another path to it, at this depth or a later one)
+/// is ranked by that same distance, so that the ties between the ways to it are broken by the
+/// order they were found in (the nearer parent first, then the set's order), not by where each
+/// settle happened to stop: a measurement a rounding away (a sensor's frame mapped back) gives
+/// the same plan.
+#[derive(Default)]
+struct Seen {
+    /// The kept states' equilibria ...
+    kept: BTreeMap<Vec<CoilId>, Vec<(Orientation, f64)>>,
+    /// ... and those of the level being ranked, in its order (its coils, orientation and
+    /// distance), with where each set's are in it.
+    level: Vec<(Vec<CoilId>, Orientation, f64)>,
+    level_of: BTreeMap<Vec<CoilId>, Vec<usize>>,
+}
+
+impl Seen {
+    /// The distance `s` is ranked by: that of the equilibrium it is the same as, met before,
+    /// else its own, `own`. Called in the level's order.
+    fn distance(&mut self, s: &CommutationState, own: f64) -> f64 {
+        let coils = coils_of(&s.active);
+        let same = |q: &Orientation| q.angle_to(&s.q) <= SAME_STATE_DEG.to_radians();
+        let kept = self.kept.get(&coils).into_iter().flatten();
+        let level = self.level_of.get(&coils).into_iter().flatten();
+        let d = (kept.map(|&(q, d)| (q, d)))
+            .chain(level.map(|&i| (self.level[i].1, self.level[i].2)))
+            .find(|(q, _)| same(q))
+            .map_or(own, |(_, d)| d);
+        self.level_of
+            .entry(coils.clone())
+            .or_default()
+            .push(self.level.len());
+        self.level.push((coils, s.q, d));
+        d
+    }
+
+    /// The level ranked: the states `keyed` keeps (by their index in the level) are met from
+    /// now on.
+    fn keep_only(&mut self, keyed: &[(f64, usize)]) {
+        let level = std::mem::take(&mut self.level);
+        self.level_of.clear();
+        for &(_, i) in keyed {
+            let (coils, q, d) = level[i].clone();
+            self.kept.entry(coils).or_default().push((q, d));
+        }
+    }
 }
 
 /// What a search found.
@@ -77,6 +132,8 @@ impl Seek<'_> {
         let mut kept_on: Vec<OnTimes<CoilId>> = Vec::new();
         let mut best: Option<(f64, usize)> = None;
         let mut nearest_by_depth = Vec::new();
+        // one distance per equilibrium, whichever way it was reached (see [`Seen`])
+        let mut seen = Seen::default();
         for d in 0..depth {
             let parents: Vec<(Option<usize>, &CommutationState)> = if d == 0 {
                 vec![(None, root)]
@@ -105,12 +162,13 @@ impl Seek<'_> {
             let mut keyed: Vec<(f64, usize)> = next
                 .iter()
                 .enumerate()
-                .map(|(i, (_, s))| (self.distance(&s.q), i))
+                .map(|(i, (_, s))| (seen.distance(s, self.distance(&s.q)), i))
                 .collect();
             keyed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             keyed.truncate(beam);
             nearest_by_depth.push(keyed.first().map_or(f64::INFINITY, |k| k.0));
             level = Vec::with_capacity(keyed.len());
+            seen.keep_only(&keyed);
             for &(dist, i) in &keyed {
                 kept.push(next[i].clone());
                 kept_on.push(next_on[i].clone());
@@ -223,5 +281,43 @@ impl Seek<'_> {
         keyed.truncate(k);
         keyed.sort_by_key(|&(_, i)| i);
         keyed.iter().map(|&(_, i)| sets[i].clone()).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::geometry::{rot_q, MagnetId, Radians, UnitVec};
+    use nalgebra::Vector3;
+
+    fn state(coils: &[usize], deg: f64) -> CommutationState {
+        let z = UnitVec::new_normalize(Vector3::z());
+        CommutationState {
+            q: rot_q(&z, Radians(deg.to_radians())),
+            active: (coils.iter())
+                .map(|&c| Pair {
+                    coil: CoilId(c),
+                    magnet: MagnetId(c),
+                })
+                .collect(),
+            settle_time_s: 0.0,
+        }
+    }
+
+    #[test]
+    fn one_equilibrium_met_two_ways_is_ranked_by_the_first_way() {
+        let mut seen = Seen::default();
+        // the first way, then the same equilibrium a settle's stop away, nearer by 1e-9
+        assert_eq!(seen.distance(&state(&[1, 2], 10.0), 0.5), 0.5);
+        assert_eq!(seen.distance(&state(&[2, 1], 10.0 + 1e-7), 0.5 - 1e-9), 0.5);
+        // other coils, or the same coils a degree away: another state, its own distance
+        assert_eq!(seen.distance(&state(&[1, 3], 10.0), 0.4), 0.4);
+        assert_eq!(seen.distance(&state(&[1, 2], 11.0), 0.3), 0.3);
+        // kept from this level: met at the next depth, it keeps its first distance; what was
+        // not kept is forgotten
+        seen.keep_only(&[(0.5, 0), (0.3, 3)]);
+        assert_eq!(seen.distance(&state(&[1, 2], 10.0), 0.2), 0.5);
+        assert_eq!(seen.distance(&state(&[1, 2], 11.0), 0.1), 0.3);
+        assert_eq!(seen.distance(&state(&[1, 3], 10.0), 0.35), 0.35);
     }
 }
