@@ -561,7 +561,7 @@ impl<'a> Controller<'a> {
     /// The plan's rows for `path` from `root` (the estimate `est`): row 0 the estimated state.
     fn rows_of(&self, root: &CommutationState, est: &Orientation, path: &Path) -> Vec<PlanRow> {
         let axis = &self.settings.axis;
-        let mut rows = vec![first_row(&root)];
+        let mut rows = vec![first_row(root)];
         let mut from = root;
         let mut cum = 0.0;
         for to in &path.states {
