@@ -511,7 +511,14 @@ fn grazes((m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f64) -> bool {
         // a crossing, not a graze
         return false;
     }
-    let (d0, d1, dm) = (rate0 * h, rate1 * h, m1 - m0);
+    near_zero_on_step((m0, rate0 * h), (m1, rate1 * h), true)
+}
+
+/// Whether the cubic Hermite interpolant of a margin over a step (m0 and m1 at its ends, d0
+/// and d1 its rates times the step) comes within [`GRAZE_EPS`] of 0 at one of its
+/// [`GRAZE_SAMPLES`] + 1 points, or, with `across`, lies on the other side of 0 from m0 there.
+fn near_zero_on_step((m0, d0): (f64, f64), (m1, d1): (f64, f64), across: bool) -> bool {
+    let dm = m1 - m0;
     // the interpolant departs from the chord by at most a quarter of |d0 - dm| + |d1 - dm|:
     // most steps are ruled out here
     if m0.abs().min(m1.abs()) > GRAZE_EPS + 0.25 * ((d0 - dm).abs() + (d1 - dm).abs()) {
@@ -520,7 +527,7 @@ fn grazes((m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f64) -> bool {
     (0..=GRAZE_SAMPLES).any(|j| {
         let [a0, b0, a1, b1] = hermite_weights(j as f64 / GRAZE_SAMPLES as f64);
         let m = a0 * m0 + b0 * d0 + a1 * m1 + b1 * d1;
-        m.abs() < GRAZE_EPS || m.signum() != m0.signum()
+        m.abs() < GRAZE_EPS || (across && m.signum() != m0.signum())
     })
 }
 
@@ -532,14 +539,7 @@ fn turns_back(side: f64, (m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f6
     if !(side * rate0 <= 0.0 && side * rate1 > 0.0) {
         return false;
     }
-    let (d0, d1, dm) = (rate0 * h, rate1 * h, m1 - m0);
-    if m0.abs().min(m1.abs()) > GRAZE_EPS + 0.25 * ((d0 - dm).abs() + (d1 - dm).abs()) {
-        return false;
-    }
-    (0..=GRAZE_SAMPLES).any(|j| {
-        let [a0, b0, a1, b1] = hermite_weights(j as f64 / GRAZE_SAMPLES as f64);
-        (a0 * m0 + b0 * d0 + a1 * m1 + b1 * d1).abs() < GRAZE_EPS
-    })
+    near_zero_on_step((m0, rate0 * h), (m1, rate1 * h), false)
 }
 
 /// Tight approaches to grazes one fast settle may take before the next graze sends it to the
