@@ -198,23 +198,13 @@ impl Seek<'_> {
         }
     }
 
-    /// The states one step from `from`: each coil set the supply allows, weighed (a set no
+    /// For each of `froms`, the states one step from it: each coil set the supply allows,
+    /// weighed (a set no
     /// strict minimum holds stops where the ball comes to rest), the [`FOLLOWED_PER_STATE`] of
     /// those unheld sets that stop nearest the goal followed to where the ball really stops (as
     /// the coil-set planner does); those that settle, each coil with its nearest magnet there.
-    /// Adds the settles spent to `settles`.
-    pub fn successors(
-        &self,
-        from: &CommutationState,
-        settles: &mut usize,
-    ) -> Vec<CommutationState> {
-        self.successors_each(&[from], settles)
-            .pop()
-            .unwrap_or_default()
-    }
-
-    /// [`Seek::successors`] of each of `froms`, their settles run as one parallel batch (the
-    /// same states as one call each, in less time on several threads).
+    /// Adds the settles spent to `settles`. All their settles run as one parallel batch (a
+    /// settle does not depend on what runs beside it).
     pub fn successors_each(
         &self,
         froms: &[&CommutationState],
