@@ -797,11 +797,13 @@ fn closed_loop_switches_off_before_the_on_time_limit_while_the_sensor_is_silent(
 
 #[test]
 fn closed_loop_switches_off_before_the_on_time_limit_while_it_replans() {
-    // a sensor that reads 180 degrees about Z whatever the ball does: the fit and the replans
-    // from there take long in the broad wells, the coils are allowed 1 s
+    // a sensor that reads 180 degrees about Z whatever the ball does, and replans from there
+    // searched 64 states wide (16 times the default: seconds in the broad wells, where the
+    // default takes a few hundred milliseconds); the coils are allowed 1 s
     let dir = tempfile::tempdir().unwrap();
-    let inputs = limited(dir.path(), 1.0, 500);
+    let mut inputs = limited(dir.path(), 1.0, 500);
     let (script, _) = offline(&inputs, None);
+    inputs.cl.replan_beam = 64;
     let far = Fault::Always("0,0,0,1");
     let ran = run(&inputs, script, SensorFormat::QuatCsv, far);
     switched_off_before_the_limit(

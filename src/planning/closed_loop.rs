@@ -39,6 +39,10 @@ pub struct LoopSettings {
     /// Fit the wells to the measured steps ([`crate::planning::identify`]) and steer with the
     /// candidate that explains them clearly better than the model, once one does.
     pub identify: bool,
+    /// The replan's beam: the states nearest the goal its search keeps at each depth
+    /// ([`REPLAN_BEAM`] by default). A wider beam looks at more ways and takes longer, with the
+    /// coils holding the ball.
+    pub replan_beam: usize,
 }
 
 impl LoopSettings {
@@ -54,6 +58,7 @@ impl LoopSettings {
             goal_tolerance: Radians((2.0 * noise.0).max(1.5f64.to_radians())),
             max_steps,
             identify: true,
+            replan_beam: REPLAN_BEAM,
         }
     }
 
@@ -462,9 +467,10 @@ impl<'a> Controller<'a> {
     }
 
     /// The rest of the motion in the physics `steer`, from the estimate `est` held by the
-    /// coils on now: the search of [`Seek`] straight for the goal, [`REPLAN_BEAM`] wide, at most
-    /// [`REPLAN_DEPTH`] deep, [`REPLAN_SETS`] sets settled per state (the steps left are counted against `max_steps`). Row 0 of
-    /// the plan is the estimated state. The plan and the distance to the goal of its end; an
+    /// coils on now: the search of [`Seek`] straight for the goal,
+    /// [`LoopSettings::replan_beam`] wide, at most [`REPLAN_DEPTH`] deep, [`REPLAN_SETS`] sets
+    /// settled per state (the steps left are counted against `max_steps`). Row 0 of the plan
+    /// is the estimated state. The plan and the distance to the goal of its end; an
     /// error when no state is nearer the goal than the estimate.
     fn search(
         &self,
@@ -532,7 +538,7 @@ impl<'a> Controller<'a> {
         left: usize,
     ) -> Path {
         let tolerance = self.cl.goal_tolerance.0;
-        let mut path = seek.search(root, left, REPLAN_BEAM, tolerance);
+        let mut path = seek.search(root, left, self.cl.replan_beam, tolerance);
         // short of the goal at less than SLOW_DEG a step: the cheap ranking missed the way
         // (broad wells, where every coil pulls many magnets); the search again, wider
         let start = angular(est, &self.goal);
@@ -547,7 +553,7 @@ impl<'a> Controller<'a> {
                 held: seek.held.clone(),
                 ..*seek
             };
-            let again = wide.search(root, left, REPLAN_BEAM, tolerance);
+            let again = wide.search(root, left, self.cl.replan_beam, tolerance);
             let end = |p: &Path| p.states.last().map_or(start, |e| angular(&e.q, &self.goal));
             let settles = path.settles + again.settles;
             if end(&again) < end(&path) {
