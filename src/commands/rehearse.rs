@@ -155,7 +155,7 @@ pub fn prepare(o: &VirtualOptions) -> Result<Options> {
         coil_of,
         max_coils_on: sc.relay.max_coils_on,
         max_on_time: sc.relay.max_on_time,
-        ball: Ball::new(sc.torques.clone(), sc.body, start, hint),
+        ball: Ball::new(sc.torques.clone(), sc.body, sc.settle, start, hint),
         sensor: o.sensor,
         sensor_noise: Degrees(o.sensor_noise_deg).to_radians(),
         seed: o.seed,

@@ -12,17 +12,20 @@ use crate::sensor::bno055::{
     READ_SUCCESS, START, STATUS, WRITE, WRITE_SUCCESS,
 };
 
-/// One quat-csv line for an orientation: `w,x,y,z` and a newline, 6 decimals.
+/// One quat-csv line for an orientation: `w,x,y,z` and a newline, each number in full (the
+/// shortest text that reads back as the same `f64`: the ball's orientation to the bit, as a
+/// sketch printing every digit it has would send it; [`crate::sensor::quat_csv`] reads any
+/// number of decimals).
 pub fn quat_csv_line(q: &Orientation) -> String {
     let c = q.quaternion();
-    format!("{:.6},{:.6},{:.6},{:.6}\n", c.w, c.i, c.j, c.k)
+    format!("{},{},{},{}\n", c.w, c.i, c.j, c.k)
 }
 
 /// A garbled quat-csv line: what a line corrupted on the wire looks like (three fields, a
 /// stray character).
 pub fn garbled_line(q: &Orientation) -> String {
     let c = q.quaternion();
-    format!("{:.6},{:.6}#{:.6}\n", c.w, c.i, c.j)
+    format!("{},{}#{}\n", c.w, c.i, c.j)
 }
 
 /// What the BNO055 did with one request.
@@ -203,8 +206,9 @@ mod tests {
     #[test]
     fn the_far_ends_answer_as_the_drivers_read() {
         let q = UnitQuaternionExt::about_z(0.3);
+        // the line in full: the orientation back to the bit
         let back = parse_line(quat_csv_line(&q).trim_end()).unwrap();
-        assert!(back.angle_to(&q) < 1e-5);
+        assert_eq!(back, q);
         assert!(parse_line(garbled_line(&q).trim_end()).is_err());
         let mut s = Bno055Emulator::default();
         let r = s.feed(&write_request(OPR_MODE, &[IMU_MODE]), &mut || q);

@@ -302,8 +302,16 @@ pub(crate) fn is_idle(e: &std::io::Error) -> bool {
     )
 }
 
+/// A quaternion whose norm is within this of 1 is a unit quaternion already, to the rounding
+/// of the normalisation that made it (a few units in the last place): it is taken as it is,
+/// since normalising it again would move it by that rounding (one normalised quaternion in
+/// three does not have a norm of exactly 1.0 in `f64`).
+pub const UNIT_ROUNDING: f64 = 4.0 * f64::EPSILON;
+
 /// The unit quaternion from `w, x, y, z`, or why it is not one: every component finite, the
-/// norm within [`NORM_TOLERANCE`] of 1.
+/// norm within [`NORM_TOLERANCE`] of 1. It is normalised, unless it is unit to the rounding
+/// of a normalisation already ([`UNIT_ROUNDING`]): then it is kept to the bit (a reading of
+/// full precision passes through unchanged).
 pub fn unit_quaternion(w: f64, x: f64, y: f64, z: f64) -> Result<Orientation, String> {
     if ![w, x, y, z].iter().all(|c| c.is_finite()) {
         return Err("a component is not finite".into());
@@ -314,6 +322,9 @@ pub fn unit_quaternion(w: f64, x: f64, y: f64, z: f64) -> Result<Orientation, St
         return Err(format!(
             "the norm {norm:.4} is not within {NORM_TOLERANCE} of 1"
         ));
+    }
+    if (norm - 1.0).abs() <= UNIT_ROUNDING {
+        return Ok(Orientation::new_unchecked(q));
     }
     Ok(Orientation::from_quaternion(q))
 }
@@ -398,6 +409,30 @@ mod tests {
             .contains("norm 1.2000"));
         assert!(unit_quaternion(f64::NAN, 0.0, 0.0, 1.0).is_err());
         assert!(unit_quaternion(f64::INFINITY, 0.0, 0.0, 1.0).is_err());
+    }
+
+    #[test]
+    fn sensor_unit_quaternion_keeps_a_normalised_one_to_the_bit() {
+        // normalised quaternions, a third of which have no norm of exactly 1.0 in f64: read
+        // back from their full text, each is itself (normalising again would move some)
+        let mut moved = 0;
+        for k in 0..300 {
+            let t = f64::from(k);
+            let raw = nalgebra::Quaternion::new(
+                (0.7 * t).sin() + 0.1,
+                (1.3 * t).cos(),
+                (0.37 * t + 1.0).sin(),
+                (2.1 * t).cos() * 0.5,
+            );
+            let q = Orientation::from_quaternion(raw);
+            let text = format!("{},{},{},{}", q.w, q.i, q.j, q.k);
+            let back = quat_csv::parse_line(&text).unwrap();
+            assert_eq!(back, q, "{text}");
+            if Orientation::from_quaternion(*q.quaternion()) != q {
+                moved += 1;
+            }
+        }
+        assert!(moved > 0, "no quaternion here that a normalisation moves");
     }
 
     #[test]

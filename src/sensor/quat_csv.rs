@@ -11,7 +11,8 @@
 //!
 //! A line is a reading when it is exactly four comma-separated finite numbers (spaces around
 //! them allowed), in the order w, x, y, z, whose norm is within
-//! [`NORM_TOLERANCE`](super::NORM_TOLERANCE) of 1; it is then normalised. Anything else (or a
+//! [`NORM_TOLERANCE`](super::NORM_TOLERANCE) of 1; it is then normalised (a line of full
+//! precision that is unit already, to the rounding, is kept to the bit). Anything else (or a
 //! line longer than [`MAX_LINE`] bytes) is [`SensorError::Garbage`] with the line.
 
 use super::{
