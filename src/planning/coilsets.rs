@@ -6,7 +6,9 @@
 //! coil on is written with the magnet nearest it at the settled orientation. A step source for
 //! the searches of `search`, which it shares with the pair models.
 
-use crate::model::geometry::{angular_distance, CoilId, Orientation, Pair, Radians, UnitVec};
+use crate::model::geometry::{
+    angular_distance, CoilId, MagnetId, Orientation, Pair, Radians, UnitVec,
+};
 use crate::physics::dynamics::{settle, SettleParams, SettleResult, Stop};
 use crate::physics::torque::{Interaction, MagnetTorques};
 use crate::planning::commutation::{
@@ -62,7 +64,8 @@ impl<'a> CoilSets<'a> {
             return (0, vec![None; sets.len()]);
         }
         let torques = &self.motor.torques;
-        let pairs: Vec<Vec<Pair>> = sets.iter().map(|c| label(torques, c, q)).collect();
+        let labels = Labels::at(torques, q);
+        let pairs: Vec<Vec<Pair>> = sets.iter().map(|c| labels.label(c)).collect();
         let follow = if at.is_some() {
             FOLLOWED_PER_STATE
         } else {
@@ -137,15 +140,12 @@ impl<'a> CoilSets<'a> {
         let (torques, s) = (&self.motor.torques, self.s);
         let reach = coils_in_reach(torques, &at.state.q);
         let held = coils_of(&at.state.active);
+        let labels = Labels::at(torques, &at.state.q);
         let ranked: Vec<(f64, Vec<CoilId>)> =
             coil_sets(&held, &reach, s.pairs, s.limits.max_coils_on)
                 .into_iter()
                 .map(|set| {
-                    let qp = predicted_orientation(
-                        torques,
-                        &at.state.q,
-                        &label(torques, &set, &at.state.q),
-                    );
+                    let qp = predicted_orientation(torques, &at.state.q, &labels.label(&set));
                     (predicted_rank(at, &qp, s).unwrap_or(f64::INFINITY), set)
                 })
                 .collect();
@@ -295,6 +295,40 @@ pub fn coils_of(active: &[Pair]) -> Vec<CoilId> {
     c
 }
 
+/// Each coil's nearest magnet at one orientation, looked for once per coil: the labels of the
+/// many sets a state tries (the same pairs as [`label`] of each).
+pub struct Labels<'a> {
+    torques: &'a MagnetTorques,
+    q: Orientation,
+    nearest: Vec<std::cell::OnceCell<MagnetId>>,
+}
+
+impl<'a> Labels<'a> {
+    /// The labels at `q`, none looked for yet.
+    pub fn at(torques: &'a MagnetTorques, q: &Orientation) -> Self {
+        Labels {
+            torques,
+            q: *q,
+            nearest: vec![std::cell::OnceCell::new(); torques.stator.len()],
+        }
+    }
+
+    /// Each of `coils` with the magnet nearest to it.
+    pub fn label(&self, coils: &[CoilId]) -> Vec<Pair> {
+        coils
+            .iter()
+            .map(|&coil| {
+                let near = || nearest_magnet(self.torques, coil, &self.q).0;
+                let magnet = match self.nearest.get(coil.0) {
+                    Some(cell) => *cell.get_or_init(near),
+                    None => near(),
+                };
+                Pair { coil, magnet }
+            })
+            .collect()
+    }
+}
+
 /// Each coil with the magnet nearest to it at `q`.
 pub fn label(torques: &MagnetTorques, coils: &[CoilId], q: &Orientation) -> Vec<Pair> {
     coils
@@ -370,6 +404,26 @@ pub fn coil_sets(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn labels_of_many_sets_are_those_of_label_one_set_at_a_time() {
+        use crate::model::geometry::rot_q;
+        let torques = crate::io::scenario::Scenario::prototype().torques;
+        let n = torques.stator.len();
+        let axis = UnitVec::new_normalize(nalgebra::Vector3::new(0.3, -0.5, 0.8));
+        for deg in [0.0, 17.0, 61.0, 143.0] {
+            let q = rot_q(&axis, Radians(f64::to_radians(deg)));
+            let labels = Labels::at(&torques, &q);
+            for set in combinations(n, 2).into_iter().chain(combinations(n, 3)) {
+                let set: Vec<CoilId> = set.into_iter().map(CoilId).collect();
+                assert_eq!(
+                    labels.label(&set),
+                    label(&torques, &set, &q),
+                    "{set:?} at {deg}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn coil_sets_keep_to_the_supply_and_leave_the_held_set() {

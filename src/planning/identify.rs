@@ -403,7 +403,11 @@ impl Identifier {
                     .into_iter()
                     .filter(|p| p.within(k))
                     .collect();
-                let scored: Vec<f64> = tries.iter().map(|p| self.evaluate(motor, p).0).collect();
+                // every neighbour's settles at once (each sum is taken in the steps' order, so the
+                // scores are those of one neighbour at a time)
+                let scored: Vec<f64> = (tries.par_iter())
+                    .map(|p| self.evaluate(motor, p).0)
+                    .collect();
                 self.settles += tries.len() * self.observations.len();
                 let best = (0..tries.len())
                     .min_by(|&a, &b| scored[a].total_cmp(&scored[b]).then(a.cmp(&b)));

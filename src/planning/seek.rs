@@ -8,7 +8,7 @@
 use crate::model::geometry::{CoilId, Orientation, Pair};
 use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{
-    coil_sets, coils_in_reach, coils_of, label, settle_following_each, FOLLOWED_PER_STATE,
+    coil_sets, coils_in_reach, coils_of, label, settle_following_each, Labels, FOLLOWED_PER_STATE,
 };
 use crate::planning::commutation::{predicted_orientation, CommutationState, Motor, PairsPerStep};
 use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
@@ -218,7 +218,10 @@ impl Seek<'_> {
         let pairs: Vec<Vec<Vec<Pair>>> = froms
             .iter()
             .zip(&sets)
-            .map(|(f, ss)| ss.iter().map(|c| label(torques, c, &f.q)).collect())
+            .map(|(f, ss)| {
+                let labels = Labels::at(torques, &f.q);
+                ss.iter().map(|c| labels.label(c)).collect()
+            })
             .collect();
         let starts: Vec<(Orientation, &[Vec<Pair>])> = froms
             .iter()
@@ -256,11 +259,12 @@ impl Seek<'_> {
         let Some(k) = self.ranked.filter(|&k| k < sets.len()) else {
             return sets;
         };
+        let labels = Labels::at(torques, &from.q);
         let mut keyed: Vec<(f64, usize)> = sets
             .iter()
             .enumerate()
             .map(|(i, c)| {
-                let p = label(torques, c, &from.q);
+                let p = labels.label(c);
                 (
                     self.distance(&predicted_orientation(torques, &from.q, &p)),
                     i,
