@@ -19,7 +19,7 @@ thread:
 - spherestep: `cargo run --release --example settle_sets -- SCENARIO --sets N --out CSV` with
   RAYON_NUM_THREADS=1 (examples/settle_sets.rs: N deterministic 3-pair sets from one start,
   settled one after the other, each set's mean time per settle over repeated passes);
-- numba: the model of ../shared/MODEL.md (pair torque (p x s) g(d)/sin d, gaussian or cosine
+- numba: the model of docs/model.md (pair torque (p x s) g(d)/sin d, gaussian or cosine
   wells with their cut-off, N_B = R^T sum, dq/dt = 1/2 (q4 w - w x q), dq4/dt = -1/2 w.q,
   dw/dt = I^-1 [-w x I w + N_B - c w]) integrated by Dopri5 (Hairer's coefficients, FSAL, PI
   controller with Hairer's defaults: safety 0.9, beta 0.04, step factors 0.2 to 10, his starting

@@ -12,7 +12,7 @@ after the other on one thread, one CSV row per set with the final orientation an
 time per settle.
 
 The Python side is the same model written the way a user would with numpy and scipy (see
-../shared/MODEL.md, "Pairs, coils, wells" and "Dynamics"):
+docs/model.md, "Pairs, coils, wells" and "Dynamics"):
   - pair torque (world) tau = (p x s) g(d)/sin d, p = R r_j, d = atan2(|p x s|, p.s), g = 0
     beyond the cut-off; gaussian U = -k exp(-d^2 / (2 sigma^2)) (or cosine U = -k cos d);
   - N_B = R^T sum tau, R the rotation of q/|q|;
