@@ -464,3 +464,67 @@ fn a_step_that_never_settles_is_flagged_in_the_plan() {
         .lines()
         .any(|l| l.contains("    3 dwell") && l.contains("never settled")));
 }
+
+/// `qx,qy,qz,qw` of an orientation, as `--from` and `--to` take it.
+fn xyzw_text(q: &spherestep::model::geometry::Orientation) -> String {
+    format!("{},{},{},{}", q.i, q.j, q.k, q.w)
+}
+
+#[test]
+fn a_target_orientation_plans_the_shortest_turn_to_it_from_the_start() {
+    use spherestep::model::geometry::rot_q;
+    let sc = load("scenarios/prototype.toml");
+    let x = UnitVec::new_normalize(Vector3::x());
+    let n = UnitVec::new_normalize(Vector3::new(-0.4, 0.7, 0.2));
+    let from = rot_q(&x, Radians(30f64.to_radians()));
+    let to = rot_q(&n, Radians(70f64.to_radians())) * from;
+    let by_target = plan_settings(
+        &sc,
+        &PlanOverrides {
+            from: Some(xyzw_text(&from)),
+            to: Some(xyzw_text(&to)),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(
+        angular_distance(&by_target.axis, &n).0 < 1e-12,
+        "{:?}",
+        by_target.axis
+    );
+    assert!((by_target.angle.0.to_degrees() - 70.0).abs() < 1e-9);
+    // the same plan as the axis and angle it stands for
+    let by_axis = PlanSettings {
+        axis: n,
+        angle: Radians(70f64.to_radians()),
+        ..by_target.clone()
+    };
+    let (p, q) = (plan(&sc.motor(), &by_target), plan(&sc.motor(), &by_axis));
+    let (a, b) = (p.summary(&by_target), q.summary(&by_axis));
+    assert!((a.final_angle_deg - b.final_angle_deg).abs() < 1e-9);
+    assert_eq!(p.rows.len(), q.rows.len());
+    // the final orientation error: the last row against the turn applied to row 0
+    let goal = rot_q(&by_target.axis, by_target.angle) * p.rows[0].q;
+    let last = p.rows.last().unwrap().q;
+    let e = last.angle_to(&goal).to_degrees();
+    assert!((a.final_orientation_error_deg - e).abs() < 1e-12, "{a:?}");
+    assert!(p.reached && a.final_orientation_error_deg < 15.0, "{a:?}");
+    // refused: the start itself, and a target beside an axis
+    let same = PlanOverrides {
+        from: Some(xyzw_text(&from)),
+        to: Some(xyzw_text(&from)),
+        ..Default::default()
+    };
+    let e = plan_settings(&sc, &same).unwrap_err().to_string();
+    assert!(
+        e.contains("--to") && e.contains("other than the start"),
+        "{e}"
+    );
+    let both = PlanOverrides {
+        axis: Some("0,0,1".into()),
+        to: Some(xyzw_text(&to)),
+        ..Default::default()
+    };
+    let e = plan_settings(&sc, &both).unwrap_err().to_string();
+    assert!(e.contains("--to") && e.contains("not both"), "{e}");
+}

@@ -34,6 +34,10 @@ pub struct PlanArgs {
     /// Start orientation qx,qy,qz,qw (default: the scenario's, else identity).
     #[arg(long, allow_hyphen_values = true)]
     pub from: Option<String>,
+    /// Target orientation qx,qy,qz,qw instead of --axis and --angle: the rotation from the
+    /// start to it (the shortest, at most 180 degrees) gives the axis and the angle.
+    #[arg(long, allow_hyphen_values = true, conflicts_with_all = ["axis", "angle"])]
+    pub to: Option<String>,
 }
 
 impl PlanArgs {
@@ -46,6 +50,7 @@ impl PlanArgs {
             model: self.model,
             pairs: self.pairs,
             from: self.from,
+            to: self.to,
         }
     }
 }

@@ -16,7 +16,9 @@ use crate::io::scenario::{
     check_pairs_per_step, check_supply, default_pairs_per_step, parse_pairs_per_step, Scenario,
 };
 use crate::io::table::write_csv;
-use crate::model::geometry::{parse_pairs, xyzw, Orientation, Pair};
+use crate::model::geometry::{
+    parse_pairs, rotation_angle, rotation_axis, xyzw, Orientation, Pair, Radians, UnitVec,
+};
 use crate::model::packing::{self, points_csv};
 use crate::physics::dynamics::{settle, settle_many, SettleResult};
 use crate::planning::commutation::{pair_gap, StepModel};
@@ -298,6 +300,8 @@ pub struct PlanOverrides {
     /// `K` (exactly K pairs after each step) or `2-K` (2 to K, chosen per step).
     pub pairs: Option<String>,
     pub from: Option<String>,
+    /// A target orientation `qx,qy,qz,qw` instead of `axis` and `angle_deg`.
+    pub to: Option<String>,
 }
 
 /// Applies command-line overrides to plan settings, checking each.
@@ -342,7 +346,35 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
     if let Some(f) = &o.from {
         s.start = parse_orientation(f, "--from")?;
     }
+    if let Some(t) = &o.to {
+        if o.axis.is_some() || o.angle_deg.is_some() {
+            return Err(Error::Arg {
+                arg: "--to".into(),
+                expected: "a target orientation or an axis and an angle, not both".into(),
+            });
+        }
+        let to = parse_orientation(t, "--to")?;
+        (s.axis, s.angle) = turn_to(&s.start, &to).map_err(arg("--to"))?;
+    }
     Ok(s)
+}
+
+/// The axis and angle of the shortest rotation (world frame) from `start` to `to`.
+fn turn_to(
+    start: &Orientation,
+    to: &Orientation,
+) -> std::result::Result<(UnitVec, Radians), String> {
+    let turn = to * start.inverse();
+    let shown = |q: &Orientation| format!("{},{},{},{}", q.i, q.j, q.k, q.w);
+    let Some(axis) = rotation_axis(&turn) else {
+        return Err(format!(
+            "an orientation other than the start, got {} (the start is {})",
+            shown(to),
+            shown(start)
+        ));
+    };
+    let angle = target_angle(rotation_angle(&turn).0.to_degrees(), "--from")?;
+    Ok((axis, angle))
 }
 
 /// `spherestep plan`: plans, writes the CSV (atomically) to `out_file` when asked and prints

@@ -748,11 +748,7 @@ pub fn median_max(ms: &[f64]) -> (f64, f64) {
     )
 }
 
-/// The goal of a plan made for `settings`: ROT[axis, angle] applied to its start (row 0).
-pub fn goal_of(settings: &PlanSettings, rows: &[PlanRow]) -> Option<Orientation> {
-    rows.first()
-        .map(|r| rot_q(&settings.axis, settings.angle) * r.q)
-}
+pub use crate::planning::plan::goal_of;
 
 /// The target a plan file says it is for: the rotation from its row 0 to its last row, as the
 /// axis (`None` for no rotation) and angle of `settings`.

@@ -169,6 +169,10 @@ pub struct PlanSummary {
     pub final_angle_deg: f64,
     /// The worst cumulative axis error along the plan, degrees.
     pub max_axis_error_deg: f64,
+    /// Where the ball ends against where it was sent: the angle (degrees) from the last row's
+    /// orientation to the target rotation applied to row 0's (the goal the closed loop aims
+    /// at).
+    pub final_orientation_error_deg: f64,
     /// See [`Plan::reached`].
     pub reached: bool,
     /// The steps' predicted settle times added up, s.
@@ -194,6 +198,7 @@ impl Plan {
             steps: self.rows.len().saturating_sub(1),
             final_angle_deg: self.rows.last().map(|r| r.cum_angle_deg).unwrap_or(0.0),
             max_axis_error_deg: max_axis_error_deg(&self.rows),
+            final_orientation_error_deg: final_orientation_error_deg(s, &self.rows),
             reached: self.reached,
             total_settle_time_s: total_settle_time(&self.rows),
             scheme: s.scheme.name().to_string(),
@@ -203,6 +208,20 @@ impl Plan {
             settles: self.settles,
             unsettled_steps: unsettled_steps(&self.rows),
         }
+    }
+}
+
+/// The goal of a plan made for `settings`: ROT[axis, angle] applied to its start (row 0).
+pub fn goal_of(settings: &PlanSettings, rows: &[PlanRow]) -> Option<Orientation> {
+    rows.first()
+        .map(|r| crate::model::geometry::rot_q(&settings.axis, settings.angle) * r.q)
+}
+
+/// The angle (degrees) from a plan's last row to its goal ([`goal_of`]; 0 for no rows).
+pub fn final_orientation_error_deg(s: &PlanSettings, rows: &[PlanRow]) -> f64 {
+    match (goal_of(s, rows), rows.last()) {
+        (Some(goal), Some(last)) => last.q.angle_to(&goal).to_degrees(),
+        _ => 0.0,
     }
 }
 
