@@ -276,3 +276,66 @@ fn bad_shard_and_jobs_arguments_are_refused() {
         );
     }
 }
+
+#[test]
+fn a_random_motion_sweep_plans_each_motion_from_its_own_start_and_reports_where_it_ends() {
+    use spherestep::io::scenario::{random_motions, Scenario};
+    use spherestep::model::geometry::Radians;
+    use spherestep::planning::plan::final_orientation_error_deg;
+    use spherestep::planning::planner::{plan, PlanSettings};
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("scen");
+    std::fs::create_dir_all(&s).unwrap();
+    let text = "[sweep]\nmotions = 3\nseed = 4\nangle_min_deg = 20\nangle_max_deg = 120\n";
+    std::fs::write(s.join("m.toml"), text).unwrap();
+    let out = dir.path().join("out");
+    let r = batch(&[
+        s.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--jobs",
+        "2",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let csv = std::fs::read_to_string(out.join("m.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let sc = Scenario::load(&s.join("m.toml")).unwrap();
+    let (lo, hi) = (Radians(20f64.to_radians()), Radians(120f64.to_radians()));
+    let motions = random_motions(3, 4, lo, hi);
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3);
+    for (m, row) in motions.iter().zip(&rows) {
+        let deg = m.angle.0.to_degrees();
+        assert!((20.0..=120.0).contains(&deg));
+        assert_eq!(row[col("angle_deg")], deg.to_string());
+        assert_eq!(row[col("axis_x")], m.axis.x.to_string());
+        assert_eq!(row[col("start_qw")], m.start.w.to_string());
+        assert_eq!(row[col("start_qx")], m.start.i.to_string());
+        // the row's final orientation error is that of the plan from the motion's start
+        let settings = PlanSettings {
+            axis: m.axis,
+            angle: m.angle,
+            start: m.start,
+            ..sc.plan.clone()
+        };
+        let p = plan(&sc.motor(), &settings);
+        let e = final_orientation_error_deg(&settings, &p.rows);
+        assert_eq!(row[col("final_orientation_error_deg")], e.to_string());
+    }
+    // the starts differ: each motion has its own
+    assert_ne!(rows[0][col("start_qw")], rows[1][col("start_qw")]);
+    // motions beside axes or angles are refused, naming the field
+    for (extra, field) in [
+        ("axis_count = 4\n", "sweep.axis_count"),
+        ("angles_deg = [30]\n", "sweep.angles_deg"),
+    ] {
+        std::fs::write(s.join("m.toml"), format!("{text}{extra}")).unwrap();
+        let e = Scenario::load(&s.join("m.toml")).unwrap_err().to_string();
+        assert!(e.contains(field), "{e}");
+    }
+    std::fs::write(s.join("m.toml"), "[sweep]\nseed = 3\n").unwrap();
+    let e = Scenario::load(&s.join("m.toml")).unwrap_err().to_string();
+    assert!(e.contains("sweep.seed") && e.contains("motions"), "{e}");
+}

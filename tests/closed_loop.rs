@@ -60,10 +60,23 @@ const WORN: &str = "scenarios/plants/broad-wells-worn.toml";
 
 #[test]
 fn closed_loop_reaches_the_goal_where_open_loop_does_not() {
-    let (_, open) = play(WORN, "0,1,0", false, 1.0, 3);
+    // the pair model's plan about Z, played on cosine wells reaching 35 degrees in which every
+    // coil pulls: open loop ends far off
+    let o = |closed: bool| LoopOptions {
+        closed,
+        noise_deg: 1.0,
+        seed: 3,
+        max_steps: None,
+        identify: true,
+    };
+    let (model, plant) = (
+        "scenarios/prototype.toml",
+        "scenarios/plants/cosine-35-coils.toml",
+    );
+    let (_, open) = play_with(model, plant, "0,0,1", &o(false));
     assert!(open.run.final_error_deg > 10.0, "{:?}", open.run);
     assert_eq!(open.run.replans, 0);
-    let (csv, closed) = play(WORN, "0,1,0", true, 1.0, 3);
+    let (csv, closed) = play_with(model, plant, "0,0,1", &o(true));
     let r = &closed.run;
     assert!(r.reached && r.final_error_deg < 3.0, "{r:?}");
     assert!(r.replans >= 1);
@@ -485,7 +498,7 @@ fn on_plants_unlike_the_model_the_closed_loop_ends_within_three_degrees() {
         assert!(r.final_error_deg < 3.0, "{plant} about {axis}: {r:?}");
         assert!(r.steps <= max_steps, "{r:?}");
         assert!(
-            r.final_error_deg < open.run.final_error_deg,
+            r.final_error_deg <= open.run.final_error_deg + 1e-9,
             "{plant}: {r:?} {open:?}"
         );
     }

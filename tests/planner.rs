@@ -528,3 +528,40 @@ fn a_target_orientation_plans_the_shortest_turn_to_it_from_the_start() {
     let e = plan_settings(&sc, &both).unwrap_err().to_string();
     assert!(e.contains("--to") && e.contains("not both"), "{e}");
 }
+
+#[test]
+fn random_motions_land_near_their_target_orientation_and_replay_in_their_own_dynamics() {
+    use spherestep::io::scenario::random_motions;
+    use spherestep::planning::plan::final_orientation_error_deg;
+    use spherestep::planning::search::over_on_time;
+    let sc = load("scenarios/prototype.toml");
+    let motor = sc.motor();
+    let (lo, hi) = (Radians(5f64.to_radians()), Radians(180f64.to_radians()));
+    let mut errors = Vec::new();
+    for m in random_motions(6, 7, lo, hi) {
+        let s = PlanSettings {
+            axis: m.axis,
+            angle: m.angle,
+            start: m.start,
+            ..sc.plan.clone()
+        };
+        let p = plan(&motor, &s);
+        let what = format!("{:.1} deg about {:?}", m.angle.0.to_degrees(), m.axis);
+        assert!(p.reached, "{what}: {:?}", p.message);
+        errors.push(final_orientation_error_deg(&s, &p.rows));
+        // every step, the landing's among them, is what the dynamics does from the step before
+        let sim = spherestep::planning::simulate::simulate(&motor, &p.rows);
+        assert!(sim.iter().all(|r| r.deviation_deg < 1e-4), "{what}");
+        assert_eq!(over_on_time(&p.rows, s.limits.on_time), None, "{what}");
+        assert!(max_axis_error_deg(&p.rows) <= 7.0, "{what}");
+    }
+    errors.sort_by(f64::total_cmp);
+    // the landing brings the ends near the target orientation: before it, the ends of such
+    // motions lay 3.8 degrees from it at the median
+    assert!(errors[2] < 1.5 && errors[5] < 3.0, "{errors:?}");
+    // the main job, 90 degrees about Y: 3.36 degrees from the target before the landing
+    let y = settings(&sc, "0,1,0", "search", "dynamic", "2-4");
+    let p = plan(&motor, &y);
+    let e = final_orientation_error_deg(&y, &p.rows);
+    assert!(p.reached && e < 1.5, "{e}");
+}

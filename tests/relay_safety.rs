@@ -252,6 +252,7 @@ fn one_board_closing_mid_replay_names_its_port_and_the_other_board_goes_off() {
     // Board 0 goes away; step 1 begins by switching coil 1 on there. Board 0 comes first,
     // so board 1's all-off is sent after board 0's failed.
     drop(board0);
+    await_hangup(&computer0);
     tx.send(String::new()).unwrap();
     let (r, text) = replay.join().unwrap();
     // Board 1 still gets its all-off, and nothing else.

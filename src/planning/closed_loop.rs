@@ -7,6 +7,7 @@
 
 use crate::model::geometry::{rot_q, rotation_angle, rotation_axis, Orientation};
 use crate::model::geometry::{CoilId, Pair, Radians, UnitVec};
+use crate::model::random::SplitMix;
 use crate::physics::dynamics::settle;
 use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{coils_of, label};
@@ -16,7 +17,6 @@ use crate::planning::on_time::{self, OnTimes};
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::search::{first_row, step_row};
 use crate::planning::seek::{Path, Seek};
-use nalgebra::Vector3;
 use serde::Serialize;
 
 /// How the loop is closed.
@@ -157,10 +157,11 @@ pub struct LoopRun {
     pub replan_ms: Vec<f64>,
 }
 
-/// splitmix64 with Box-Muller normals: the same noise on every machine (also the virtual
-/// motor's sensor's, `crate::rehearse`).
+/// A sensor's noise: a turn about a uniform direction by a normal angle (Box-Muller) from
+/// [`SplitMix`], the same on every machine (also the virtual motor's sensor's,
+/// `crate::rehearse`).
 pub struct Noise {
-    state: u64,
+    rng: SplitMix,
     sigma: f64,
 }
 
@@ -168,19 +169,14 @@ impl Noise {
     /// A sensor noise of standard deviation `sigma` from `seed`.
     pub fn new(seed: u64, sigma: Radians) -> Noise {
         Noise {
-            state: seed,
+            rng: SplitMix::new(seed),
             sigma: sigma.0,
         }
     }
 
     /// A uniform number in (0, 1).
     pub fn uniform(&mut self) -> f64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        self.rng.uniform()
     }
 
     /// The true orientation as a sensor of this noise reports it.
@@ -190,10 +186,7 @@ impl Noise {
         }
         let (u1, u2) = (self.uniform(), self.uniform());
         let angle = self.sigma * (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
-        let z = 2.0 * self.uniform() - 1.0;
-        let phi = std::f64::consts::TAU * self.uniform();
-        let rho = (1.0 - z * z).max(0.0).sqrt();
-        let axis = UnitVec::new_normalize(Vector3::new(rho * phi.cos(), rho * phi.sin(), z));
+        let axis = self.rng.direction();
         rot_q(&axis, Radians(angle)) * truth
     }
 }
@@ -356,14 +349,16 @@ impl<'a> Controller<'a> {
             let (est, explained) = self.estimate(steer, &row.active, measured);
             let distance = angular(&est, &self.goal);
             self.arrived = distance <= self.cl.goal_tolerance.0;
-            if self.arrived {
-                return Decision::Done;
-            }
             // the plan's prediction is the equilibrium the ball is in, or lies within the noise
             // of the measurement
             let near = (explained && angular(&est, &row.q) <= TRACK_DEG.to_radians())
                 || angular(measured, &row.q) <= self.cl.replan_beyond.0;
             let on_track = self.planned_with == steer && near;
+            // arrived: done, unless the ball is on track with steps of the plan to come (they
+            // were chosen for the goal: its landing comes nearer than the tolerance)
+            if self.arrived && (last || !on_track) {
+                return Decision::Done;
+            }
             if on_track && !last {
                 self.next += 1;
                 return Decision::Continue;
@@ -704,7 +699,7 @@ pub fn run_closed_loop(
     let mut sim = Simulated {
         plant,
         noise: Noise {
-            state: cl.seed,
+            rng: SplitMix::new(cl.seed),
             sigma: cl.noise.0,
         },
         // row 0: the ball at rest at the plan's start, the initial set on
@@ -862,13 +857,17 @@ impl Loop<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Vector3;
 
     #[test]
     fn the_sensor_noise_has_the_asked_spread_and_no_preferred_axis() {
         // |angle| of a normal of deviation sigma averages sigma sqrt(2 / pi); the turn axes
         // are uniform on the sphere (their mean is near 0)
         let sigma = 1f64.to_radians();
-        let mut noise = Noise { state: 99, sigma };
+        let mut noise = Noise {
+            rng: SplitMix::new(99),
+            sigma,
+        };
         let truth = rot_q(
             &UnitVec::new_normalize(Vector3::new(0.3, -0.2, 1.0)),
             Radians(0.7),
@@ -889,7 +888,7 @@ mod tests {
         assert!(axes.norm() / (n as f64) < 0.02, "{axes}");
         // no noise: the truth itself
         let mut none = Noise {
-            state: 1,
+            rng: SplitMix::new(1),
             sigma: 0.0,
         };
         assert_eq!(none.measure(&truth), truth);

@@ -6,12 +6,13 @@
 //! schemes, a beam search and a best-first branch and bound). The settings and the plan are in
 //! `plan` (re-exported here).
 
-use crate::model::geometry::Orientation;
+use crate::model::geometry::{rotation_axis, CoilId, MagnetId, Orientation, Pair, Radians};
 use crate::physics::dynamics::settle;
 use crate::planning::coilsets::CoilSets;
 use crate::planning::commutation::{
-    candidate_steps, evaluate_proposals, initial_states, predicted_orientation, proposals_within,
-    CommutationState, Motor, Proposal, Step, StepLimits, StepModel, PIVOT_CAPTURE,
+    admissible, candidate_steps, evaluate_proposals, initial_states, pair_gap,
+    predicted_orientation, proposals_within, settled_states, CommutationState, Motor, Proposal,
+    Step, StepLimits, StepModel, PIVOT_CAPTURE,
 };
 use crate::planning::plan::PlanRow;
 use crate::planning::search::{self, predicted_rank, weighed, wide_limits, Frontier, StepSource};
@@ -99,6 +100,15 @@ impl StepSource for FromState<'_> {
         self.inner.expand(at)
     }
 
+    fn expand_towards(
+        &self,
+        at: &Frontier,
+        goal: &Orientation,
+        avoid: &[CoilId],
+    ) -> (usize, Vec<Step>) {
+        self.inner.expand_towards(at, goal, avoid)
+    }
+
     fn key(&self, state: &CommutationState) -> Vec<crate::model::geometry::Pair> {
         self.inner.key(state)
     }
@@ -174,6 +184,149 @@ impl StepSource for PairSteps<'_> {
         );
         (spent, steps)
     }
+
+    fn expand_towards(
+        &self,
+        at: &Frontier,
+        goal: &Orientation,
+        avoid: &[CoilId],
+    ) -> (usize, Vec<Step>) {
+        let s = self.s;
+        let Some(towards) = rotation_axis(&(goal * at.state.q.inverse())) else {
+            return (0, Vec::new());
+        };
+        let proposals = landing_proposals(self.motor, s, at.state, goal, avoid);
+        let sets: Vec<Vec<Pair>> = proposals
+            .iter()
+            .map(|(pivot, new)| pivot.iter().chain(new).copied().collect())
+            .collect();
+        let spent = sets.len();
+        let outcomes = settled_states(self.motor, sets, &at.state.q);
+        // a landing step may turn any way towards the goal
+        let landing = StepLimits {
+            max_axis_error: Radians(std::f64::consts::PI),
+            min_angle: Radians(0.0),
+            ..s.limits
+        };
+        let capture = landing.capture_for(StepModel::Dynamic, &self.motor.torques.well);
+        let steps = proposals
+            .into_iter()
+            .zip(outcomes)
+            .filter_map(|((pivot, new), to)| {
+                let (to, angle, axis_error) = admissible(
+                    &self.motor.torques,
+                    &at.state.q,
+                    to?,
+                    &towards,
+                    &landing,
+                    capture,
+                )?;
+                Some(Step {
+                    pivot,
+                    new,
+                    to,
+                    angle,
+                    axis_error,
+                })
+            })
+            .collect();
+        (spent, steps)
+    }
+}
+
+/// A landing weighs the pairs whose magnets lie within the capture distance and this (3
+/// degrees) of their coils at the goal: a set settles near the goal, not on it, and its pairs
+/// hold there.
+const LANDING_MARGIN: Radians = Radians(3.0 * std::f64::consts::PI / 180.0);
+
+/// A landing step's set: the held pair it keeps, if any, and the pairs it switches on.
+type LandingSet = (Option<Pair>, Vec<Pair>);
+
+/// The sets a landing weighs from `state` towards `goal`, as (the held pair kept, if any; the
+/// pairs switched on): pairs whose magnets lie within the capture distance of their coils at
+/// the goal (and [`LANDING_MARGIN`]), `pairs` of them in all, either with a held pair kept (the pivot) or without one,
+/// within the supply (the held coils and the new ones together, make before break) and none of
+/// `avoid`'s coils; ranked by how near the goal their cheap prediction
+/// ([`predicted_orientation`]) leaves the ball, the `settles_per_state` nearest.
+fn landing_proposals(
+    motor: &Motor,
+    s: &PlanSettings,
+    state: &CommutationState,
+    goal: &Orientation,
+    avoid: &[CoilId],
+) -> Vec<LandingSet> {
+    let t = &motor.torques;
+    let capture = Radians(s.limits.capture.unwrap_or(PIVOT_CAPTURE).0 + LANDING_MARGIN.0);
+    let r = goal.to_rotation_matrix();
+    let near_goal: Vec<Pair> = (0..t.stator.len())
+        .flat_map(|c| (0..t.rotor.len()).map(move |m| (c, m)))
+        .map(|(c, m)| Pair {
+            coil: CoilId(c),
+            magnet: MagnetId(m),
+        })
+        .filter(|p| !avoid.contains(&p.coil) && pair_gap(t, &r, *p).0 <= capture.0)
+        .collect();
+    let held: Vec<CoilId> = state.active.iter().map(|p| p.coil).collect();
+    let pivots = std::iter::once(None).chain(
+        state
+            .active
+            .iter()
+            .filter(|p| !avoid.contains(&p.coil))
+            .map(|p| Some(*p)),
+    );
+    let mut ranked: Vec<(f64, LandingSet)> = Vec::new();
+    for pivot in pivots {
+        let kept = usize::from(pivot.is_some());
+        let others: Vec<Pair> = near_goal
+            .iter()
+            .copied()
+            .filter(|p| pivot.is_none_or(|v| p.coil != v.coil))
+            .collect();
+        let least = s.pairs.min.saturating_sub(kept).max(1);
+        for new in combinations(&others, least, s.pairs.max - kept) {
+            let mut coils: Vec<CoilId> = held
+                .iter()
+                .copied()
+                .chain(new.iter().map(|p| p.coil))
+                .collect();
+            coils.sort();
+            coils.dedup();
+            if coils.len() > s.limits.max_coils_on {
+                continue;
+            }
+            let set: Vec<Pair> = pivot.iter().chain(&new).copied().collect();
+            let qp = predicted_orientation(t, &state.q, &set);
+            ranked.push((qp.angle_to(goal), (pivot, new)));
+        }
+    }
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
+    ranked
+        .into_iter()
+        .take(s.settles_per_state)
+        .map(|(_, p)| p)
+        .collect()
+}
+
+/// The sets of `least` to `most` of `pairs` with distinct coils, in a deterministic order.
+fn combinations(pairs: &[Pair], least: usize, most: usize) -> Vec<Vec<Pair>> {
+    let mut out = Vec::new();
+    let mut stack: Vec<(usize, Vec<Pair>)> = vec![(0, Vec::new())];
+    while let Some((from, set)) = stack.pop() {
+        if set.len() >= least {
+            out.push(set.clone());
+        }
+        if set.len() == most {
+            continue;
+        }
+        for (i, p) in pairs.iter().enumerate().skip(from) {
+            if set.iter().all(|q| q.coil != p.coil) {
+                let mut next = set.clone();
+                next.push(*p);
+                stack.push((i + 1, next));
+            }
+        }
+    }
+    out
 }
 
 /// The proposals from a partial plan's state that the search settles: all that pass the filter

@@ -4,9 +4,9 @@
 //! greedy seeds. They are generic over a [`StepSource`]: a step model says where a plan starts,
 //! which steps lead on from a state and which states are one; the searches decide the rest.
 
-use crate::model::geometry::{CoilId, Orientation, Pair, Radians};
+use crate::model::geometry::{rot_q, CoilId, Orientation, Pair, Radians};
 use crate::planning::commutation::{
-    cumulative, cumulative_from, CommutationState, Step, StepLimits,
+    cumulative, cumulative_from, step_measure, CommutationState, Step, StepLimits,
 };
 use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
 use crate::planning::plan::PlanRow;
@@ -42,6 +42,20 @@ pub trait StepSource: Sync {
     /// The best-first search's expansion of a partial plan: the settles it spent and the
     /// admissible steps it found.
     fn expand(&self, at: &Frontier) -> (usize, Vec<Step>);
+
+    /// The landing's expansion of a complete plan that ends short of its goal orientation
+    /// (the target rotation applied to its row 0): the settles spent and the admissible steps
+    /// that turn the ball from `at` towards `goal` (their angle and axis error measured about
+    /// the turn that remains), keeping the coils of `avoid` off (they have been on too long to
+    /// stay on for another step). By default none: the step model does not land.
+    fn expand_towards(
+        &self,
+        _at: &Frontier,
+        _goal: &Orientation,
+        _avoid: &[CoilId],
+    ) -> (usize, Vec<Step>) {
+        (0, Vec::new())
+    }
 
     /// What two states must share to be one state (with orientations within
     /// [`SAME_STATE_RAD`]): by default what is on, sorted.
@@ -455,26 +469,9 @@ fn greedy_best(
 ) -> Option<Node> {
     let mut best: Option<Node> = None;
     for g in [Scheme::Weighted, Scheme::MinAxisError, Scheme::MaxAngle] {
-        let q0 = root.state.q;
         let p = greedy(src, s, root.clone(), g);
         if p.reached {
-            let worst = max_axis_error_deg(&p.rows).to_radians();
-            let cum = p
-                .rows
-                .last()
-                .map(|r| r.cum_angle_deg.to_radians())
-                .unwrap_or(0.0);
-            let cand = Node {
-                state: CommutationState {
-                    q: p.rows.last().map(|r| r.q).unwrap_or(q0),
-                    active: p.rows.last().map(|r| r.active.clone()).unwrap_or_default(),
-                    settle_time_s: 0.0,
-                },
-                on: on_times_of(&p.rows, s.limits.on_time),
-                rows: p.rows,
-                worst,
-                cum,
-            };
+            let cand = node_of(&p.rows, s.limits.on_time);
             if better(&cand, best.as_ref(), s) {
                 best = Some(cand);
             }
@@ -610,6 +607,8 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
     }
     let mut spent = 0usize;
     let mut over: Option<OverTime> = None;
+    // the other complete plans, which the landing may carry on too
+    let mut solutions: Vec<Node> = Vec::new();
     while spent < s.settle_budget {
         let Some(Open { node, .. }) = f.open.pop() else {
             break;
@@ -640,7 +639,11 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
             }
             if reached(&c, s) {
                 if better_landing(&c, best.as_ref(), s) {
-                    best = Some(c);
+                    if let Some(b) = best.replace(c) {
+                        solutions.push(b);
+                    }
+                } else {
+                    solutions.push(c);
                 }
                 continue;
             }
@@ -654,6 +657,8 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
         ),
         None => String::new(),
     };
+    let (best, landing) = land_best(src, s, best, solutions);
+    spent += landing;
     let mut plan = outcome(
         best,
         f.deepest,
@@ -665,6 +670,162 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
     );
     plan.settles = spent;
     plan
+}
+
+/// The search's best plan carried on by the landing (with the other complete plans it found,
+/// `solutions`), and the settles the landing spent.
+fn land_best(
+    src: &dyn StepSource,
+    s: &PlanSettings,
+    best: Option<Node>,
+    solutions: Vec<Node>,
+) -> (Option<Node>, usize) {
+    let Some(b) = best else {
+        return (None, 0);
+    };
+    let mut plans = vec![b];
+    plans.extend(solutions);
+    let (landed, settles) = land(src, s, plans, s.settle_budget / LANDING_SHARE);
+    (Some(landed), settles)
+}
+
+/// The landing may spend this fraction of the search's settle budget (a fifth) on top of it.
+const LANDING_SHARE: usize = 5;
+
+/// A landing may pass through states this much further from the goal than the plan's end
+/// (rad, 2 degrees): a step away that opens the way to a nearer one.
+const LANDING_DETOUR: f64 = 2.0 * std::f64::consts::PI / 180.0;
+
+/// A landing keeps a plan's [`score`] within this of the search's best (rad, 1 degree): a plan
+/// that ends nearer its goal may be this much worse on the way.
+const LANDING_SLACK: f64 = std::f64::consts::PI / 180.0;
+
+/// Where a complete plan was sent: the target rotation applied to its row 0.
+fn goal_of_node(p: &Node, s: &PlanSettings) -> Orientation {
+    rot_q(&s.axis, s.angle) * p.rows[0].q
+}
+
+/// The landing: the complete plans a search found that end further than the angle tolerance
+/// from their goal orientation ([`goal_of_node`]) are carried on, best-first by the distance
+/// to the goal, with the steps that turn the ball from their ends towards it
+/// ([`StepSource::expand_towards`]), until a plan ends within the tolerance, `budget` settles
+/// are spent or nothing is left to expand. A landing may pass through states up to
+/// [`LANDING_DETOUR`] further from the goal than the plan it carries on, and keeps every plan's
+/// [`score`] (worst axis error, overshoot) within [`LANDING_SLACK`] of the best plan's, and
+/// every coil within the on-time limit. The plan that ends nearest its goal (complete, or within
+/// the tolerance), and the settles spent. The cumulative rotation's figures stay those about
+/// the plan's axis. `plans` is best first; the first is the search's best.
+fn land(src: &dyn StepSource, s: &PlanSettings, plans: Vec<Node>, budget: usize) -> (Node, usize) {
+    let bound = plans.first().map_or(0.0, |b| path_score(b, s)) + LANDING_SLACK + 1e-9;
+    // each node: the plan, its goal, the farthest from it a landing may go
+    let mut nodes: Vec<(Node, Orientation, f64)> = Vec::new();
+    let mut open = std::collections::BinaryHeap::new();
+    let mut seen: Vec<(Vec<Pair>, Orientation)> = Vec::new();
+    // and each plan without its last step, whose landing may take another way to the goal
+    let parents: Vec<Node> = plans
+        .iter()
+        .filter(|p| p.rows.len() > 2)
+        .map(|p| node_of(&p.rows[..p.rows.len() - 1], s.limits.on_time))
+        .collect();
+    for p in plans.into_iter().chain(parents) {
+        let goal = goal_of_node(&p, s);
+        let d = p.state.q.angle_to(&goal);
+        if path_score(&p, s) > bound {
+            continue;
+        }
+        seen.push((src.key(&p.state), p.state.q));
+        open.push(Open {
+            rank: d,
+            node: nodes.len(),
+        });
+        nodes.push((p, goal, d + LANDING_DETOUR));
+    }
+    let dist = |n: &(Node, Orientation, f64)| n.0.state.q.angle_to(&n.1);
+    let mut nearest = 0usize;
+    for (k, n) in nodes.iter().enumerate() {
+        if reached(&n.0, s) && dist(n) < dist(&nodes[nearest]) - 1e-12 {
+            nearest = k;
+        }
+    }
+    let mut spent = 0usize;
+    while spent < budget && dist(&nodes[nearest]) > s.angle_tolerance.0 {
+        let Some(Open { node, .. }) = open.pop() else {
+            break;
+        };
+        let (at, goal, limit) = nodes[node].clone();
+        let avoid = tired_coils(&at, s.limits.on_time);
+        let (settles, steps) = src.expand_towards(&at.frontier(), &goal, &avoid);
+        spent += settles;
+        let q0 = at.rows[0].q;
+        for st in steps {
+            let (angle, axis_error) = step_measure(&at.state.q, &st.to.q, &s.axis);
+            let st = Step {
+                angle,
+                axis_error,
+                ..st
+            };
+            let Ok(c) = at.extend(&st, &q0, s) else {
+                continue;
+            };
+            let d = c.state.q.angle_to(&goal);
+            if d > limit || path_score(&c, s) > bound {
+                continue;
+            }
+            let key = src.key(&c.state);
+            if seen
+                .iter()
+                .any(|(k, q)| *k == key && q.angle_to(&c.state.q) < SAME_STATE_RAD)
+            {
+                continue;
+            }
+            seen.push((key, c.state.q));
+            let id = nodes.len();
+            let eligible = reached(&c, s) || d <= s.angle_tolerance.0;
+            nodes.push((c, goal, limit));
+            if eligible && d < dist(&nodes[nearest]) {
+                nearest = id;
+            }
+            open.push(Open { rank: d, node: id });
+        }
+    }
+    (nodes.swap_remove(nearest).0, spent)
+}
+
+/// A partial plan's [`score`] as far as it goes: its worst axis error, or how far it has
+/// turned past the target (beyond the angle tolerance) if that is more; falling short is not
+/// counted (a landing may pass through states short of the target on its way to the goal).
+fn path_score(p: &Node, s: &PlanSettings) -> f64 {
+    let over = (p.cum - s.angle.0 - s.angle_tolerance.0).max(0.0);
+    p.worst.max(over)
+}
+
+/// The coils on at the end of `p` that could not stay on for another step of the same dwell
+/// as its last within the on-time limit (none without a limit).
+fn tired_coils(p: &Node, limit: Option<OnTimeLimit>) -> Vec<CoilId> {
+    let (Some(l), Some(last)) = (limit, p.rows.last()) else {
+        return Vec::new();
+    };
+    let next = l.dwell(last.settle_time_s);
+    p.on.iter()
+        .filter(|(_, h)| h.on + next > l.max_on)
+        .map(|(c, _)| *c)
+        .collect()
+}
+
+/// The partial plan of `rows` (at least row 0), with its running figures and on-times.
+fn node_of(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> Node {
+    let last = &rows[rows.len() - 1];
+    Node {
+        state: CommutationState {
+            q: last.q,
+            active: last.active.clone(),
+            settle_time_s: last.settle_time_s,
+        },
+        on: on_times_of(rows, limit),
+        rows: rows.to_vec(),
+        worst: max_axis_error_deg(rows).to_radians(),
+        cum: last.cum_angle_deg.to_radians(),
+    }
 }
 
 /// How long each coil on at the end of `rows` has been on, with the replay's dwells (empty

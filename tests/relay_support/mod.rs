@@ -340,3 +340,24 @@ pub fn relay(e: &Error) -> &RelayError {
 pub fn flagged(e: &Error) -> String {
     e.worded(&replay::Flags)
 }
+
+/// Waits (up to 5 s) until the computer end `slave` sees its board end closed. The kernel hangs
+/// a pseudo-terminal up after its other end closes, not at once: a write in between still
+/// succeeds, so a test that closes a board end and then expects the next write to fail waits
+/// for the hangup first.
+pub fn await_hangup(slave: &TTYPort) {
+    use nix::poll::{poll, PollFd, PollFlags};
+    use std::os::unix::io::AsRawFd;
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while Instant::now() < deadline {
+        let mut fds = [PollFd::new(slave.as_raw_fd(), PollFlags::POLLHUP)];
+        if poll(&mut fds, 50).is_ok_and(|n| n > 0)
+            && fds[0]
+                .revents()
+                .is_some_and(|r| r.contains(PollFlags::POLLHUP))
+        {
+            return;
+        }
+    }
+    panic!("the pseudo-terminal did not hang up within 5 s of its board end closing");
+}

@@ -1,5 +1,5 @@
 //! The cases of a batch job: one plan for a plain scenario, one per combination of a sweep's
-//! models, schemes, angles and axes; computing them in parallel, and a sweep case's CSV row.
+//! models, schemes, angles and axes (or random motions); computing them in parallel, and a sweep case's CSV row.
 
 use super::progress::{append_progress, start_progress};
 use super::{BatchOptions, Job, SWEEP_HEADER};
@@ -9,7 +9,7 @@ use crate::io::planfile::write_plan;
 use crate::io::scenario::Scenario;
 use crate::physics::torque::MagnetTorques;
 use crate::planning::commutation::{pivot_floor, StepModel};
-use crate::planning::plan::PlanRow;
+use crate::planning::plan::{final_orientation_error_deg, PlanRow};
 use crate::planning::planner::{max_axis_error_deg, plan, total_settle_time, PlanSettings};
 use rayon::prelude::*;
 use std::path::Path;
@@ -22,7 +22,8 @@ pub(super) struct Case {
     pub(super) settings: PlanSettings,
 }
 
-/// The cases of a scenario, in their fixed order (models, schemes, angles, axes).
+/// The cases of a scenario, in their fixed order (models, schemes, angles, axes; or models,
+/// schemes, motions).
 pub(super) fn cases(sc: &Scenario) -> Vec<Case> {
     let Some(sw) = &sc.sweep else {
         return vec![Case {
@@ -33,6 +34,23 @@ pub(super) fn cases(sc: &Scenario) -> Vec<Case> {
     let mut out = Vec::new();
     for &(model, pairs) in &sw.models {
         for &scheme in &sw.schemes {
+            for m in &sw.motions {
+                out.push(Case {
+                    index: out.len(),
+                    settings: PlanSettings {
+                        axis: m.axis,
+                        angle: m.angle,
+                        start: m.start,
+                        scheme,
+                        model,
+                        pairs,
+                        ..sc.plan.clone()
+                    },
+                });
+            }
+            if !sw.motions.is_empty() {
+                continue;
+            }
             for &angle in &sw.angles {
                 for axis in &sw.axes {
                     out.push(Case {
@@ -105,7 +123,19 @@ pub(super) fn sweep_record(c: &Case, o: &Outcome, torques: &MagnetTorques) -> Ve
         total_settle_time(&o.rows).to_string(),
         pivot_floor(torques, &s.axis).0.to_degrees().to_string(),
     ]);
+    record.extend(start_columns(c));
+    record.push(final_orientation_error_deg(s, &o.rows).to_string());
     record
+}
+
+/// Where a sweep row's start columns begin (after pivot_floor_deg).
+const START_COLUMN: usize = 14;
+
+/// The columns of a case's sweep row that its start fixes: start_qx, start_qy, start_qz,
+/// start_qw.
+fn start_columns(c: &Case) -> [String; 4] {
+    let q = &c.settings.start;
+    [q.i, q.j, q.k, q.w].map(|x| x.to_string())
 }
 
 /// What is wrong with `record` as case `c`'s row of a sweep CSV (as [`sweep_record`] writes
@@ -120,7 +150,13 @@ pub(super) fn sweep_row_problem(c: &Case, record: &[String]) -> Option<String> {
             record.len()
         ));
     }
-    for (k, want) in case_columns(c).iter().enumerate() {
+    let fixed: Vec<(usize, String)> = case_columns(c)
+        .into_iter()
+        .enumerate()
+        .chain((START_COLUMN..).zip(start_columns(c)))
+        .collect();
+    for (k, want) in &fixed {
+        let k = *k;
         if record[k] != *want {
             return Some(format!(
                 "column `{}`: expected {want} (case {}), {}",
@@ -136,7 +172,7 @@ pub(super) fn sweep_row_problem(c: &Case, record: &[String]) -> Option<String> {
             got(8)
         ));
     }
-    if let Some(k) = [9, 10, 12, 13]
+    if let Some(k) = [9, 10, 12, 13, START_COLUMN + 4]
         .into_iter()
         .find(|&k| record[k].parse::<f64>().is_err())
     {

@@ -93,7 +93,7 @@ pub struct BatchReport {
 pub const MAX_JOBS: usize = 256;
 
 /// The header of a sweep CSV.
-pub const SWEEP_HEADER: [&str; 14] = [
+pub const SWEEP_HEADER: [&str; 19] = [
     "case",
     "scheme",
     "model",
@@ -108,6 +108,11 @@ pub const SWEEP_HEADER: [&str; 14] = [
     "reached",
     "total_settle_time_s",
     "pivot_floor_deg",
+    "start_qx",
+    "start_qy",
+    "start_qz",
+    "start_qw",
+    "final_orientation_error_deg",
 ];
 
 /// The header of summary.csv.

@@ -89,13 +89,23 @@ fn sweep_summary(sc: &Scenario, sw: &Sweep, t: &Table) -> Result<Vec<String>> {
         sc.name.clone(),
         "sweep".into(),
         n.to_string(),
-        format!("{} axes", sw.axes.len()),
-        join(
-            sw.angles
-                .iter()
-                .map(|a| a.0.to_degrees().to_string())
-                .collect(),
-        ),
+        match sw.motions.is_empty() {
+            true => format!("{} axes", sw.axes.len()),
+            false => format!("{} random motions", sw.motions.len()),
+        },
+        match sw.motions.is_empty() {
+            true => join(
+                sw.angles
+                    .iter()
+                    .map(|a| a.0.to_degrees().to_string())
+                    .collect(),
+            ),
+            false => {
+                let deg = sw.angles.iter().map(|a| a.0.to_degrees());
+                let lo = deg.clone().fold(f64::INFINITY, f64::min);
+                format!("{lo}-{}", deg.fold(0.0, f64::max))
+            }
+        },
         join(sw.schemes.iter().map(|s| s.name().to_string()).collect()),
         join(sw.models.iter().map(|m| m.0.name().to_string()).collect()),
         join(sw.models.iter().map(|m| m.1.to_string()).collect()),

@@ -633,7 +633,9 @@ impl Checker<'_> {
     }
 
     pub(super) fn sweep(&self, raw: RawSweep, plan: &PlanSettings) -> Result<Sweep> {
+        let motions = self.motions(&raw)?;
         let axes = match (raw.axes, raw.axis_count) {
+            _ if !motions.is_empty() => motions.iter().map(|m| m.axis).collect(),
             (None, None) => vec![plan.axis],
             (Some(AxesSpec::Named(n)), count) if n == "sphere" => {
                 let c = count.unwrap_or(500);
@@ -658,13 +660,16 @@ impl Checker<'_> {
                 return Err(self.err("sweep.axis_count", "axes = \"sphere\" beside it"))
             }
         };
-        let angles = self.sweep_list(
-            "angles_deg",
-            "angle",
-            raw.angles_deg,
-            vec![plan.angle],
-            |f, a| target_angle(*a, "`plan.start`").map_err(|m| self.err(f, m)),
-        )?;
+        let angles = match motions.is_empty() {
+            false => motions.iter().map(|m| m.angle).collect(),
+            true => self.sweep_list(
+                "angles_deg",
+                "angle",
+                raw.angles_deg,
+                vec![plan.angle],
+                |f, a| target_angle(*a, "`plan.start`").map_err(|m| self.err(f, m)),
+            )?,
+        };
         let schemes = self.sweep_list(
             "schemes",
             "scheme",
@@ -689,7 +694,60 @@ impl Checker<'_> {
             schemes,
             models,
             keep_plans: raw.keep_plans.unwrap_or(false),
+            motions,
         })
+    }
+
+    /// A random-motion sweep's motions (`motions`, `seed`, `angle_min_deg`, `angle_max_deg`;
+    /// none without `motions`), refused beside `axes`, `axis_count` or `angles_deg`.
+    fn motions(&self, raw: &RawSweep) -> Result<Vec<Motion>> {
+        let Some(count) = raw.motions else {
+            for (field, given) in [
+                ("sweep.seed", raw.seed.is_some()),
+                ("sweep.angle_min_deg", raw.angle_min_deg.is_some()),
+                ("sweep.angle_max_deg", raw.angle_max_deg.is_some()),
+            ] {
+                if given {
+                    return Err(self.err(field, "`motions = N` beside it (a random-motion sweep)"));
+                }
+            }
+            return Ok(Vec::new());
+        };
+        if count == 0 || count > 100_000 {
+            return Err(self.err(
+                "sweep.motions",
+                format!("a number of motions from 1 to 100000, got {count}"),
+            ));
+        }
+        for (field, given) in [
+            ("sweep.axes", raw.axes.is_some()),
+            ("sweep.axis_count", raw.axis_count.is_some()),
+            ("sweep.angles_deg", raw.angles_deg.is_some()),
+        ] {
+            if given {
+                return Err(self.err(
+                    field,
+                    "no axes or angles beside `motions` (each random motion has its own)",
+                ));
+            }
+        }
+        let angle = |field: &str, v: Option<f64>, default: f64| {
+            target_angle(v.unwrap_or(default), "each motion's start")
+                .map_err(|m| self.err(field, m))
+        };
+        let min = angle("sweep.angle_min_deg", raw.angle_min_deg, 5.0)?;
+        let max = angle("sweep.angle_max_deg", raw.angle_max_deg, 180.0)?;
+        if min.0 > max.0 {
+            return Err(self.err(
+                "sweep.angle_max_deg",
+                format!(
+                    "at least sweep.angle_min_deg ({} degrees), got {}",
+                    shown(min.0.to_degrees()),
+                    shown(max.0.to_degrees())
+                ),
+            ));
+        }
+        Ok(random_motions(count, raw.seed.unwrap_or(1), min, max))
     }
 
     /// A list of `[sweep]`: `default` when absent, an error when empty (`what` names an entry),

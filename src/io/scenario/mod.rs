@@ -12,8 +12,9 @@ use checked::Checker;
 use raw::*;
 
 use crate::error::{printable, shown, Error, Result};
-use crate::model::geometry::{Pair, Radians, UnitVec};
+use crate::model::geometry::{Orientation, Pair, Radians, UnitVec};
 use crate::model::packing::Packing;
+use crate::model::random::SplitMix;
 use crate::physics::dynamics::{Body, SettleParams};
 use crate::physics::torque::MagnetTorques;
 use crate::planning::commutation::{Motor, PairsPerStep, StepModel};
@@ -43,7 +44,8 @@ pub struct ReportSettings {
     pub reference_label: Option<String>,
 }
 
-/// A sweep: many planning cases from one scenario (axes x angles x schemes x models).
+/// A sweep: many planning cases from one scenario (axes x angles x schemes x models, or random
+/// motions x schemes x models).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sweep {
     pub axes: Vec<UnitVec>,
@@ -53,6 +55,32 @@ pub struct Sweep {
     pub models: Vec<(StepModel, PairsPerStep)>,
     /// Also write each case's plan CSV.
     pub keep_plans: bool,
+    /// Random motions (`motions = N`): each case its own start, axis and angle, in place of
+    /// the product of `axes` and `angles` (which then hold each motion's axis and angle).
+    pub motions: Vec<Motion>,
+}
+
+/// One motion of a random-motion sweep: from `start`, `angle` about `axis`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motion {
+    pub start: Orientation,
+    pub axis: UnitVec,
+    pub angle: Radians,
+}
+
+/// `count` random motions from `seed`: each a start uniform over the rotations, an axis
+/// uniform over the sphere and an angle uniform in `[min, max]`, drawn in that order from one
+/// [`SplitMix`] (the same motions on every machine).
+pub fn random_motions(count: usize, seed: u64, min: Radians, max: Radians) -> Vec<Motion> {
+    let mut r = SplitMix::new(seed);
+    (0..count)
+        .map(|_| {
+            let start = r.orientation();
+            let axis = r.direction();
+            let angle = Radians(min.0 + (max.0 - min.0) * r.uniform());
+            Motion { start, axis, angle }
+        })
+        .collect()
 }
 
 /// `count` axes spread evenly over the whole sphere (a Fibonacci lattice), deterministic.

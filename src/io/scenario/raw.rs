@@ -40,6 +40,10 @@ pub(super) struct RawSweep {
     pub(super) schemes: Option<Vec<String>>,
     pub(super) models: Option<Vec<String>>,
     pub(super) keep_plans: Option<bool>,
+    pub(super) motions: Option<usize>,
+    pub(super) seed: Option<u64>,
+    pub(super) angle_min_deg: Option<f64>,
+    pub(super) angle_max_deg: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
