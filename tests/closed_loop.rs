@@ -472,7 +472,7 @@ fn on_plant(plant: &str, axis: &str, closed: bool, seed: u64, max_steps: usize) 
 
 #[test]
 fn on_plants_unlike_the_model_the_closed_loop_ends_within_three_degrees() {
-    // max_steps: twice the plant's own fewest steps (examples/closed_loop_grid.rs)
+    // max_steps: twice the plant's own fewest steps (research/closed_loop_grid.rs)
     for (plant, axis, seed, max_steps) in [
         ("scenarios/plants/cosine-35-coils.toml", "0,0,1", 1, 12),
         ("scenarios/plants/cosine-35-coils.toml", "1,1,1", 2, 14),

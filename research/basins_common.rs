@@ -1,7 +1,7 @@
-//! Random active sets for the basin checks (tests/basins.rs and examples/basins.rs share this
+//! Random active sets for the basin checks (tests/basins.rs and research/basins.rs share this
 //! file): the setup of issue 17, a deterministic generator, and the comparison of a settle with
 //! the reference; also the planner-like sets of issue 32 (`planner_sets`, for
-//! examples/settle_sets.rs and benches/settle.rs).
+//! research/settle_sets.rs and benches/settle.rs).
 #![allow(dead_code)]
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};

@@ -15,7 +15,6 @@
 //! `--coils`: the same sets in the "coils" interaction (each set's coils energised, every magnet
 //! within reach of one pulls), where a settle costs about 20 times more.
 
-#[path = "../tests/basins_common/mod.rs"]
 mod basins_common;
 
 use anyhow::{bail, Context, Result};

@@ -17,7 +17,6 @@
 //! is that set's mean time per settle over the timed passes. The summary line gives the mean,
 //! median and 99th percentile of the evaluations and of the times.
 
-#[path = "../tests/basins_common/mod.rs"]
 mod basins_common;
 
 use anyhow::{bail, Context, Result};
