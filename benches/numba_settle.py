@@ -6,7 +6,7 @@ Run from the repository root (needs python3 >= 3.11 and PyPI; nothing else):
 
     python3 benches/numba_settle.py [--sets N] [--scenario FILE] [--planner [--seed S]]
 
-`--planner`: the planner-like sets of issue 32 instead (`settle_sets --planner`: each from its
+`--planner`: the planner-like sets instead (`settle_sets --planner`: each from its
 own random start, three pairs within 24 degrees of their coils), read back from the Rust
 example's CSV (set and start), by default on benches/planner-sets.toml:
 
