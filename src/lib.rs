@@ -1,7 +1,8 @@
 //! spherestep: commutation, motion planning, settling and hardware replay for spherical stepper
 //! motors (a ball rotor of permanent magnets turned by switching the electromagnets of a small
 //! stator cap). Conventions (frames, quaternion order, units, well shapes, step models,
-//! figures of merit): docs/model.md in the repository, summarised in the README.
+//! figures of merit): docs/model.md in the repository; the manual is the book in docs/
+//! (`mdbook build docs`).
 //!
 //! The modules are layers; data flows one way and no module imports a layer above its own:
 //!

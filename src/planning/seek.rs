@@ -18,7 +18,8 @@ use std::collections::BTreeMap;
 /// it looks at most. For scale (`research/fewest_steps.rs` on `scenarios/broad-wells.toml`,
 /// from the state after the pair model's first step of 90 degrees): a beam of 32 comes within
 /// 1 degree of the goal in 9 steps about Z and 10 about Y, and 3.3 degrees after 10 about X;
-/// 16 costs half the settles (about 5,000 to 80,000 a search) and gives the README's tables.
+/// 16 costs half the settles (about 5,000 to 80,000 a search) and gives the closed-loop tables
+/// of docs/closed-loop.md.
 pub const BEAM: usize = 16;
 pub const DEPTH: usize = 12;
 
