@@ -8,6 +8,7 @@
 //!   unmarked block is taken for Rust by the doc tests;
 //! - every relative link points at a file of the repository, and a `#anchor` into a Markdown
 //!   file at one of its headings;
+//! - every `toml` block is a scenario the parser accepts;
 //! - the scenario reference (`docs/scenario-format.md`) lists exactly the keys the scenario
 //!   parser's structs accept.
 
@@ -393,4 +394,22 @@ fn the_scenario_reference_lists_every_key_the_parser_accepts() {
          {undocumented:?}\n  documented but not accepted: {unknown:?}"
     );
     assert!(parser.len() > 80, "only {} keys found", parser.len());
+}
+
+#[test]
+fn the_toml_blocks_are_scenarios_the_parser_accepts() {
+    let mut checked = 0;
+    for f in doc_files() {
+        let (blocks, _) = split(&std::fs::read_to_string(&f).unwrap());
+        for b in blocks.iter().filter(|b| b.info == "toml") {
+            let dir = tempfile::tempdir().unwrap();
+            let file = dir.path().join("block.toml");
+            std::fs::write(&file, &b.text).unwrap();
+            if let Err(e) = spherestep::Scenario::load(&file) {
+                panic!("{}:{}: not a scenario: {e}\n{}", rel(&f), b.line, b.text);
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 3, "only {checked} TOML blocks");
 }
