@@ -8,7 +8,8 @@
 //!   unmarked block is taken for Rust by the doc tests;
 //! - every relative link points at a file of the repository, and a `#anchor` into a Markdown
 //!   file at one of its headings;
-//! - every `toml` block is a scenario the parser accepts;
+//! - every `toml` block is a scenario the parser accepts, and the README's main job prints the
+//!   summary the README shows;
 //! - the scenario reference (`docs/scenario-format.md`) lists exactly the keys the scenario
 //!   parser's structs accept.
 
@@ -412,4 +413,36 @@ fn the_toml_blocks_are_scenarios_the_parser_accepts() {
         }
     }
     assert!(checked >= 3, "only {checked} TOML blocks");
+}
+
+/// The README's main job prints the summary the README shows below it.
+#[test]
+fn the_main_job_prints_what_the_readme_shows() {
+    let md = std::fs::read_to_string(Path::new(ROOT).join("README.md")).unwrap();
+    let (blocks, _) = split(&md);
+    let job = blocks
+        .iter()
+        .position(|b| b.info == "sh")
+        .expect("a sh block");
+    let shown = blocks[job + 1..]
+        .iter()
+        .find(|b| b.info == "text")
+        .expect("its output, in a text block");
+    let dir = scratch();
+    let out = Command::new("bash")
+        .arg("-e")
+        .arg("-c")
+        .arg(format!("{PRELUDE}\n{}", blocks[job].text))
+        .current_dir(dir.path())
+        .env("SPHERESTEP_BIN", env!("CARGO_BIN_EXE_spherestep"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let printed = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        printed.trim(),
+        shown.text.trim(),
+        "README.md:{}: the main job's summary changed",
+        shown.line
+    );
 }
