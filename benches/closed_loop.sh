@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's closed-loop tables (issue 15): plans made in one scenario's physics, played on a
+# The closed-loop tables of docs/closed-loop.md: plans made in one scenario's physics, played on a
 # plant, open loop and closed loop with a simulated orientation sensor of three noise levels.
 # Usage: bash benches/closed_loop.sh MODEL.toml PLANT.toml [NOISE_DEG ...]
 set -euo pipefail

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's table of coil-set plans (issue 13): for each scenario and axis, one 90 degree
+# The coil-set plan tables of docs/sweeps.md: for each scenario and axis, one 90 degree
 # plan (wall time of the whole process) and its replay by `simulate` in the same scenario.
 # Usage: bash benches/coil_plans.sh [SCENARIO.toml ...]   (default: broad-wells and soft-wells)
 set -euo pipefail

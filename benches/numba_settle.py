@@ -6,7 +6,7 @@ Run from the repository root (needs python3 >= 3.11 and PyPI; nothing else):
 
     python3 benches/numba_settle.py [--sets N] [--scenario FILE] [--planner [--seed S]]
 
-`--planner`: the planner-like sets of issue 32 instead (`settle_sets --planner`: each from its
+`--planner`: the planner-like sets instead (`settle_sets --planner`: each from its
 own random start, three pairs within 24 degrees of their coils), read back from the Rust
 example's CSV (set and start), by default on benches/planner-sets.toml:
 
@@ -17,7 +17,7 @@ pip-installs numba and numpy there, and runs itself again inside it. Both sides 
 thread:
 
 - spherestep: `cargo run --release --example settle_sets -- SCENARIO --sets N --out CSV` with
-  RAYON_NUM_THREADS=1 (examples/settle_sets.rs: N deterministic 3-pair sets from one start,
+  RAYON_NUM_THREADS=1 (research/settle_sets.rs: N deterministic 3-pair sets from one start,
   settled one after the other, each set's mean time per settle over repeated passes);
 - numba: the model of docs/model.md (pair torque (p x s) g(d)/sin d, gaussian or cosine
   wells with their cut-off, N_B = R^T sum, dq/dt = 1/2 (q4 w - w x q), dq4/dt = -1/2 w.q,
@@ -136,7 +136,7 @@ def quat_rotate(q, v):
 
 
 def build_sets(m: dict, q0, n: int) -> list[list[tuple[int, int]]]:
-    """examples/settle_sets.rs: ordered triples of distinct coils, each with its nearest magnet."""
+    """research/settle_sets.rs: ordered triples of distinct coils, each with its nearest magnet."""
     p = np.array([quat_rotate(q0, r) for r in m["rotor"]])
     near = [int(np.argmax(p @ s)) for s in m["stator"]]
     coils = len(m["stator"])
@@ -417,7 +417,7 @@ def main() -> int:
           f"(compile {t_compile:.1f} s)")
     print(f"{'engine':<44} {'mean us':>9} {'median us':>10} {'p99 us':>9} {'mean evals':>11} "
           f"{'median evals':>13} {'p99 evals':>10}")
-    for label, us, ev in (("spherestep (examples/settle_sets.rs)", rs_us, rs_ev),
+    for label, us, ev in (("spherestep (research/settle_sets.rs)", rs_us, rs_ev),
                           (f"numba Dopri5, rtol {m['rtol']:g} atol {m['atol']:g}", py_us, py_ev)):
         print(f"{label:<44} {mean(us):9.2f} {med(us):10.2f} {p99(us):9.2f} {mean(ev):11.1f} "
               f"{med(ev):13.0f} {p99(ev):10.0f}")

@@ -7,7 +7,7 @@ Run from the repository root:
     python3 benches/scipy_settle.py --rust-csv FILE.csv   # reuse a CSV from the example
 
 The Rust side is `cargo run --release --example settle_sets -- SCENARIO --sets N --out CSV`
-(examples/settle_sets.rs): N deterministic 3-pair sets from one start orientation, settled one
+(research/settle_sets.rs): N deterministic 3-pair sets from one start orientation, settled one
 after the other on one thread, one CSV row per set with the final orientation and the set's mean
 time per settle.
 

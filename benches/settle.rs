@@ -8,7 +8,7 @@
 //! - `growth_magnets_coils/N`: settle time of 2 energised coils in "coils" interaction against
 //!   the number N of rotor magnets (evenly spread: `scenario::sphere_axes`), and `rhs_coils/N`;
 //! - `settle_many/threads/T`: 1,000 3-pair sets on a rayon pool of T = 1 and 2 threads;
-//! - `settle_planner/sets/4000`: the 4,000 planner-like sets of issue 32 (`examples/settle_sets.rs
+//! - `settle_planner/sets/4000`: the 4,000 planner-like sets (`research/settle_sets.rs
 //!   --planner`, seed 32: each from its own random start, three pairs within 24 degrees of their
 //!   coils) on `benches/planner-sets.toml`, one after the other on one thread (per set: the
 //!   time over 4,000);
@@ -21,7 +21,7 @@
 //!
 //! Run: `cargo bench --bench settle` (a group: `cargo bench --bench settle -- growth_pairs`).
 
-#[path = "../tests/basins_common/mod.rs"]
+#[path = "../research/basins_common.rs"]
 mod basins_common;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};

@@ -1,7 +1,8 @@
 //! spherestep: commutation, motion planning, settling and hardware replay for spherical stepper
 //! motors (a ball rotor of permanent magnets turned by switching the electromagnets of a small
 //! stator cap). Conventions (frames, quaternion order, units, well shapes, step models,
-//! figures of merit): docs/model.md in the repository, summarised in the README.
+//! figures of merit): docs/model.md in the repository; the manual is the book in docs/
+//! (`mdbook build docs`).
 //!
 //! The modules are layers; data flows one way and no module imports a layer above its own:
 //!
@@ -76,6 +77,48 @@ pub mod relay;
 pub mod sensor;
 #[doc(hidden)]
 pub mod serial;
+
+/// The Rust blocks of the README and the book, compiled and run as doc tests (`tests/docs.rs`
+/// runs their shell blocks and checks their links).
+#[cfg(doctest)]
+mod book {
+    macro_rules! chapters {
+        ($($name:ident = $path:literal;)*) => {
+            $(
+                #[doc = include_str!($path)]
+                #[allow(dead_code)]
+                struct $name;
+            )*
+        };
+    }
+    chapters! {
+        Readme = "../README.md";
+        Introduction = "../docs/introduction.md";
+        Scenarios = "../docs/scenarios.md";
+        Wells = "../docs/wells.md";
+        Settle = "../docs/settle.md";
+        Plan = "../docs/plan.md";
+        Motions = "../docs/motions.md";
+        SimulateAndRun = "../docs/simulate-and-run.md";
+        Batch = "../docs/batch.md";
+        Figures = "../docs/figures.md";
+        View = "../docs/view.md";
+        Replay = "../docs/replay.md";
+        CoilMap = "../docs/coil-map.md";
+        Safety = "../docs/safety.md";
+        Wiring = "../docs/wiring.md";
+        Rehearse = "../docs/rehearse.md";
+        ClosedLoopHardware = "../docs/closed-loop-hardware.md";
+        Model = "../docs/model.md";
+        ScenarioFormat = "../docs/scenario-format.md";
+        Architecture = "../docs/architecture.md";
+        PaperFigures = "../docs/paper-figures.md";
+        Sweeps = "../docs/sweeps.md";
+        Basins = "../docs/basins.md";
+        ClosedLoop = "../docs/closed-loop.md";
+        Speed = "../docs/speed.md";
+    }
+}
 
 pub use error::{Error, Result};
 pub use io::scenario::Scenario;

@@ -1,7 +1,8 @@
-//! The fast settle against the reference on random sets (issue 17): the same equilibrium, the
+//! The fast settle against the reference on random sets: the same equilibrium, the
 //! same settled flag and the same settle time, for both well shapes, light, medium and heavy
-//! damping and 2 to 5 pairs. The full 4,000-per-kind measurement is examples/basins.rs.
+//! damping and 2 to 5 pairs. The full 4,000-per-kind measurement is research/basins.rs.
 
+#[path = "../research/basins_common.rs"]
 mod basins_common;
 
 use basins_common::{both, compare, random_sets, setup, Rng, Shape};
@@ -37,7 +38,7 @@ fn check(shape: Shape, damping_ratio: f64, seed: u64) {
     assert_eq!(other, 0, "{label}: {other} sets in another equilibrium");
     // The settle test can pass first in a brief dip of a lightly damped oscillation, and which
     // dip a run sees hangs on its errors: some such sets are allowed (the reference applies the
-    // test within its steps; on examples/basins.rs 2 to 2.5% of light-damping sets and about 1%
+    // test within its steps; on research/basins.rs 2 to 2.5% of light-damping sets and about 1%
     // of the others are outside the bounds), never a different equilibrium or flag. Before the
     // reference looked within its steps, light damping put 6 to 7% outside.
     let allowed = if damping_ratio < 0.5 {
@@ -105,7 +106,7 @@ fn settles_where_the_reference_does(
 
 /// A set whose magnet grazes its well's cut-off on the way (comes within 0.01 degrees of it
 /// and turns back, at 3 rad/s): at the fast path's tolerance it ended 0.32 rad from the
-/// reference's equilibrium (examples/basins.rs, seed 19, the cosine light-damping kind); the
+/// reference's equilibrium (research/basins.rs, seed 19, the cosine light-damping kind); the
 /// graze sends it to the tight fallback.
 #[test]
 fn a_set_that_grazes_a_cut_off_lands_where_the_reference_does() {
@@ -119,7 +120,7 @@ fn a_set_that_grazes_a_cut_off_lands_where_the_reference_does() {
     settles_where_the_reference_does(&torques, &set, &q0, body, params);
 }
 
-/// A set of the issue's kind (examples/basins.rs, seed 17) whose magnet on coil 14 comes within
+/// A set of the 3-pair gaussian kind at 0.7 of critical damping (research/basins.rs, seed 17) whose magnet on coil 14 comes within
 /// 6.8e-5 (in cosine) of its well's cut-off at 0.55 s and turns back at the fast path's
 /// tolerance, where the reference crosses the cut-off: with the cut-off events alone it ended
 /// 0.059 rad from the reference's equilibrium; the graze has its approach integrated again
@@ -187,7 +188,7 @@ fn end_phase_settles_it_on_time(
     );
 }
 
-/// Two sets of the issue's kind (examples/basins.rs, seed 17) that come to a minimum with a
+/// Two sets of the 3-pair gaussian kind at 0.7 of critical damping (research/basins.rs, seed 17) that come to a minimum with a
 /// magnet within 0.4 and 0.08 degrees of its well's cut-off without crossing it on the way:
 /// such a minimum is trusted (it used to send the settle to the tight fallback). In the first
 /// the ball passes slowly near a saddle at 1.8 s, where the end phase's searches fail, and the

@@ -256,7 +256,7 @@ fn bad_shard_and_jobs_arguments_are_refused() {
         "0",
     ]);
     assert_eq!(r.status.code(), Some(1));
-    // Issue 18, item 12: more threads than any machine runs are refused at once (they were
+    // More threads than any machine runs are refused at once (they were
     // all started before any work)
     for jobs in ["257", "100000", "0"] {
         let r = batch(&[

@@ -292,7 +292,7 @@ fn set(rows: &str, case: usize, col: usize, value: &str) -> String {
         .collect()
 }
 
-/// Issue 18, item 5: progress rows that are not what this sweep writes (a hand-edited
+/// Progress rows that are not what this sweep writes (a hand-edited
 /// `reached`, a number that is not one, another case's settings, a case the sweep does not
 /// have, a short row) are not copied into the result: those cases are computed again, with a
 /// warning naming the progress file; the run succeeds.
@@ -351,7 +351,7 @@ fn damaged_progress_rows_are_computed_again_with_a_warning() {
 /// How a test damages a file's text.
 type Damage = fn(&str) -> String;
 
-/// Issue 18, item 5: a result file cut short, emptied or replaced with garbage is not kept as
+/// A result file cut short, emptied or replaced with garbage is not kept as
 /// up to date by `--resume` (its bytes are checked against the digest its `.hash` records): it
 /// is computed again, with a warning naming it, and the run succeeds with the same files. A
 /// result of an older spherestep (no digest recorded) is checked by its contents.

@@ -261,7 +261,7 @@ fn sets_csv_rows_follow_the_file_order_and_are_deterministic() {
     assert!(lines[3].starts_with("3,0:14;12:45;7:68,"));
 }
 
-/// Issue 14, item 14: a turn of more than 180 degrees can never be measured as reached (the
+/// A turn of more than 180 degrees can never be measured as reached (the
 /// cumulative rotation's angle lies in (-180, 180]); it is refused with the reason, on the
 /// command line and in a scenario, instead of searching until the budget runs out.
 #[test]
@@ -384,7 +384,7 @@ fn a_batch_with_a_scenario_of_overlong_durations_reports_it_and_keeps_the_others
     assert!(good.lines().count() > 1, "{good}");
 }
 
-/// Issue 18, item 4: `--out` naming one of the command's inputs (the scenario, the plan, the
+/// `--out` naming one of the command's inputs (the scenario, the plan, the
 /// plant, a sets file, a sim file, a file the scenario reads) is refused before computing,
 /// naming both, and the input is left as it was; another spelling of the same file or a link
 /// to it is the same file.
@@ -500,7 +500,7 @@ fn out_naming_an_input_is_refused_and_the_input_kept() {
     assert!(d.join("b.csv").is_file(), "the other scenario still runs");
 }
 
-/// Issue 18, item 17: numbers in messages are shown in exponent form when extreme (no
+/// Numbers in messages are shown in exponent form when extreme (no
 /// 309-digit integers), and control characters in a scenario's name are escaped, never sent to
 /// the terminal raw.
 #[test]

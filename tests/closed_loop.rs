@@ -1,4 +1,4 @@
-//! Closed loop in simulation (issue 15, item 1): plans played on a plant whose physics is not
+//! Closed loop in simulation: plans played on a plant whose physics is not
 //! the model's, measured by a noisy sensor and replanned; open loop ends far off, closed loop
 //! at the goal; the same seed gives the same bytes on any thread count; bad options refused.
 
@@ -102,7 +102,7 @@ fn closed_loop_reaches_the_goal_where_open_loop_does_not() {
 
 #[test]
 fn a_loop_planned_in_the_pair_model_fits_the_broad_wells_and_arrives() {
-    // the issue's case: the paper's pair model with sharp wells, played on the broad-well,
+    // the paper's pair model with sharp wells, played on the broad-well,
     // all-coils plant, 90 degrees about X with 1 degree of sensor noise
     let (model, plant) = ("scenarios/prototype.toml", "scenarios/broad-wells.toml");
     let o = |closed: bool, identify: bool| LoopOptions {
@@ -416,7 +416,7 @@ fn bad_loop_options_are_refused_before_the_plan_is_computed() {
 #[test]
 fn the_worst_axis_error_of_a_run_leaves_out_rotations_too_small_to_have_an_axis() {
     use spherestep::planning::closed_loop::MIN_AXIS_ANGLE_DEG;
-    // the issue's command: before, a worst axis error of 90.00 degrees
+    // this run once reported a worst axis error of 90.00 degrees
     let (_, stdout, stderr) = run(&[
         "run",
         "scenarios/sweep-500-axes.toml",
@@ -485,7 +485,7 @@ fn on_plant(plant: &str, axis: &str, closed: bool, seed: u64, max_steps: usize) 
 
 #[test]
 fn on_plants_unlike_the_model_the_closed_loop_ends_within_three_degrees() {
-    // max_steps: twice the plant's own fewest steps (examples/closed_loop_grid.rs)
+    // max_steps: twice the plant's own fewest steps (research/closed_loop_grid.rs)
     for (plant, axis, seed, max_steps) in [
         ("scenarios/plants/cosine-35-coils.toml", "0,0,1", 1, 12),
         ("scenarios/plants/cosine-35-coils.toml", "1,1,1", 2, 14),

@@ -1,4 +1,4 @@
-//! The coil-set planner (issue 13): the default model chosen by the physics, coil-set plans that
+//! The coil-set planner: the default model chosen by the physics, coil-set plans that
 //! are what the broad-well dynamics does (and pair plans that are not), the plan file of a
 //! coil-set step, the same bytes on any thread count, replay on relay boards, and the refusals
 //! (`--model`, `--plant`, a physics in which nothing settles).

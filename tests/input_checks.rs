@@ -178,7 +178,7 @@ fn physical_with(from: &str, to: &str) -> String {
 #[test]
 fn a_well_weaker_than_the_torque_tolerance_is_refused() {
     let t = tempfile::tempdir().unwrap();
-    // the case: before, "settled: yes at t = 0.000000 s", outcome held
+    // a well this weak once passed the settle test at t = 0: "settled: yes at t = 0.000000 s", held
     let weak = t.path().join("weak.toml");
     std::fs::write(&weak, "[magnets]\nstrength_j = 1e-6\n").unwrap();
     let (code, out, err) = run(&["settle", weak.to_str().unwrap(), "--pairs", "0:14;3:24"]);

@@ -1,4 +1,4 @@
-//! Memory grows no faster than the problem needs (issue 14, item 11): a pivot plan on a rotor
+//! Memory grows no faster than the problem needs: a pivot plan on a rotor
 //! of 5,000 magnets. Its search used to expand every initial state at once (some 1,300 here,
 //! about 700 MB of partial plans; 11.6 GB with 20,000 magnets); expanded in chunks it stays
 //! under 50 MB. The packing report of a rotor of 12,000 magnets counts its pairwise distances

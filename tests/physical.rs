@@ -1,7 +1,8 @@
-//! Physical magnets (issue 16): shape = "dipole" in a scenario, its well in the torque model
+//! Physical magnets: shape = "dipole" in a scenario, its well in the torque model
 //! (the same torque as the full 3-D magnetics), its settles against the reference, `wells`
 //! on it read back as a table, the physical prototype's plan, and the scenario's refusals.
 
+#[path = "../research/basins_common.rs"]
 mod basins_common;
 
 use basins_common::{both, compare, Rng};

@@ -256,7 +256,7 @@ fn a_dynamic_plan_replays_exactly_in_its_own_scenario() {
     assert!(sim.iter().any(|r| r.deviation_deg > 0.01));
 }
 
-/// Issue 14, item 13: a geometric (pivot) plan predicts every step's settle time (the dynamics'
+/// A geometric (pivot) plan predicts every step's settle time (the dynamics'
 /// settle of the step's set from the orientation the plan predicts before it), so that `replay`
 /// waits for the ball instead of only its 200 ms floor.
 #[test]
@@ -287,7 +287,7 @@ fn pivot_plans_predict_each_steps_settle_time() {
 #[test]
 fn the_cumulative_angle_does_not_wrap_near_180_degrees() {
     use spherestep::planning::planner::PlanSettings;
-    // the issue's command: before, exit 1 with a final angle of -7.62 and an axis error of 180
+    // a wrapping angle once ended this plan with exit 1, a final angle of -7.62 and an axis error of 180
     let (code, stdout, stderr) = common::run(&[
         "plan",
         "scenarios/prototype.toml",

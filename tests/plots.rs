@@ -508,7 +508,7 @@ fn plot_csv_errors() {
     assert_eq!(pics, 0);
 }
 
-/// Issue 14, item 10: values of +-1e308 gave the colour scale an infinite span, and drawing
+/// Values of +-1e308 gave the colour scale an infinite span, and drawing
 /// never finished; they are refused (by the map and by `plot`), naming the line.
 #[test]
 fn huge_sweep_values_are_refused_not_drawn_for_ever() {
@@ -540,7 +540,7 @@ fn huge_sweep_values_are_refused_not_drawn_for_ever() {
     assert!(!dir.path().join("huge.png").exists());
 }
 
-/// Issue 14, item 16: every series of a scheme figure has its own colour (colour-blind safe),
+/// Every series of a scheme figure has its own colour (colour-blind safe),
 /// marker and dash, so identical series stay visible; a zero-error series is lifted off the
 /// frame; the labels say "cumulative"; the target is marked.
 #[test]
@@ -600,7 +600,7 @@ fn scheme_figures_tell_their_series_apart() {
     }
 }
 
-/// Issue 14, item 17: the SVGs name the bundled font, not just a generic family.
+/// The SVGs name the bundled font, not just a generic family.
 #[test]
 fn svgs_name_the_bundled_font() {
     let svg = render_svg(&axis_error()).unwrap();
@@ -615,7 +615,7 @@ fn svgs_name_the_bundled_font() {
     }
 }
 
-/// Issue 14, item 17: a sweep's maps (one per scheme) share one colour scale, so that they
+/// A sweep's maps (one per scheme) share one colour scale, so that they
 /// can be compared: the same colour bar whatever each scheme's own range.
 #[test]
 fn a_sweeps_maps_share_one_colour_scale() {
@@ -687,7 +687,7 @@ fn assert_apart(boxes: &[NamedBox]) {
     }
 }
 
-/// Issue 14, item 17: Figure 5's coil and magnet numbers never overlap each other.
+/// Figure 5's coil and magnet numbers never overlap each other.
 #[test]
 fn figure5_labels_do_not_overlap() {
     let fig = commutation();
@@ -714,7 +714,7 @@ fn figure5_labels_do_not_overlap() {
     assert_apart(&boxes);
 }
 
-/// Issue 14, item 17: Figure 6's labels (coils, world axes, rotation axes) never overlap.
+/// Figure 6's labels (coils, world axes, rotation axes) never overlap.
 #[test]
 fn figure6_labels_do_not_overlap() {
     let fig = view3d();
@@ -771,7 +771,7 @@ fn place_labels_avoids_taken_places() {
     }
 }
 
-/// Issue 14, item 17: a sweep map marks the cases that did not reach their target and draws
+/// A sweep map marks the cases that did not reach their target and draws
 /// the coil directions its text explains it by.
 #[test]
 fn sweep_maps_mark_unreached_cases_and_coil_axes() {
@@ -820,7 +820,7 @@ fn placed_texts(svg: &str) -> Vec<(String, String, String)> {
         .collect()
 }
 
-/// Issue 18, item 17: a run's step axis (`plot` of a run CSV) is labelled with whole steps,
+/// A run's step axis (`plot` of a run CSV) is labelled with whole steps,
 /// each once, however few the steps.
 #[test]
 fn loop_plot_labels_its_steps_with_whole_numbers_each_once() {

@@ -81,7 +81,7 @@ fn sigterm_mid_replay_sends_all_off_and_fails() {
 }
 
 /// Issue item 16: `q` in step mode quits on purpose: every coil off, where to resume said, and
-/// exit status 0 (the README said non-zero; quitting is what was asked, not a failure).
+/// exit status 0 (quitting is what was asked, not a failure).
 #[test]
 fn q_in_step_mode_quits_with_all_off_and_status_zero() {
     let dir = tempfile::tempdir().unwrap();

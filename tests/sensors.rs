@@ -226,7 +226,7 @@ fn quat_csv_garbage_lines_and_bad_norms_are_errors_with_the_line() {
     h.join().unwrap();
 }
 
-/// Issue 18, item 17: what a sensor sends is printed with its control characters escaped
+/// What a sensor sends is printed with its control characters escaped
 /// (NUL bytes, terminal escapes), never raw.
 #[test]
 fn quat_csv_control_bytes_are_escaped_in_messages() {

@@ -12,7 +12,7 @@ fn proto() -> Scenario {
 
 #[test]
 fn an_undamped_ball_is_never_settled() {
-    // issue 14, item 1: with c = 0 the default stepper's own dissipation used to settle
+    // With c = 0 the default stepper's own dissipation used to settle
     // `0:14,12:26` at 41.3 s
     let mut sc = proto();
     sc.body.damping = 0.0;
@@ -69,7 +69,7 @@ fn a_lightly_damped_ball_settles_when_the_reference_says() {
 
 #[test]
 fn every_settle_has_a_bounded_cost_and_says_what_stopped_it() {
-    // issue 14, item 10: an inertia of 1e-12 (fast modes at c / I = 1e12 per second) ran for
+    // An inertia of 1e-12 (fast modes at c / I = 1e12 per second) ran for
     // ever; now the step cap stops it, and says so
     let mut sc = proto();
     sc.body.inertia = Vector3::repeat(1e-12);

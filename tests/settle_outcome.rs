@@ -1,4 +1,4 @@
-//! What a settle came to (issue 14, items 2 and 3): a set whose pairs are out of reach is not
+//! What a settle came to: a set whose pairs are out of reach is not
 //! "held" although nothing moves; a half-held set is its own outcome; the reason a settle
 //! stopped is said in JSON and text.
 

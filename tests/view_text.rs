@@ -1,4 +1,4 @@
-//! The 3-D page's text (issue 14, item 18): numbers never print as "-0.000", a plan that
+//! The 3-D page's text: numbers never print as "-0.000", a plan that
 //! predicts no settle time says so instead of "0.0000 s", and the legend sits over the view,
 //! in sight at any window size. The page's pure text helpers run in node where it is
 //! installed (else the test says "skipped: node not installed").

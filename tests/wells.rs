@@ -1,4 +1,4 @@
-//! `spherestep wells` (issue 16, item 2): the torque on one magnet passing one coil is the
+//! `spherestep wells`: the torque on one magnet passing one coil is the
 //! analytic well, the curve written is a `table` that reads back to the same settles, and the
 //! command writes the CSV, its picture and refuses a bad step.
 
@@ -126,7 +126,7 @@ fn the_command_writes_the_csv_and_its_picture_and_refuses_a_bad_step() {
     }
 }
 
-/// Issue 18, item 11: a step so small that the curve cannot be held (`1e-300`: more rows than
+/// A step so small that the curve cannot be held (`1e-300`: more rows than
 /// memory has addresses; `1e-7`: gigabytes) is refused with the bound, not a panic or a
 /// machine out of memory.
 #[test]

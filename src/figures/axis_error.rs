@@ -54,7 +54,7 @@ pub fn plan_series(name: &str, rows: &[PlanRow]) -> ErrorSeries {
     }
 }
 
-/// Rounds a range outwards to a "nice" one starting at `lo` (callers pass 0 or a negative
+/// Widens a range outwards to a "nice" one starting at `lo` (callers pass 0 or a negative
 /// minimum).
 fn nice_max(v: f64) -> f64 {
     if v <= 0.0 || !v.is_finite() {

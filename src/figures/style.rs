@@ -154,7 +154,7 @@ macro_rules! star {
 }
 pub(crate) use star;
 
-/// The text style of a given size. Sizes are even: plotters' ab_glyph renderer rounds half a
+/// The text style of a given size. Sizes are even: plotters' ab_glyph renderer snaps half a
 /// size, and an odd size puts some glyphs (the decimal point) one pixel off the baseline.
 pub(crate) fn text(size: u32) -> TextStyle<'static> {
     (FONT, size & !1).into_font().color(&BLACK)

@@ -6,7 +6,7 @@
 //! Why a third-order pair: a settle only needs the trajectory to stay in the right basin and the
 //! stop test (evaluated exactly on the accepted state) to decide where it ends, so loose
 //! tolerances are enough, and at loose tolerances a low-order pair takes fewer evaluations than
-//! Dopri5's seven-stage steps (measured in the README's speed section).
+//! Dopri5's seven-stage steps (measured in docs/speed.md).
 
 /// A right-hand side dy/dt = f(y) of an autonomous system with `N` states.
 pub trait OdeSystem<const N: usize> {

@@ -2,7 +2,7 @@
 //! coil set the supply allows is settled; the states nearest the goal are expanded again, level
 //! by level (a beam search), until one is near enough or the depth is spent, and the path to the
 //! nearest state found is the plan. The closed loop plans so in fitted wells (and follows the
-//! path until a measurement strays from it); `examples/fewest_steps.rs` uses the same search to
+//! path until a measurement strays from it); `research/fewest_steps.rs` uses the same search to
 //! tell how few steps a physics needs for a motion. Budgets are counted in settles.
 
 use crate::model::geometry::{CoilId, Orientation, Pair};
@@ -15,10 +15,11 @@ use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
 use std::collections::BTreeMap;
 
 /// How many states nearest the goal the closed loop's search keeps at each depth, and how deep
-/// it looks at most. For scale (`examples/fewest_steps.rs` on `scenarios/broad-wells.toml`,
+/// it looks at most. For scale (`research/fewest_steps.rs` on `scenarios/broad-wells.toml`,
 /// from the state after the pair model's first step of 90 degrees): a beam of 32 comes within
 /// 1 degree of the goal in 9 steps about Z and 10 about Y, and 3.3 degrees after 10 about X;
-/// 16 costs half the settles (about 5,000 to 80,000 a search) and gives the README's tables.
+/// 16 costs half the settles (about 5,000 to 80,000 a search) and gives the closed-loop tables
+/// of docs/closed-loop.md.
 pub const BEAM: usize = 16;
 pub const DEPTH: usize = 12;
 

@@ -22,7 +22,8 @@ use crate::planning::planner::{PlanSettings, Scheme};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 
-/// Defaults of the `[magnets]` section (see the README and scenarios/prototype.toml).
+/// Defaults of the `[magnets]` section (docs/scenario-format.md; scenarios/prototype.toml says
+/// where each comes from).
 pub const DEFAULT_STRENGTH_J: f64 = 0.25;
 pub const DEFAULT_WIDTH_DEG: f64 = 10.0;
 pub const DEFAULT_MAX_ATTRACTION_DEG: f64 = 30.0;

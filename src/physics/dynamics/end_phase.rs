@@ -17,7 +17,7 @@ const LINEAR_RADIUS: f64 = 1e-2;
 const NEWTON_ITERATIONS: u32 = 8;
 /// A Newton step shorter than this (rad) ends the search without a linearization to verify it:
 /// Newton converges quadratically, so the torque left after it is about |dK/d delta| step^2.
-/// On the 28,000 sets of examples/basins.rs and its 7,000 "coils" sets it was at most 5.3e-12
+/// On the 28,000 sets of research/basins.rs and its 7,000 "coils" sets it was at most 5.3e-12
 /// of the stiffness scale, far below the 1e-9 of the residual test; the stiffness used is the
 /// one at 1e-6 rad from the minimum.
 const NEWTON_DONE: f64 = 1e-6;
@@ -25,13 +25,13 @@ const NEWTON_DONE: f64 = 1e-6;
 /// amplitude test below is estimated from the steps so far and the stiffness there, and a
 /// switch point whose estimate exceeds [`LINEAR_RADIUS`] by these factors is refused at once
 /// instead of after the 3 or 4 linearizations a converged search takes. On 7,000 sets of
-/// examples/basins.rs (16,637 searches), the estimates of the searches that succeeded were at
+/// research/basins.rs (16,637 searches), the estimates of the searches that succeeded were at
 /// most 1.24 (first) and 1.02 (second) times the radius; exits at 2.0 and 1.3 refused 24% and
 /// then 30% of the 9,869 that failed, and on its 28,000 sets every settle was the same to the
 /// bit as without them (1.1 for the second changed one light-damping set: it was refused there,
 /// then switched later). 1.3 after the first step too refuses one linearization sooner where
 /// 2.0 waited for the second (the benchmark's 3-pair set: 73 evaluations instead of 74; the 200
-/// sets of examples/settle_sets.rs settle to the same results).
+/// sets of research/settle_sets.rs settle to the same results).
 const EARLY_EXIT: [f64; 2] = [1.3, 1.3];
 /// Samples per unit of the fastest mode's natural period over 2 pi (1/omega_0): the end phase
 /// looks for the first instant of the settle test on a grid of step 0.1 / omega_0, as fine as
@@ -44,14 +44,14 @@ const MAX_SAMPLES: u64 = 1_000_000;
 /// trusted where the approach may have crossed a cut-off (the graze watch saw a margin change
 /// sign, or cannot follow the margins): the ball came there across the discontinuity of the
 /// torque, where whether a magnet drifts out of reach or falls back in is decided by errors a
-/// loose tolerance allows (before the graze watch, one set in 4,000 of examples/basins.rs ended
+/// loose tolerance allows (before the graze watch, one set in 4,000 of research/basins.rs ended
 /// 3.4 degrees from the reference's equilibrium so): the settle is run again at tight
 /// tolerances. In the "pairs" interaction an approach that stayed on one side of every cut-off
 /// is as smooth as any other, and its minimum is trusted
-/// ([`TorqueModel::trusts_uncrossed_cutoffs`]): on the 28,000 sets of examples/basins.rs (seeds
+/// ([`TorqueModel::trusts_uncrossed_cutoffs`]): on the 28,000 sets of research/basins.rs (seeds
 /// 17 to 19) none lands in another equilibrium and 247, 243 and 270 settle times are outside
 /// the reference's bounds (261, 256 and 273 before), for 13% fewer evaluations (seed 17); on
-/// the 200 sets of examples/settle_sets.rs it spares the tight run of a set in two orders
+/// the 200 sets of research/settle_sets.rs it spares the tight run of a set in two orders
 /// (2,254 evaluations each). In the "coils" interaction it moved 17 more of the 7,000 sets of
 /// `basins --coils` outside the bounds, and one set's settled flag at t_max: not trusted there.
 /// (One of them, looked at: the end phase's motion is right, to 1e-5 N m against the reference's
@@ -93,7 +93,7 @@ fn normalized(q: [f64; 4]) -> [f64; 4] {
 /// Where it finds none it looks again after 1, 2, 4 ... 64 steps while the ball stays slow, and
 /// from the first slow step again once the ball has moved fast in between: a slow pass near a
 /// saddle must not put off the search near the minimum the ball goes on to (on one set of
-/// examples/basins.rs the search came 5 s late so, the stepper meanwhile hovering at its
+/// research/basins.rs the search came 5 s late so, the stepper meanwhile hovering at its
 /// tolerance's noise floor near the minimum). A strict minimum refused only because the motion
 /// about it would reach a magnet's cut-off is looked at again at the next step.
 pub(super) struct EndSearch {
@@ -300,7 +300,7 @@ impl EndPhase {
     /// which falls no faster than e^{-2ct/I}. The energy bound of the whole motion that
     /// [`EndPhase::solve`] starts from is twice as steep as the damping's decay: it left 289,
     /// 338 and 200 samples to test on the benchmark's 2-, 3- and 4-pair sets, this 49, 55 and
-    /// 50 (on the 24,852 end phases of examples/basins.rs, 143 of 479 on average, and never
+    /// 50 (on the 24,852 end phases of research/basins.rs, 143 of 479 on average, and never
     /// past the first instant that meets the test).
     fn first_possible(&self, inertia: f64, a: f64, params: &SettleParams) -> f64 {
         let (tt, tw) = (params.torque_tol, params.omega_tol);

@@ -472,8 +472,8 @@ fn settle_tight<M: TorqueModel>(
 
 /// The fast path's least first step, in units of the time scale sqrt(I / (n K)) of its n
 /// active pairs: from rest Hairer's estimate starts 50 to 100 times shorter, and the step took
-/// 6 or 7 steps to grow out of it. On the 200 sets of examples/settle_sets.rs the median settle
-/// takes 70.5 evaluations instead of 81; on the 28,000 of examples/basins.rs none lands in
+/// 6 or 7 steps to grow out of it. On the 200 sets of research/settle_sets.rs the median settle
+/// takes 70.5 evaluations instead of 81; on the 28,000 of research/basins.rs none lands in
 /// another equilibrium, and 297 settle times are outside the reference's bounds (307 without).
 /// 0.2 saves 2 evaluations more but leaves 319 outside.
 const FIRST_STEP: f64 = 0.1;
@@ -487,14 +487,14 @@ const NONLINEAR_RTOL: f64 = 1e-2;
 /// (about 4 pi zeta of the energy). At 0.2 of critical damping and rtol 1e-2, the stepper's own
 /// damping of the oscillations, not the physics', decided when sets came near their minimum
 /// (settle times 0.2 to 0.6 s early) and 3 sets in 1,000 ended in another equilibrium; rtol 1e-3
-/// still put 1 in 2,000 there, 1e-4 none (examples/basins.rs).
+/// still put 1 in 2,000 there, 1e-4 none (research/basins.rs).
 const NONLINEAR_RTOL_PER_ZETA2: f64 = 2.5e-3;
 const NONLINEAR_RTOL_FLOOR: f64 = 1e-5;
 
 /// A pair's magnet that comes this close to its well's cut-off (in cosine: 1e-4 is 0.013
 /// degrees at a 25 degree cut-off) and turns back, or dips across and back within a step, sends
 /// the fast path to its tight fallback: whether it leaves reach there, and the torque jumps, is
-/// decided by errors its tolerance allows. On examples/basins.rs one set in 4,000 of the
+/// decided by errors its tolerance allows. On research/basins.rs one set in 4,000 of the
 /// cosine, light-damping kind (seeds 18 and 19) ended 0.12 and 0.32 rad from the reference's
 /// equilibrium so; 1e-5 caught seed 19's only. The cost: the sets that graze (3 to 15% of the
 /// random sets, most at light damping) settle at tight tolerances.
@@ -549,15 +549,15 @@ const TIGHT_APPROACHES: u32 = 3;
 /// At t_max without a strict minimum, the fast path falls back to the tight integration only
 /// if the ball is this close to the settle test (times its tolerances): a free rotation the
 /// stepper neither damps nor stops at its stability limit. A ball still moving faster than that
-/// is not settling by t_max on either path, and is reported so at once. On examples/basins.rs
+/// is not settling by t_max on either path, and is reported so at once. On research/basins.rs
 /// (seeds 17, 18 and 19: 84,000 sets) 30 gives the same results as 100 did; 10 let 11 sets of
 /// seed 17 say "not settled" where the reference settles before t_max, 20 none. On the 200
-/// sets of examples/settle_sets.rs, 30 spares the tight run of the two orders of a set still
+/// sets of research/settle_sets.rs, 30 spares the tight run of the two orders of a set still
 /// creeping at t_max (2,700 evaluations each): 103 evaluations per settle on average, not 127.
 const NEAR_REST: f64 = 30.0;
 
 /// Tolerances of the tight integration the fast path falls back to. On the 28,000 sets of
-/// examples/basins.rs, 1e-8 leaves as many sets outside the reference's bounds as 1e-9 (303 and
+/// research/basins.rs, 1e-8 leaves as many sets outside the reference's bounds as 1e-9 (303 and
 /// 302, none in another equilibrium) for 21% fewer evaluations; 1e-7 leaves 322, DOP853 at 1e-9
 /// 341. (Before the reference applied its settle test within its steps, 1e-8 seemed worse: 756
 /// against 666, most of them the reference's own late detection.)

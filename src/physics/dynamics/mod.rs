@@ -9,7 +9,7 @@
 //! cannot be sure), and the reference path
 //! (`reference`), ode_solvers' Dopri5 at whatever tolerances are asked
 //! (`SettleParams::reference()` is tight). This file holds the types, the equations of motion
-//! and the entry points; tests/basins.rs and examples/basins.rs check the one path against the
+//! and the entry points; tests/basins.rs and research/basins.rs check the one path against the
 //! other on random sets, tests/settle.rs pins 54, and each part's file has its own unit tests.
 
 mod end_phase;

@@ -9,7 +9,7 @@
 //! The sets are built as in benches/settle.rs: from a fixed start orientation (0.08 rad about
 //! (0.2, 1, 0.4) normalised), ordered triples of distinct coils (a, b, c) in lexicographic order,
 //! each coil paired with the rotor magnet nearest to it at the start. With `--planner`, sets as
-//! a planner meets them instead (issue 32): each from its own random start (splitmix64, seed S,
+//! a planner meets them instead: each from its own random start (splitmix64, seed S,
 //! default 32), three distinct coils each with a distinct magnet within [`PLANNER_REACH_DEG`] of
 //! it there, drawn at random (`planner_sets`; benches/settle.rs benches the same sets, on the
 //! physics of benches/planner-sets.toml). The whole loop over the sets is run once to record the
@@ -17,7 +17,6 @@
 //! is that set's mean time per settle over the timed passes. The summary line gives the mean,
 //! median and 99th percentile of the evaluations and of the times.
 
-#[path = "../tests/basins_common/mod.rs"]
 mod basins_common;
 
 use anyhow::{bail, Context, Result};

@@ -1,7 +1,7 @@
-//! Random active sets for the basin checks (tests/basins.rs and examples/basins.rs share this
-//! file): the setup of issue 17, a deterministic generator, and the comparison of a settle with
-//! the reference; also the planner-like sets of issue 32 (`planner_sets`, for
-//! examples/settle_sets.rs and benches/settle.rs).
+//! Random active sets for the basin checks (tests/basins.rs and research/basins.rs share this
+//! file): the basin checks' setup, a deterministic generator, and the comparison of a settle with
+//! the reference; also the planner-like sets (`planner_sets`, for
+//! research/settle_sets.rs and benches/settle.rs).
 #![allow(dead_code)]
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -66,7 +66,7 @@ pub struct Kind {
     pub pairs: usize,
 }
 
-/// Issue 17's setup: the prototype's 80 magnets and 16 coils; gaussian wells k = 0.144 J,
+/// The basin checks' setup: the prototype's 80 magnets and 16 coils; gaussian wells k = 0.144 J,
 /// sigma = 10 deg (or cosine wells of the same stiffness at d = 0, k / sigma^2), reach 25 deg;
 /// I = 0.023 kg m^2; damping `ratio` of critical for one pair, 2 sqrt(K I); omega_tol 1e-4,
 /// torque_tol 1e-6, t_max 30 s.
@@ -146,7 +146,7 @@ pub fn random_sets(
     sets
 }
 
-/// `n` sets as a planner meets them (issue 32), each from its own random start: three
+/// `n` sets as a planner meets them, each from its own random start: three
 /// distinct coils, each with a distinct magnet within `reach_deg` of it at that start (a start
 /// where fewer than three coils reach a magnet is drawn again).
 pub fn planner_sets(
@@ -203,7 +203,7 @@ pub struct Comparison {
     pub same_flag: bool,
     /// Both settled, more than 1e-3 rad apart: another equilibrium.
     pub other_basin: bool,
-    /// Within the issue's bounds: 1e-4 rad, 2% + 0.05 s, same flag.
+    /// Within the agreement bounds: 1e-4 rad, 2% + 0.05 s, same flag.
     pub agrees: bool,
 }
 
