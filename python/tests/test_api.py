@@ -1,0 +1,171 @@
+"""The Python API: shapes and types of the results, the same numbers whatever form the
+arguments take, determinism on any number of threads, and the GIL released while settling."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import spherestep
+from conftest import SCENARIOS
+
+
+@pytest.fixture(scope="module")
+def motor():
+    return spherestep.Scenario.prototype().motor()
+
+
+def test_scenario_packings(prototype_toml):
+    sc = spherestep.Scenario.load(prototype_toml)
+    assert sc.name == "prototype" and str(sc.path) == str(prototype_toml)
+    assert sc.rotor.shape == (80, 3) and sc.stator.shape == (16, 3)
+    np.testing.assert_allclose(np.linalg.norm(sc.rotor, axis=1), 1.0, atol=1e-12)
+    # the cap is at the bottom, around -Z
+    assert (sc.stator[:, 2] < 0).all()
+    m = sc.motor()
+    assert (m.magnets, m.coils) == (80, 16) and m.scenario.name == "prototype"
+
+
+def test_settle_one_set(motor):
+    r = motor.settle("0:14,12:26")
+    assert r.q.shape == (4,) and r.q[3] >= 0
+    assert abs(np.linalg.norm(r.q) - 1) < 1e-12
+    assert r.settled and r.outcome == "held" and r.stop == "settled"
+    assert r.held == [(0, 14), (12, 26)] and r.not_held == []
+    assert 0 < r.settle_time_s < 5 and r.evaluations > r.steps > 0
+    assert r.residual_torque_nm < 1e-4
+    # one pair far out of reach holds nothing: the ball is left where it was
+    far = motor.settle([(0, 0)])
+    assert far.outcome == "unheld" and far.q.tolist() == [0.0, 0.0, 0.0, 1.0]
+
+
+def test_pairs_and_orientations_in_any_form_give_the_same_bits(motor):
+    q0 = [0.1, -0.2, 0.05, 0.97]
+    a = motor.settle("0:14,12:26", q0=q0)
+    b = motor.settle([(0, 14), (12, 26)], q0=tuple(q0))
+    c = motor.settle(np.array([[0, 14], [12, 26]], dtype=np.int64), q0=np.array(q0))
+    d = motor.settle([[0, 14], [12, 26]], q0=np.array(q0, dtype=np.float32).astype(np.float64))
+    assert a.q.tolist() == b.q.tolist() == c.q.tolist() == d.q.tolist()
+    assert a.settle_time_s == b.settle_time_s == c.settle_time_s
+    # the start is normalised: a scaled quaternion is the same orientation
+    e = motor.settle("0:14,12:26", q0=[2 * x for x in q0])
+    assert np.allclose(e.q, a.q, atol=1e-12)
+
+
+def test_settle_many_is_settle_in_parallel(motor):
+    sets = ["0:14,12:26", [(0, 14)], "3:40,9:12,14:2", "5:5"]
+    t = motor.settle_many(sets)
+    assert len(t) == 4 and t.q.shape == (4, 4)
+    assert t.settle_time_s.dtype == np.float64 and t.settled.dtype == np.bool_
+    assert t.evaluations.dtype == np.uint32
+    for k, s in enumerate(sets):
+        r = motor.settle(s)
+        assert t.q[k].tolist() == r.q.tolist()
+        assert t.evaluations[k] == r.evaluations and t.outcome[k] == r.outcome
+        assert t.held[k] == r.held
+    assert t.active[2] == [(3, 40), (9, 12), (14, 2)]
+
+
+def test_settle_many_is_the_same_on_any_number_of_threads(motor):
+    rng = np.random.default_rng(5)
+    sets = [
+        [(int(c), int(m)) for c, m in zip(rng.choice(16, 2, replace=False), rng.integers(0, 80, 2))]
+        for _ in range(64)
+    ]
+    one = motor.settle_many(sets, threads=1)
+    two = motor.settle_many(sets, threads=2)
+    default = motor.settle_many(sets)
+    for col in ["q", "settle_time_s", "evaluations", "energy_j", "residual_torque_nm"]:
+        np.testing.assert_array_equal(getattr(one, col), getattr(two, col))
+        np.testing.assert_array_equal(getattr(one, col), getattr(default, col))
+
+
+def test_settle_many_columns_are_read_only(motor):
+    t = motor.settle_many(["0:14"])
+    with pytest.raises(ValueError):
+        t.q[0, 0] = 1.0
+    assert t.q is t.q  # one array, not a copy per access
+    empty = motor.settle_many([])
+    assert len(empty) == 0 and empty.q.shape == (0, 4)
+
+
+def test_settle_many_releases_the_gil(motor):
+    sets = ["0:14,12:26,5:33", "3:40,9:12"] * 400
+    start = time.perf_counter()
+    motor.settle_many(sets)
+    alone = time.perf_counter() - start
+    ticks = []
+    worker = threading.Thread(target=motor.settle_many, args=(sets,), kwargs={"threads": 1})
+    worker.start()
+    while worker.is_alive():
+        ticks.append(time.perf_counter())
+        time.sleep(0.001)
+    worker.join()
+    # while the settles ran, this thread ran too (a held GIL would block it throughout)
+    assert alone > 0.05, alone
+    assert len(ticks) > 10
+    assert max(np.diff(ticks)) < 0.5 * max(alone, 0.2)
+
+
+def test_plan_columns_and_summary(motor, tmp_path):
+    plan = motor.plan(axis=[0, 0, 1], angle=90)
+    n = len(plan)
+    assert n >= 2 and plan.q.shape == (n, 4) and plan.step.tolist() == list(range(n))
+    assert plan.pivot[0] is None and all(p is not None for p in plan.pivot[1:])
+    assert plan.cum_angle_deg[0] == 0.0 and abs(plan.cum_angle_deg[-1] - 90) < 2
+    s = plan.summary
+    assert s["steps"] == n - 1 and s["reached"] is plan.reached is True
+    assert s["max_axis_error_deg"] == plan.cum_axis_error_deg.max()
+    assert list(s)[:3] == ["steps", "final_angle_deg", "max_axis_error_deg"]
+    assert plan.settings["axis"] == [0.0, 0.0, 1.0] and plan.settings["pairs"] == "2-4"
+    out = tmp_path / "plan.csv"
+    plan.to_csv(out)
+    assert out.read_text() == plan.csv()
+    assert plan.csv().splitlines()[0].startswith("step,pivot_coil,pivot_magnet,new_coil")
+
+
+def test_plan_defaults_are_the_scenarios():
+    sc = spherestep.Scenario.load(SCENARIOS / "paper-fig8-y.toml")
+    plan = sc.motor().plan()
+    assert plan.settings["axis"] == [0.0, 1.0, 0.0] and plan.settings["angle_deg"] == 90.0
+    assert plan.settings["model"] == "pivot" and plan.settings["scheme"] == "search"
+    # the paper's pivot plans about Y sit on the pivot model's floor (README: 10.81 degrees)
+    assert round(plan.summary["max_axis_error_deg"], 2) == 10.81
+
+
+def test_simulate_replays_the_plan(motor):
+    plan = motor.plan(axis=(1, 0, 0), angle=45)
+    sim = motor.simulate(plan)
+    assert len(sim) == len(plan) and sim.q.shape == plan.q.shape
+    assert sim.step.tolist() == plan.step.tolist()
+    assert sim.deviation_deg.max() < 1e-6 and sim.settled.all()
+    assert sim.summary["steps"] == len(plan) - 1
+
+
+def test_wells_curve(motor):
+    w = motor.wells()
+    assert w.angle_deg[0] == 0.0 and w.torque_nm[0] == 0.0
+    assert w.angle_deg[1] == 0.5 and w.angle_deg[-1] == 30.0
+    s = w.summary
+    assert s["rows"] == len(w) and 0.8 < s["peak_torque_nm"] < 0.9
+    assert w.torque_nm.max() == s["peak_torque_nm"]
+
+
+def test_open_loop_run_on_the_model_itself(motor):
+    run = motor.run(axis=(0, 0, 1), angle=60)
+    s = run.summary
+    assert s["mode"] == "open" and s["replans"] == 0 and s["reached"]
+    assert len(run) == s["planned_steps"] + 1
+    np.testing.assert_allclose(run.true_q, run.planned_q, atol=1e-9)
+    assert not run.replanned.any()
+    assert run.csv().splitlines()[0].startswith("step,active,replanned,planned_qx")
+
+
+def test_closed_loop_run_is_deterministic(motor):
+    plant = spherestep.Scenario.load(SCENARIOS / "plants" / "prototype-worn.toml").motor()
+    a = motor.run(plant, axis=(0, 0, 1), angle=90, closed_loop=True, sensor_noise_deg=1.0, seed=2)
+    b = motor.run(plant, axis=(0, 0, 1), angle=90, closed_loop=True, sensor_noise_deg=1.0, seed=2)
+    assert a.csv() == b.csv()
+    assert a.summary["reached"] and a.error_to_goal_deg[-1] < 2.0
+    np.testing.assert_array_equal(a.measured_q, b.measured_q)
