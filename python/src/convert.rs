@@ -170,7 +170,7 @@ pub fn q_rows<'py, 'a>(
     qs: impl ExactSizeIterator<Item = &'a Orientation>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let n = qs.len();
-    let flat: Vec<f64> = qs.flat_map(|q| xyzw(q)).collect();
+    let flat: Vec<f64> = qs.flat_map(xyzw).collect();
     PyArray1::from_vec(py, flat).reshape([n, 4])
 }
 

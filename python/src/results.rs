@@ -280,8 +280,8 @@ impl Plan {
             .collect()
     }
     /// The pairs each step switches on.
-    #[getter]
-    fn new(&self) -> Vec<Vec<(usize, usize)>> {
+    #[getter(new)]
+    fn new_pairs(&self) -> Vec<Vec<(usize, usize)>> {
         self.plan.rows.iter().map(|r| pair_tuples(&r.new)).collect()
     }
     /// Everything energised after each step.
