@@ -1,39 +1,52 @@
 """Type stubs of spherestep (the compiled module spherestep._spherestep).
 
 Orientations are unit quaternions [qx, qy, qz, qw] (vector, scalar), body to world; results
-write them with qw >= 0. Angles are degrees, other units SI. Pairs are (coil, magnet), 0-based.
+write them with qw >= 0. Angles are degrees, other units SI. _Pairs are (coil, magnet), 0-based.
 """
 
 import os
-from typing import Any, Optional, Sequence, Tuple, Union
+import pathlib
+from typing import Any, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
+__all__ = [
+    "Error",
+    "Motor",
+    "Plan",
+    "Run",
+    "Scenario",
+    "SettleResult",
+    "SettleTable",
+    "Simulation",
+    "Wells",
+]
 
-Pair = Tuple[int, int]
+_Pair = Tuple[int, int]
 #: An active set: text "coil:magnet,coil:magnet" or a sequence of (coil, magnet) pairs
 #: (lists, tuples, an integer array of shape (n, 2)).
-Pairs = Union[str, Sequence[Sequence[int]], npt.NDArray[np.integer]]
+_Pairs = Union[str, Sequence[Sequence[int]], npt.NDArray[np.integer]]
 #: Four numbers qx, qy, qz, qw: a sequence or an array of shape (4,).
-Quaternion = Union[Sequence[float], npt.NDArray[np.floating]]
+_Quaternion = Union[Sequence[float], npt.NDArray[np.floating]]
 #: Three numbers x, y, z: a sequence or an array of shape (3,).
-Vector = Union[Sequence[float], npt.NDArray[np.floating]]
-PathLike = Union[str, os.PathLike[str]]
+_Vector = Union[Sequence[float], npt.NDArray[np.floating]]
+_PathLike = Union[str, os.PathLike[str]]
 
 class Error(ValueError):
     """An error of spherestep, with the library's message (file, field or argument, and what
     was expected)."""
 
+@final
 class Scenario:
     """A checked scenario: the motor, body, settle settings and [plan] defaults."""
 
     @staticmethod
-    def load(path: PathLike) -> Scenario:
+    def load(path: _PathLike) -> Scenario:
         """Reads and checks a scenario file (TOML); Error if it cannot be read or is wrong."""
     @staticmethod
-    def from_toml(text: str, path: Optional[PathLike] = None) -> Scenario:
+    def from_toml(text: str, path: Optional[_PathLike] = None) -> Scenario:
         """Parses and checks scenario text; `path` names it in errors and anchors relative
         paths (default "<string>", in the current folder)."""
     @staticmethod
@@ -46,8 +59,8 @@ class Scenario:
     @property
     def description(self) -> str: ...
     @property
-    def path(self) -> str:
-        """The file it was read from (a path object, or `<built-in prototype>`)."""
+    def path(self) -> pathlib.Path:
+        """The file it was read from (`<built-in prototype>` for the prototype)."""
     @property
     def rotor(self) -> npt.NDArray[np.float64]:
         """The magnets' unit vectors (body frame), shape (magnets, 3)."""
@@ -55,6 +68,7 @@ class Scenario:
     def stator(self) -> npt.NDArray[np.float64]:
         """The coils' unit vectors (world frame), shape (coils, 3)."""
 
+@final
 class Motor:
     """A scenario's motor; its methods release the GIL while they compute."""
 
@@ -64,49 +78,50 @@ class Motor:
     def coils(self) -> int: ...
     @property
     def scenario(self) -> Scenario: ...
-    def settle(self, pairs: Pairs, q0: Optional[Quaternion] = None) -> SettleResult:
+    def settle(self, pairs: _Pairs, q0: Optional[_Quaternion] = None) -> SettleResult:
         """Settles the ball from rest at q0 (default identity) under one active set."""
     def settle_many(
         self,
-        sets: Sequence[Pairs],
-        q0: Optional[Quaternion] = None,
+        sets: Sequence[_Pairs],
+        q0: Optional[_Quaternion] = None,
         threads: Optional[int] = None,
     ) -> SettleTable:
         """Settles each set from q0 in parallel (threads: default one per core); the same
         results, in the sets' order, on any number of threads."""
     def plan(
         self,
-        axis: Optional[Vector] = None,
+        axis: Optional[_Vector] = None,
         angle: Optional[float] = None,
         *,
         scheme: Optional[str] = None,
         model: Optional[str] = None,
         pairs: Optional[Union[int, str]] = None,
-        start: Optional[Quaternion] = None,
-        to: Optional[Quaternion] = None,
+        start: Optional[_Quaternion] = None,
+        to: Optional[_Quaternion] = None,
     ) -> Plan:
         """Plans `angle` degrees about `axis`; every argument left out is the scenario's
         [plan] setting. scheme: min-axis-error, max-angle, weighted or search; model: pivot,
         dynamic or coils; pairs: K or "2-K"; to: a target orientation instead of axis and
         angle."""
     def simulate(
-        self, plan: Union[Plan, PathLike], plant: Optional[Motor] = None
+        self, plan: Union[Plan, _PathLike], plant: Optional[Motor] = None
     ) -> Simulation:
         """Replays a plan (or a plan file) through the dynamics of this motor or of `plant`
         (a motor with the same packings)."""
-    def wells(self, step_deg: float = 0.5) -> Wells:
-        """The well's torque curve every step_deg degrees from 0 to the cut-off."""
+    def wells(self, step_deg: Optional[float] = None) -> Wells:
+        """The well's torque curve every step_deg degrees (default 0.02, the command line's)
+        from 0 to the cut-off."""
     def run(
         self,
         plant: Optional[Motor] = None,
-        axis: Optional[Vector] = None,
+        axis: Optional[_Vector] = None,
         angle: Optional[float] = None,
         *,
         scheme: Optional[str] = None,
         model: Optional[str] = None,
         pairs: Optional[Union[int, str]] = None,
-        start: Optional[Quaternion] = None,
-        to: Optional[Quaternion] = None,
+        start: Optional[_Quaternion] = None,
+        to: Optional[_Quaternion] = None,
         closed_loop: bool = False,
         sensor_noise_deg: float = 0.0,
         seed: int = 1,
@@ -116,6 +131,7 @@ class Motor:
         """Plans in this motor's physics and plays the plan on `plant` (default: this
         motor), open loop or closed loop on a simulated, seeded sensor (`spherestep run`)."""
 
+@final
 class SettleResult:
     @property
     def q(self) -> npt.NDArray[np.float64]:
@@ -135,15 +151,16 @@ class SettleResult:
     @property
     def stop(self) -> str: ...
     @property
-    def active(self) -> list[Pair]: ...
+    def active(self) -> list[_Pair]: ...
     @property
-    def held(self) -> list[Pair]: ...
+    def held(self) -> list[_Pair]: ...
     @property
-    def not_held(self) -> list[Pair]: ...
+    def not_held(self) -> list[_Pair]: ...
     @property
     def outcome(self) -> str:
         """held, partly held, unheld or not settled."""
 
+@final
 class SettleTable:
     """Many settles as read-only numpy columns, one row per set."""
 
@@ -155,21 +172,22 @@ class SettleTable:
     residual_torque_nm: npt.NDArray[np.float64]
     settled: npt.NDArray[np.bool_]
     outcome: list[str]
-    held: list[list[Pair]]
-    active: list[list[Pair]]
+    held: list[list[_Pair]]
+    active: list[list[_Pair]]
     def __len__(self) -> int: ...
 
+@final
 class Plan:
     """A plan's rows as numpy columns (row 0: the initial commutation state)."""
 
     @property
     def step(self) -> npt.NDArray[np.uint64]: ...
     @property
-    def pivot(self) -> list[Optional[Pair]]: ...
+    def pivot(self) -> list[Optional[_Pair]]: ...
     @property
-    def new(self) -> list[list[Pair]]: ...
+    def new(self) -> list[list[_Pair]]: ...
     @property
-    def active(self) -> list[list[Pair]]: ...
+    def active(self) -> list[list[_Pair]]: ...
     @property
     def q(self) -> npt.NDArray[np.float64]:
         """Shape (rows, 4)."""
@@ -196,9 +214,10 @@ class Plan:
     def settings(self) -> dict[str, Any]: ...
     def csv(self) -> str:
         """The plan CSV, byte for byte what `spherestep plan --out` writes."""
-    def to_csv(self, path: PathLike) -> None: ...
+    def to_csv(self, path: _PathLike) -> None: ...
     def __len__(self) -> int: ...
 
+@final
 class Simulation:
     @property
     def step(self) -> npt.NDArray[np.uint64]: ...
@@ -215,6 +234,7 @@ class Simulation:
     def csv(self) -> str: ...
     def __len__(self) -> int: ...
 
+@final
 class Wells:
     @property
     def angle_deg(self) -> npt.NDArray[np.float64]: ...
@@ -225,11 +245,12 @@ class Wells:
     def csv(self) -> str: ...
     def __len__(self) -> int: ...
 
+@final
 class Run:
     @property
     def step(self) -> npt.NDArray[np.uint64]: ...
     @property
-    def active(self) -> list[list[Pair]]: ...
+    def active(self) -> list[list[_Pair]]: ...
     @property
     def replanned(self) -> npt.NDArray[np.bool_]: ...
     @property

@@ -228,6 +228,9 @@ fn turn_to(start: &Orientation, to: &Orientation) -> PyResult<(UnitVec, Radians)
     Ok((axis, angle))
 }
 
+/// The most worker threads `settle_many` starts (a pool of its own for the call).
+const MAX_THREADS: i64 = 1024;
+
 /// The largest sensor noise a run accepts, degrees (the command line's
 /// `commands::closed_loop::MAX_SENSOR_NOISE_DEG`).
 const MAX_SENSOR_NOISE_DEG: f64 = 10.0;
@@ -333,7 +336,7 @@ impl Motor {
         py: Python<'_>,
         sets: &Bound<'_, PyAny>,
         q0: Option<&Bound<'_, PyAny>>,
-        threads: Option<usize>,
+        threads: Option<i64>,
     ) -> PyResult<SettleTable> {
         if sets.is_instance_of::<pyo3::types::PyString>() {
             return Err(arg_err(
@@ -357,12 +360,22 @@ impl Motor {
         let q0 = convert::orientation_or_identity(q0, "q0")?;
         let pool = match threads {
             None => None,
-            Some(0) => return Err(arg_err("threads", "at least 1 worker thread, got 0")),
+            Some(n) if !(1..=MAX_THREADS).contains(&n) => {
+                return Err(arg_err(
+                    "threads",
+                    format!("at least 1 and at most {MAX_THREADS} worker threads, got {n}"),
+                ))
+            }
             Some(n) => Some(
                 rayon::ThreadPoolBuilder::new()
-                    .num_threads(n)
+                    .num_threads(n as usize)
                     .build()
-                    .map_err(|source| lib_err(spherestep::Error::Threads { threads: n, source }))?,
+                    .map_err(|source| {
+                        lib_err(spherestep::Error::Threads {
+                            threads: n as usize,
+                            source,
+                        })
+                    })?,
             ),
         };
         let sc = &self.sc;
@@ -429,9 +442,11 @@ impl Motor {
     }
 
     /// The motor's well as a bench would measure it (`spherestep wells`): the torque on one
-    /// magnet passing one energised coil every `step_deg` degrees from 0 to the cut-off.
-    #[pyo3(signature = (step_deg = spherestep::physics::well_curve::DEFAULT_STEP_DEG))]
-    fn wells(&self, step_deg: f64) -> PyResult<Wells> {
+    /// magnet passing one energised coil every `step_deg` degrees (default 0.02, the command
+    /// line's) from 0 to the cut-off.
+    #[pyo3(signature = (step_deg = None))]
+    fn wells(&self, step_deg: Option<f64>) -> PyResult<Wells> {
+        let step_deg = step_deg.unwrap_or(spherestep::physics::well_curve::DEFAULT_STEP_DEG);
         let (curve, summary) = self.motor.wells(step_deg).map_err(lib_err)?;
         Ok(Wells { curve, summary })
     }
@@ -457,10 +472,19 @@ impl Motor {
         to: Option<&Bound<'_, PyAny>>,
         closed_loop: bool,
         sensor_noise_deg: f64,
-        seed: u64,
-        max_steps: Option<usize>,
+        seed: i128,
+        max_steps: Option<i64>,
         identify: bool,
     ) -> PyResult<Run> {
+        let seed = u64::try_from(seed)
+            .map_err(|_| arg_err("seed", format!("a whole number in [0, 2^64), got {seed}")))?;
+        let max_steps = match max_steps {
+            None => None,
+            Some(n) => Some(
+                usize::try_from(n)
+                    .map_err(|_| arg_err("max_steps", format!("a whole number >= 1, got {n}")))?,
+            ),
+        };
         let physics = self.physics(plant.as_deref())?;
         let settings = plan_settings(&self.sc, axis, angle, scheme, model, pairs, start, to)?;
         // The options checked before anything is computed, as the command line does.

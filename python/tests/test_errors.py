@@ -107,8 +107,12 @@ def test_settle_many_names_the_bad_set(motor):
         motor.settle_many(["0:14", "1:3", "16:0"])
     with pytest.raises(spherestep.Error, match="one set: use settle"):
         motor.settle_many("0:14")
-    with pytest.raises(spherestep.Error, match="argument threads: expected at least 1"):
+    with pytest.raises(spherestep.Error, match="argument threads: expected at least 1 and at most 1024 worker threads, got 0"):
         motor.settle_many(["0:14"], threads=0)
+    with pytest.raises(spherestep.Error, match="got -2"):
+        motor.settle_many(["0:14"], threads=-2)
+    with pytest.raises(spherestep.Error, match="got 100000"):
+        motor.settle_many(["0:14"], threads=100_000)
     with pytest.raises(spherestep.Error, match="argument q0"):
         motor.settle_many(["0:14"], q0=[math.nan, 0, 0, 1])
 
@@ -157,6 +161,10 @@ def test_bad_run_options(motor):
         motor.run(closed_loop=True, sensor_noise_deg=math.nan)
     with pytest.raises(spherestep.Error, match="argument max_steps: expected a whole number >= 1"):
         motor.run(closed_loop=True, max_steps=0)
+    with pytest.raises(spherestep.Error, match="argument max_steps: expected a whole number >= 1, got -3"):
+        motor.run(closed_loop=True, max_steps=-3)
+    with pytest.raises(spherestep.Error, match=r"argument seed: expected a whole number in \[0, 2\^64\), got -1"):
+        motor.run(closed_loop=True, seed=-1)
     with pytest.raises(spherestep.Error, match="only with closed_loop=True"):
         motor.run(max_steps=5)
 
