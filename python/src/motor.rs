@@ -14,12 +14,14 @@ use spherestep::io::scenario::{
 };
 use spherestep::model::geometry::{rotation_angle, rotation_axis};
 use spherestep::planning::plan::target_angle;
+use spherestep::Cancel;
 use spherestep::{
     goal_of, LoopSettings, Orientation, PairsPerStep, PlanRow, PlanSettings, Radians, Scheme,
     StepModel, UnitVec,
 };
 use std::path::PathBuf;
-use std::sync::Arc;
+use std::sync::{Arc, Condvar, Mutex, PoisonError};
+use std::time::Duration;
 
 /// A scenario: the motor (rotor and stator packings, magnet wells), the body and damping, the
 /// settle settings and the `[plan]` defaults, read and checked from a TOML file.
@@ -228,6 +230,66 @@ fn turn_to(start: &Orientation, to: &Orientation) -> PyResult<(UnitVec, Radians)
     Ok((axis, angle))
 }
 
+/// How many sets `settle_many` settles between two looks for Ctrl-C.
+const SETTLE_CHUNK: usize = 2048;
+
+/// A copy of `motor` with a cancellation token of its own (never set, it changes no result).
+fn cancellable(motor: &spherestep::Motor) -> spherestep::Motor {
+    spherestep::Motor {
+        cancel: Cancel::new(),
+        ..motor.clone()
+    }
+}
+
+/// Runs `work` on a thread of its own while this one waits with the GIL released, taking the
+/// GIL back every 50 ms to look for a signal: on Ctrl-C (or any signal handler's exception) it
+/// sets `cancel`, so that the planners give up at their next look, waits for `work` to stop
+/// and raises the exception. A panic in `work` is raised as it would be on this thread.
+fn interruptible<T: Send>(
+    py: Python<'_>,
+    cancel: &Cancel,
+    work: impl FnOnce() -> T + Send,
+) -> PyResult<T> {
+    let done = Arc::new((Mutex::new(false), Condvar::new()));
+    /// Says "done" when the work ends, also by a panic.
+    struct Done(Arc<(Mutex<bool>, Condvar)>);
+    impl Drop for Done {
+        fn drop(&mut self) {
+            *self.0 .0.lock().unwrap_or_else(PoisonError::into_inner) = true;
+            self.0 .1.notify_all();
+        }
+    }
+    std::thread::scope(|s| {
+        let signal = Done(done.clone());
+        let handle = s.spawn(move || {
+            let _signal = signal;
+            work()
+        });
+        loop {
+            let finished = py.detach(|| {
+                let (flag, cv) = &*done;
+                let g = flag.lock().unwrap_or_else(PoisonError::into_inner);
+                let (g, _) = cv
+                    .wait_timeout_while(g, Duration::from_millis(50), |d| !*d)
+                    .unwrap_or_else(PoisonError::into_inner);
+                *g
+            });
+            if finished {
+                break;
+            }
+            if let Err(e) = py.check_signals() {
+                cancel.cancel();
+                let _ = handle.join();
+                return Err(e);
+            }
+        }
+        match handle.join() {
+            Ok(t) => Ok(t),
+            Err(panic) => std::panic::resume_unwind(panic),
+        }
+    })
+}
+
 /// The most worker threads `settle_many` starts (a pool of its own for the call).
 const MAX_THREADS: i64 = 1024;
 
@@ -379,9 +441,18 @@ impl Motor {
             ),
         };
         let sc = &self.sc;
-        let (rs, holding) = py.detach(|| {
+        let cancel = Cancel::new();
+        let (rs, holding) = interruptible(py, &cancel, || {
+            // In chunks, so that Ctrl-C stops it between two (each set's settle is its own:
+            // the same results however the sets are cut).
             let work = || {
-                let rs = self.motor.settle_many(&list, &q0);
+                let mut rs = Vec::with_capacity(list.len());
+                for chunk in list.chunks(SETTLE_CHUNK) {
+                    if cancel.is_cancelled() {
+                        break;
+                    }
+                    rs.extend(self.motor.settle_many(chunk, &q0));
+                }
                 let holding: Vec<_> = list
                     .iter()
                     .zip(&rs)
@@ -393,7 +464,7 @@ impl Motor {
                 Some(p) => p.install(work),
                 None => work(),
             }
-        });
+        })?;
         SettleTable::new(py, list, rs, holding)
     }
 
@@ -417,7 +488,8 @@ impl Motor {
         to: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Plan> {
         let settings = plan_settings(&self.sc, axis, angle, scheme, model, pairs, start, to)?;
-        let plan = py.detach(|| self.motor.plan(&settings));
+        let motor = cancellable(&self.motor);
+        let plan = interruptible(py, &motor.cancel, || motor.plan(&settings))?;
         Ok(Plan {
             plan,
             settings,
@@ -489,7 +561,12 @@ impl Motor {
         let settings = plan_settings(&self.sc, axis, angle, scheme, model, pairs, start, to)?;
         // The options checked before anything is computed, as the command line does.
         loop_settings(closed_loop, sensor_noise_deg, seed, max_steps, identify, 0)?;
-        let p = py.detach(|| self.motor.plan(&settings));
+        let (model, plant) = (cancellable(&self.motor), physics.motor.clone());
+        let plant = spherestep::Motor {
+            cancel: model.cancel.clone(),
+            ..plant
+        };
+        let p = interruptible(py, &model.cancel, || model.plan(&settings))?;
         if p.rows.len() < 2 {
             return Err(arg_err(
                 "axis/angle",
@@ -514,7 +591,9 @@ impl Motor {
             identify,
             planned_steps,
         )?;
-        let run = py.detach(|| self.motor.run(&physics.motor, &settings, &p, goal, &cl));
+        let run = interruptible(py, &model.cancel, || {
+            model.run(&plant, &settings, &p, goal, &cl)
+        })?;
         Ok(Run {
             run,
             closed_loop,

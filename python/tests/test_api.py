@@ -1,6 +1,7 @@
 """The Python API: shapes and types of the results, the same numbers whatever form the
 arguments take, determinism on any number of threads, and the GIL released while settling."""
 
+import signal
 import threading
 import time
 
@@ -194,3 +195,47 @@ def test_closed_loop_run_is_deterministic(motor):
     assert a.csv() == b.csv()
     assert a.summary["reached"] and a.error_to_goal_deg[-1] < 2.0
     np.testing.assert_array_equal(a.measured_q, b.measured_q)
+
+
+class Interrupted(Exception):
+    pass
+
+
+def interrupted_after(seconds, call):
+    """Runs `call` with a signal handler that raises Interrupted after `seconds` (as Ctrl-C
+    raises KeyboardInterrupt); returns how long the call took to give up."""
+
+    def handler(signum, frame):
+        raise Interrupted()
+
+    old = signal.signal(signal.SIGALRM, handler)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, seconds)
+        start = time.perf_counter()
+        with pytest.raises(Interrupted):
+            call()
+        return time.perf_counter() - start
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def test_ctrl_c_stops_settle_many():
+    sc = spherestep.Scenario.prototype()
+    motor = sc.motor()
+    sets = reachable_sets(sc, 40_000, 3)
+    start = time.perf_counter()
+    motor.settle_many(sets[:4096])
+    full = (time.perf_counter() - start) * len(sets) / 4096
+    took = interrupted_after(0.2, lambda: motor.settle_many(sets))
+    # it gave up within a chunk or so, long before the whole would have taken
+    assert took < 0.5 * full, (took, full)
+    # and the motor is none the worse for it
+    assert motor.settle_many(sets[:3]).q.tolist() == motor.settle_many(sets[:3]).q.tolist()
+
+
+def test_ctrl_c_stops_a_long_plan():
+    # coil-set plans in broad wells take seconds (about 9 s for this one on two cores)
+    motor = spherestep.Scenario.load(SCENARIOS / "soft-wells.toml").motor()
+    took = interrupted_after(0.3, lambda: motor.plan(axis=(0, 1, 0), angle=90))
+    assert took < 2.0, took
