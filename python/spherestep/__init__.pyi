@@ -124,7 +124,7 @@ class Motor:
         to: Optional[_Quaternion] = None,
         closed_loop: bool = False,
         sensor_noise_deg: float = 0.0,
-        seed: int = 1,
+        seed: Optional[int] = None,
         max_steps: Optional[int] = None,
         identify: bool = True,
     ) -> Run:

@@ -293,6 +293,9 @@ fn interruptible<T: Send>(
 /// The most worker threads `settle_many` starts (a pool of its own for the call).
 const MAX_THREADS: i64 = 1024;
 
+/// The sensor noise's seed when none is given (the command line's `--seed` default).
+const DEFAULT_SEED: u64 = 1;
+
 /// The largest sensor noise a run accepts, degrees (the command line's
 /// `commands::closed_loop::MAX_SENSOR_NOISE_DEG`).
 const MAX_SENSOR_NOISE_DEG: f64 = 10.0;
@@ -302,7 +305,7 @@ const MAX_SENSOR_NOISE_DEG: f64 = 10.0;
 fn loop_settings(
     closed_loop: bool,
     noise_deg: f64,
-    seed: u64,
+    seed: Option<u64>,
     max_steps: Option<usize>,
     identify: bool,
     planned_steps: usize,
@@ -320,13 +323,14 @@ fn loop_settings(
     if max_steps == Some(0) {
         return Err(arg_err("max_steps", "a whole number >= 1, got 0"));
     }
-    if !closed_loop && (max_steps.is_some() || !identify) {
+    if !closed_loop && (noise_deg != 0.0 || seed.is_some() || max_steps.is_some() || !identify) {
         return Err(arg_err(
-            "max_steps",
-            "max_steps and identify only with closed_loop=True (the open loop plays the plan \
-             as it is)",
+            "closed_loop",
+            "True with sensor_noise_deg, seed, max_steps or identify (as the command line's \
+             --closed-loop: the open loop plays the plan as it is, measured without noise)",
         ));
     }
+    let seed = seed.unwrap_or(DEFAULT_SEED);
     let noise = Radians(noise_deg.to_radians());
     Ok(if closed_loop {
         let max = max_steps.unwrap_or(3 * planned_steps + 6);
@@ -529,7 +533,7 @@ impl Motor {
     /// the rest of the motion from each measurement that strays from the plan, at most
     /// `max_steps` steps, fitting the wells to the measurements unless `identify=False`. The
     /// plan's arguments are `plan`'s.
-    #[pyo3(signature = (plant = None, axis = None, angle = None, *, scheme = None, model = None, pairs = None, start = None, to = None, closed_loop = false, sensor_noise_deg = 0.0, seed = 1, max_steps = None, identify = true))]
+    #[pyo3(signature = (plant = None, axis = None, angle = None, *, scheme = None, model = None, pairs = None, start = None, to = None, closed_loop = false, sensor_noise_deg = 0.0, seed = None, max_steps = None, identify = true))]
     #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
@@ -544,12 +548,17 @@ impl Motor {
         to: Option<&Bound<'_, PyAny>>,
         closed_loop: bool,
         sensor_noise_deg: f64,
-        seed: i128,
+        seed: Option<i128>,
         max_steps: Option<i64>,
         identify: bool,
     ) -> PyResult<Run> {
-        let seed = u64::try_from(seed)
-            .map_err(|_| arg_err("seed", format!("a whole number in [0, 2^64), got {seed}")))?;
+        let seed =
+            match seed {
+                None => None,
+                Some(n) => Some(u64::try_from(n).map_err(|_| {
+                    arg_err("seed", format!("a whole number in [0, 2^64), got {n}"))
+                })?),
+            };
         let max_steps = match max_steps {
             None => None,
             Some(n) => Some(
@@ -598,7 +607,7 @@ impl Motor {
             run,
             closed_loop,
             sensor_noise_deg,
-            seed,
+            seed: seed.unwrap_or(DEFAULT_SEED),
             planned_steps,
         })
     }

@@ -165,8 +165,9 @@ def test_bad_run_options(motor):
         motor.run(closed_loop=True, max_steps=-3)
     with pytest.raises(spherestep.Error, match=r"argument seed: expected a whole number in \[0, 2\^64\), got -1"):
         motor.run(closed_loop=True, seed=-1)
-    with pytest.raises(spherestep.Error, match="only with closed_loop=True"):
-        motor.run(max_steps=5)
+    for kwargs in [{"max_steps": 5}, {"sensor_noise_deg": 1.0}, {"seed": 2}, {"identify": False}]:
+        with pytest.raises(spherestep.Error, match="argument closed_loop: expected True with sensor_noise_deg"):
+            motor.run(**kwargs)
 
 
 def test_to_csv_never_overwrites_the_scenario(tmp_path):
