@@ -1,0 +1,643 @@
+//! `spherestep.Scenario` and `spherestep.Motor`: a checked scenario file and the motor made
+//! from it, whose methods are the library's entry points (`Motor::{settle, settle_many, plan,
+//! simulate, wells, run}`), each taking its arguments as the command line does and checking
+//! them as it does.
+
+use crate::convert::{self, shown};
+use crate::results::{self, Plan, Run, SettleResult, SettleTable, Simulation, Wells};
+use crate::{arg_err, lib_err};
+use numpy::PyArray2;
+use pyo3::prelude::*;
+use spherestep::io::planfile::read_plan;
+use spherestep::io::scenario::{
+    check_pairs_per_step, check_supply, default_pairs_per_step, parse_pairs_per_step,
+};
+use spherestep::model::geometry::{rotation_angle, rotation_axis};
+use spherestep::planning::plan::target_angle;
+use spherestep::Cancel;
+use spherestep::{
+    goal_of, LoopSettings, Orientation, PairsPerStep, PlanRow, PlanSettings, Radians, Scheme,
+    StepModel, UnitVec,
+};
+use std::path::PathBuf;
+use std::sync::{Arc, Condvar, Mutex, PoisonError};
+use std::time::Duration;
+
+/// A scenario: the motor (rotor and stator packings, magnet wells), the body and damping, the
+/// settle settings and the `[plan]` defaults, read and checked from a TOML file.
+#[pyclass(frozen, module = "spherestep")]
+pub struct Scenario {
+    pub(crate) sc: Arc<spherestep::Scenario>,
+}
+
+#[pymethods]
+impl Scenario {
+    /// Reads and checks a scenario file (TOML). A file that cannot be read, is not a scenario
+    /// or holds a value not allowed raises `spherestep.Error` naming the file and the field.
+    #[staticmethod]
+    fn load(path: PathBuf) -> PyResult<Scenario> {
+        let sc = spherestep::Scenario::load(&path).map_err(lib_err)?;
+        Ok(Scenario { sc: Arc::new(sc) })
+    }
+
+    /// Parses and checks scenario text; `path` names it in errors and anchors the relative
+    /// paths it names (point files, torque tables): by default `<string>` in the current
+    /// folder.
+    #[staticmethod]
+    #[pyo3(signature = (text, path = None))]
+    fn from_toml(text: &str, path: Option<PathBuf>) -> PyResult<Scenario> {
+        let path = path.unwrap_or_else(|| PathBuf::from("<string>"));
+        let sc = spherestep::Scenario::from_toml(text, &path).map_err(lib_err)?;
+        Ok(Scenario { sc: Arc::new(sc) })
+    }
+
+    /// The built-in prototype with every default (what an empty scenario file gives).
+    #[staticmethod]
+    fn prototype() -> Scenario {
+        Scenario {
+            sc: Arc::new(spherestep::Scenario::prototype()),
+        }
+    }
+
+    /// The motor of the scenario: its physics, whose methods settle, plan, simulate and run.
+    fn motor(&self) -> Motor {
+        Motor {
+            motor: self.sc.motor(),
+            sc: self.sc.clone(),
+        }
+    }
+
+    /// The scenario's name.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.sc.name
+    }
+
+    /// What the scenario is for, as its file says.
+    #[getter]
+    fn description(&self) -> &str {
+        &self.sc.description
+    }
+
+    /// The file it was read from (`<built-in prototype>`, or the `path` of `from_toml`).
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.sc.path.clone()
+    }
+
+    /// Where the rotor's magnets are: unit vectors in the body frame, shape `(magnets, 3)`.
+    #[getter]
+    fn rotor<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        results::vectors(py, self.sc.rotor.points.iter().map(|p| p.into_inner()))
+    }
+
+    /// Where the stator's coils are: unit vectors in the world frame, shape `(coils, 3)`.
+    #[getter]
+    fn stator<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        results::vectors(py, self.sc.stator.points.iter().map(|p| p.into_inner()))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Scenario(name={:?}, path={:?}, magnets={}, coils={})",
+            self.sc.name,
+            self.sc.path.display().to_string(),
+            self.sc.rotor.len(),
+            self.sc.stator.len()
+        )
+    }
+}
+
+/// A scenario's motor: its torques, body and settle parameters. Its methods are the library's
+/// entry points; they release the GIL while they compute.
+#[pyclass(frozen, module = "spherestep")]
+pub struct Motor {
+    pub(crate) motor: spherestep::Motor,
+    pub(crate) sc: Arc<spherestep::Scenario>,
+}
+
+impl Motor {
+    /// Checks pairs given from Python against the motor (indices in range, each coil once).
+    fn active(&self, obj: &Bound<'_, PyAny>, arg: &str) -> PyResult<Vec<spherestep::Pair>> {
+        let active = convert::pairs(obj, arg)?;
+        self.sc.check_active(&active, arg).map_err(lib_err)?;
+        Ok(active)
+    }
+
+    /// Checks that `plant` has this motor's packings (a plan made here can be played there).
+    fn physics<'a>(&'a self, plant: Option<&'a Motor>) -> PyResult<&'a Motor> {
+        match plant {
+            None => Ok(self),
+            Some(p) => {
+                self.sc
+                    .check_same_packings(&p.sc, "plant")
+                    .map_err(lib_err)?;
+                Ok(p)
+            }
+        }
+    }
+}
+
+/// What to plan: the scenario's `[plan]` section with the arguments given instead, checked as
+/// the command line checks `plan`'s options (`commands::plan_settings`).
+#[allow(clippy::too_many_arguments)]
+fn plan_settings(
+    sc: &spherestep::Scenario,
+    axis: Option<&Bound<'_, PyAny>>,
+    angle: Option<f64>,
+    scheme: Option<&str>,
+    model: Option<&str>,
+    pairs: Option<&Bound<'_, PyAny>>,
+    start: Option<&Bound<'_, PyAny>>,
+    to: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PlanSettings> {
+    let mut s = sc.plan.clone();
+    if let Some(a) = axis {
+        s.axis = convert::axis(a, "axis")?;
+    }
+    if let Some(a) = angle {
+        s.angle = target_angle(a, "start").map_err(|e| arg_err("angle", e))?;
+    }
+    if let Some(n) = scheme {
+        s.scheme = Scheme::parse(n).map_err(|e| arg_err("scheme", e))?;
+    }
+    if let Some(m) = model {
+        s.model = StepModel::from_name(m)
+            .ok_or_else(|| arg_err("model", format!("pivot, dynamic or coils, got '{m}'")))?;
+        if pairs.is_none() {
+            s.pairs = default_pairs_per_step(s.model);
+        }
+    }
+    if let Some(k) = pairs {
+        s.pairs = pairs_per_step(k)?;
+    }
+    check_pairs_per_step(s.model, s.pairs).map_err(|m| arg_err("pairs", m))?;
+    check_supply(s.pairs, s.limits.max_coils_on)
+        .map_err(|m| arg_err("pairs", format!("{m} (in {})", sc.path.display())))?;
+    if let Some(f) = start {
+        s.start = convert::orientation(f, "start")?;
+    }
+    if let Some(t) = to {
+        if axis.is_some() || angle.is_some() {
+            return Err(arg_err(
+                "to",
+                "a target orientation or an axis and an angle, not both",
+            ));
+        }
+        let to = convert::orientation(t, "to")?;
+        (s.axis, s.angle) = turn_to(&s.start, &to)?;
+    }
+    Ok(s)
+}
+
+/// Pairs per step: an integer K (exactly K) or text `K` or `2-K` (2 to K, chosen per step).
+fn pairs_per_step(k: &Bound<'_, PyAny>) -> PyResult<PairsPerStep> {
+    let parsed = match k.extract::<usize>() {
+        Ok(n) => Some(PairsPerStep::exactly(n)),
+        Err(_) => k
+            .extract::<String>()
+            .ok()
+            .and_then(|t| parse_pairs_per_step(&t)),
+    };
+    parsed.ok_or_else(|| {
+        arg_err(
+            "pairs",
+            format!(
+                "K (exactly K pairs per step) or '2-K' (2 to K), got {}",
+                shown(k)
+            ),
+        )
+    })
+}
+
+/// The axis and angle of the shortest rotation (world frame) from `start` to `to` (what
+/// `plan --to` does).
+fn turn_to(start: &Orientation, to: &Orientation) -> PyResult<(UnitVec, Radians)> {
+    let turn = to * start.inverse();
+    let shown = |q: &Orientation| format!("{},{},{},{}", q.i, q.j, q.k, q.w);
+    let Some(axis) = rotation_axis(&turn) else {
+        return Err(arg_err(
+            "to",
+            format!(
+                "an orientation other than the start, got {} (the start is {})",
+                shown(to),
+                shown(start)
+            ),
+        ));
+    };
+    let angle = target_angle(rotation_angle(&turn).0.to_degrees(), "start")
+        .map_err(|e| arg_err("to", e))?;
+    Ok((axis, angle))
+}
+
+/// How many sets `settle_many` settles between two looks for Ctrl-C.
+const SETTLE_CHUNK: usize = 2048;
+
+/// A copy of `motor` with a cancellation token of its own (never set, it changes no result).
+fn cancellable(motor: &spherestep::Motor) -> spherestep::Motor {
+    spherestep::Motor {
+        cancel: Cancel::new(),
+        ..motor.clone()
+    }
+}
+
+/// Runs `work` on a thread of its own while this one waits with the GIL released, taking the
+/// GIL back every 50 ms to look for a signal: on Ctrl-C (or any signal handler's exception) it
+/// sets `cancel`, so that the planners give up at their next look, waits for `work` to stop
+/// and raises the exception. A panic in `work` is raised as it would be on this thread.
+fn interruptible<T: Send>(
+    py: Python<'_>,
+    cancel: &Cancel,
+    work: impl FnOnce() -> T + Send,
+) -> PyResult<T> {
+    let done = Arc::new((Mutex::new(false), Condvar::new()));
+    /// Says "done" when the work ends, also by a panic.
+    struct Done(Arc<(Mutex<bool>, Condvar)>);
+    impl Drop for Done {
+        fn drop(&mut self) {
+            *self.0 .0.lock().unwrap_or_else(PoisonError::into_inner) = true;
+            self.0 .1.notify_all();
+        }
+    }
+    std::thread::scope(|s| {
+        let signal = Done(done.clone());
+        let handle = s.spawn(move || {
+            let _signal = signal;
+            work()
+        });
+        loop {
+            let finished = py.detach(|| {
+                let (flag, cv) = &*done;
+                let g = flag.lock().unwrap_or_else(PoisonError::into_inner);
+                let (g, _) = cv
+                    .wait_timeout_while(g, Duration::from_millis(50), |d| !*d)
+                    .unwrap_or_else(PoisonError::into_inner);
+                *g
+            });
+            if finished {
+                break;
+            }
+            if let Err(e) = py.check_signals() {
+                cancel.cancel();
+                let _ = handle.join();
+                return Err(e);
+            }
+        }
+        match handle.join() {
+            Ok(t) => Ok(t),
+            Err(panic) => std::panic::resume_unwind(panic),
+        }
+    })
+}
+
+/// The most worker threads `settle_many` starts (a pool of its own for the call).
+const MAX_THREADS: i64 = 1024;
+
+/// The sensor noise's seed when none is given (the command line's `--seed` default).
+const DEFAULT_SEED: u64 = 1;
+
+/// The largest sensor noise a run accepts, degrees (the command line's
+/// `commands::closed_loop::MAX_SENSOR_NOISE_DEG`).
+const MAX_SENSOR_NOISE_DEG: f64 = 10.0;
+
+/// The loop's settings as `spherestep run` makes them from its options
+/// (`commands::closed_loop::loop_settings`).
+fn loop_settings(
+    closed_loop: bool,
+    noise_deg: f64,
+    seed: Option<u64>,
+    max_steps: Option<usize>,
+    identify: bool,
+    planned_steps: usize,
+) -> PyResult<LoopSettings> {
+    if !(noise_deg.is_finite() && (0.0..=MAX_SENSOR_NOISE_DEG).contains(&noise_deg)) {
+        return Err(arg_err(
+            "sensor_noise_deg",
+            format!(
+                "a noise in [0, {MAX_SENSOR_NOISE_DEG}] degrees (the goal tolerance is twice \
+                 it), got {}",
+                spherestep::error::shown(noise_deg)
+            ),
+        ));
+    }
+    if max_steps == Some(0) {
+        return Err(arg_err("max_steps", "a whole number >= 1, got 0"));
+    }
+    if !closed_loop && (noise_deg != 0.0 || seed.is_some() || max_steps.is_some() || !identify) {
+        return Err(arg_err(
+            "closed_loop",
+            "True with sensor_noise_deg, seed, max_steps or identify (as the command line's \
+             --closed-loop: the open loop plays the plan as it is, measured without noise)",
+        ));
+    }
+    let seed = seed.unwrap_or(DEFAULT_SEED);
+    let noise = Radians(noise_deg.to_radians());
+    Ok(if closed_loop {
+        let max = max_steps.unwrap_or(3 * planned_steps + 6);
+        LoopSettings {
+            identify,
+            ..LoopSettings::for_noise(noise, seed, max)
+        }
+    } else {
+        LoopSettings::open(noise, seed)
+    })
+}
+
+/// The rows to simulate: a `Plan` (made by a motor with these packings) or the path of a plan
+/// file (as `spherestep plan --out` writes it), its pairs checked against the scenario.
+fn plan_rows(sc: &spherestep::Scenario, plan: &Bound<'_, PyAny>) -> PyResult<Vec<PlanRow>> {
+    let (rows, file) = if let Ok(p) = plan.cast::<Plan>() {
+        (p.get().plan.rows.clone(), None)
+    } else if let Ok(path) = plan.extract::<PathBuf>() {
+        (read_plan(&path).map_err(lib_err)?, Some(path))
+    } else {
+        return Err(arg_err(
+            "plan",
+            format!("a Plan or the path of a plan file, got {}", shown(plan)),
+        ));
+    };
+    for (k, r) in rows.iter().enumerate() {
+        sc.check_active(&r.active, "active").map_err(|e| {
+            let e = match &file {
+                Some(f) => spherestep::Error::Row {
+                    file: f.clone(),
+                    line: k + 2,
+                    message: format!("{e} (in scenario {})", sc.path.display()),
+                },
+                None => spherestep::Error::Arg {
+                    arg: format!("plan (step {k})"),
+                    expected: format!("{e} (in scenario {})", sc.path.display()),
+                },
+            };
+            lib_err(e)
+        })?;
+    }
+    Ok(rows)
+}
+
+#[pymethods]
+impl Motor {
+    /// Settles the ball from rest at `q0` (`[qx, qy, qz, qw]`, default identity) under the
+    /// active set `pairs`: text `"0:14,12:26"` or a sequence of `(coil, magnet)` pairs.
+    #[pyo3(signature = (pairs, q0 = None))]
+    fn settle(
+        &self,
+        py: Python<'_>,
+        pairs: &Bound<'_, PyAny>,
+        q0: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<SettleResult> {
+        let active = self.active(pairs, "pairs")?;
+        let q0 = convert::orientation_or_identity(q0, "q0")?;
+        let r = py.detach(|| self.motor.settle(&active, &q0));
+        Ok(SettleResult::new(&self.sc, active, r))
+    }
+
+    /// Settles each of `sets` (each an active set as `settle` takes it) from `q0`, in
+    /// parallel with the GIL released, on `threads` worker threads (default: one per core);
+    /// the results in the sets' order, the same on any number of threads. The results are
+    /// columns: numpy arrays with one row per set.
+    #[pyo3(signature = (sets, q0 = None, threads = None))]
+    fn settle_many(
+        &self,
+        py: Python<'_>,
+        sets: &Bound<'_, PyAny>,
+        q0: Option<&Bound<'_, PyAny>>,
+        threads: Option<i64>,
+    ) -> PyResult<SettleTable> {
+        if sets.is_instance_of::<pyo3::types::PyString>() {
+            return Err(arg_err(
+                "sets",
+                format!(
+                    "a sequence of active sets, got the text {} (one set: use settle)",
+                    shown(sets)
+                ),
+            ));
+        }
+        let items = sets.try_iter().map_err(|_| {
+            arg_err(
+                "sets",
+                format!("a sequence of active sets, got {}", shown(sets)),
+            )
+        })?;
+        let mut list = Vec::new();
+        for (k, set) in items.enumerate() {
+            list.push(self.active(&set?, &format!("sets[{k}]"))?);
+        }
+        let q0 = convert::orientation_or_identity(q0, "q0")?;
+        let pool = match threads {
+            None => None,
+            Some(n) if !(1..=MAX_THREADS).contains(&n) => {
+                return Err(arg_err(
+                    "threads",
+                    format!("at least 1 and at most {MAX_THREADS} worker threads, got {n}"),
+                ))
+            }
+            Some(n) => Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n as usize)
+                    .build()
+                    .map_err(|source| {
+                        lib_err(spherestep::Error::Threads {
+                            threads: n as usize,
+                            source,
+                        })
+                    })?,
+            ),
+        };
+        let sc = &self.sc;
+        let cancel = Cancel::new();
+        let (rs, holding) = interruptible(py, &cancel, || {
+            // In chunks, so that Ctrl-C stops it between two (each set's settle is its own:
+            // the same results however the sets are cut).
+            let work = || {
+                let mut rs = Vec::with_capacity(list.len());
+                for chunk in list.chunks(SETTLE_CHUNK) {
+                    if cancel.is_cancelled() {
+                        break;
+                    }
+                    rs.extend(self.motor.settle_many(chunk, &q0));
+                }
+                let holding: Vec<_> = list
+                    .iter()
+                    .zip(&rs)
+                    .map(|(set, r)| results::holding(sc, set, &r.q))
+                    .collect();
+                (rs, holding)
+            };
+            match &pool {
+                Some(p) => p.install(work),
+                None => work(),
+            }
+        })?;
+        SettleTable::new(py, list, rs, holding)
+    }
+
+    /// Plans a motion: which coil pairs to switch, in which order, to turn the ball by `angle`
+    /// degrees about `axis` (world frame). Every argument left out is the scenario's `[plan]`
+    /// setting; they are those of `spherestep plan`: `scheme` (min-axis-error, max-angle,
+    /// weighted, search), `model` (pivot, dynamic, coils), `pairs` (K, or "2-K"), `start`
+    /// (the orientation before the initial commutation), `to` (a target orientation instead
+    /// of `axis` and `angle`).
+    #[pyo3(signature = (axis = None, angle = None, *, scheme = None, model = None, pairs = None, start = None, to = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn plan(
+        &self,
+        py: Python<'_>,
+        axis: Option<&Bound<'_, PyAny>>,
+        angle: Option<f64>,
+        scheme: Option<&str>,
+        model: Option<&str>,
+        pairs: Option<&Bound<'_, PyAny>>,
+        start: Option<&Bound<'_, PyAny>>,
+        to: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Plan> {
+        let settings = plan_settings(&self.sc, axis, angle, scheme, model, pairs, start, to)?;
+        let motor = cancellable(&self.motor);
+        let plan = interruptible(py, &motor.cancel, || motor.plan(&settings))?;
+        Ok(Plan {
+            plan,
+            settings,
+            sc: self.sc.clone(),
+        })
+    }
+
+    /// Replays a plan (a `Plan`, or the path of a plan file) through the dynamics: where the
+    /// ball really settles at each step, in this motor's physics or in `plant`'s (a motor with
+    /// the same packings: the model error of a plan made for one physics and run on another).
+    #[pyo3(signature = (plan, plant = None))]
+    fn simulate(
+        &self,
+        py: Python<'_>,
+        plan: &Bound<'_, PyAny>,
+        plant: Option<PyRef<'_, Motor>>,
+    ) -> PyResult<Simulation> {
+        let rows = plan_rows(&self.sc, plan)?;
+        let physics = self.physics(plant.as_deref())?;
+        let sim = py.detach(|| physics.motor.simulate(&rows));
+        Ok(Simulation { rows: sim })
+    }
+
+    /// The motor's well as a bench would measure it (`spherestep wells`): the torque on one
+    /// magnet passing one energised coil every `step_deg` degrees (default 0.02, the command
+    /// line's) from 0 to the cut-off.
+    #[pyo3(signature = (step_deg = None))]
+    fn wells(&self, step_deg: Option<f64>) -> PyResult<Wells> {
+        let step_deg = step_deg.unwrap_or(spherestep::physics::well_curve::DEFAULT_STEP_DEG);
+        let (curve, summary) = self.motor.wells(step_deg).map_err(lib_err)?;
+        Ok(Wells { curve, summary })
+    }
+
+    /// Plans a motion in this motor's physics (the model) and plays it on `plant` (default:
+    /// this motor), as `spherestep run` does: open loop, or with `closed_loop=True` on a
+    /// simulated orientation sensor (noise `sensor_noise_deg`, seeded by `seed`), replanning
+    /// the rest of the motion from each measurement that strays from the plan, at most
+    /// `max_steps` steps, fitting the wells to the measurements unless `identify=False`. The
+    /// plan's arguments are `plan`'s.
+    #[pyo3(signature = (plant = None, axis = None, angle = None, *, scheme = None, model = None, pairs = None, start = None, to = None, closed_loop = false, sensor_noise_deg = 0.0, seed = None, max_steps = None, identify = true))]
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &self,
+        py: Python<'_>,
+        plant: Option<PyRef<'_, Motor>>,
+        axis: Option<&Bound<'_, PyAny>>,
+        angle: Option<f64>,
+        scheme: Option<&str>,
+        model: Option<&str>,
+        pairs: Option<&Bound<'_, PyAny>>,
+        start: Option<&Bound<'_, PyAny>>,
+        to: Option<&Bound<'_, PyAny>>,
+        closed_loop: bool,
+        sensor_noise_deg: f64,
+        seed: Option<i128>,
+        max_steps: Option<i64>,
+        identify: bool,
+    ) -> PyResult<Run> {
+        let seed =
+            match seed {
+                None => None,
+                Some(n) => Some(u64::try_from(n).map_err(|_| {
+                    arg_err("seed", format!("a whole number in [0, 2^64), got {n}"))
+                })?),
+            };
+        let max_steps = match max_steps {
+            None => None,
+            Some(n) => Some(
+                usize::try_from(n)
+                    .map_err(|_| arg_err("max_steps", format!("a whole number >= 1, got {n}")))?,
+            ),
+        };
+        let physics = self.physics(plant.as_deref())?;
+        let settings = plan_settings(&self.sc, axis, angle, scheme, model, pairs, start, to)?;
+        // The options checked before anything is computed, as the command line does.
+        loop_settings(closed_loop, sensor_noise_deg, seed, max_steps, identify, 0)?;
+        let (model, plant) = (cancellable(&self.motor), physics.motor.clone());
+        let plant = spherestep::Motor {
+            cancel: model.cancel.clone(),
+            ..plant
+        };
+        let p = interruptible(py, &model.cancel, || model.plan(&settings))?;
+        if p.rows.len() < 2 {
+            return Err(arg_err(
+                "axis/angle",
+                format!(
+                    "a motion the model can plan: {}",
+                    p.message.as_deref().unwrap_or("no step")
+                ),
+            ));
+        }
+        let goal = goal_of(&settings, &p.rows).ok_or_else(|| {
+            lib_err(spherestep::Error::Parse {
+                file: self.sc.path.clone(),
+                message: "the plan has no initial commutation state".into(),
+            })
+        })?;
+        let planned_steps = p.rows.len() - 1;
+        let cl = loop_settings(
+            closed_loop,
+            sensor_noise_deg,
+            seed,
+            max_steps,
+            identify,
+            planned_steps,
+        )?;
+        let run = interruptible(py, &model.cancel, || {
+            model.run(&plant, &settings, &p, goal, &cl)
+        })?;
+        Ok(Run {
+            run,
+            closed_loop,
+            sensor_noise_deg,
+            seed: seed.unwrap_or(DEFAULT_SEED),
+            planned_steps,
+        })
+    }
+
+    /// The number of the rotor's magnets.
+    #[getter]
+    fn magnets(&self) -> usize {
+        self.sc.rotor.len()
+    }
+
+    /// The number of the stator's coils.
+    #[getter]
+    fn coils(&self) -> usize {
+        self.sc.stator.len()
+    }
+
+    /// The scenario this motor was made from.
+    #[getter]
+    fn scenario(&self) -> Scenario {
+        Scenario {
+            sc: self.sc.clone(),
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Motor(scenario={:?}, magnets={}, coils={})",
+            self.sc.name,
+            self.sc.rotor.len(),
+            self.sc.stator.len()
+        )
+    }
+}
