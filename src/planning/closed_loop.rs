@@ -354,9 +354,12 @@ impl<'a> Controller<'a> {
             let near = (explained && angular(&est, &row.q) <= TRACK_DEG.to_radians())
                 || angular(measured, &row.q) <= self.cl.replan_beyond.0;
             let on_track = self.planned_with == steer && near;
-            // arrived: done, unless the ball is on track with steps of the plan to come (they
-            // were chosen for the goal: its landing comes nearer than the tolerance)
-            if self.arrived && (last || !on_track) {
+            // arrived: done, unless the ball is on track with steps of the plan to come that
+            // fit in the step budget (they were chosen for the goal: its landing comes nearer
+            // than the tolerance, passing through states that may be further)
+            let to_come = self.rows.len().saturating_sub(self.next + 1);
+            let fits = self.steps.saturating_add(to_come) <= self.cl.max_steps;
+            if self.arrived && (last || !on_track || !fits) {
                 return Decision::Done;
             }
             if on_track && !last {
