@@ -354,12 +354,10 @@ impl<'a> Controller<'a> {
             let near = (explained && angular(&est, &row.q) <= TRACK_DEG.to_radians())
                 || angular(measured, &row.q) <= self.cl.replan_beyond.0;
             let on_track = self.planned_with == steer && near;
-            // arrived: done, unless the ball is on track with steps of the plan to come that
-            // fit in the step budget (they were chosen for the goal: its landing comes nearer
-            // than the tolerance, passing through states that may be further)
-            let to_come = self.rows.len().saturating_sub(self.next + 1);
-            let fits = self.steps.saturating_add(to_come) <= self.cl.max_steps;
-            if self.arrived && (last || !on_track || !fits) {
+            // arrived: done, unless the ball is on track and a row of the plan to come, within
+            // the step budget, lies nearer the goal (the plan's landing comes nearer than the
+            // tolerance, through states that may be further)
+            if self.arrived && (last || !on_track || !self.nearer_ahead(distance)) {
                 return Decision::Done;
             }
             if on_track && !last {
@@ -389,6 +387,17 @@ impl<'a> Controller<'a> {
                 Err(m) => return Decision::Stuck(m),
             }
         }
+    }
+
+    /// Whether a row of the plan still to come, within the steps left of `max_steps`, lies
+    /// nearer the goal than `distance` (rad).
+    fn nearer_ahead(&self, distance: f64) -> bool {
+        let left = self.cl.max_steps.saturating_sub(self.steps);
+        self.rows
+            .iter()
+            .skip(self.next + 1)
+            .take(left)
+            .any(|r| angular(&r.q, &self.goal) < distance)
     }
 
     /// The physics that steers now: `None` for the model, else the fitted candidate's index.
