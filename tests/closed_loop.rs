@@ -297,7 +297,7 @@ fn a_run_csv_is_drawn_by_plot() {
     );
 }
 
-/// Issue item 6: the goal tolerance is twice the sensor's noise, so a noise of 45 degrees made
+/// The goal tolerance is twice the sensor's noise, so a noise of 45 degrees made
 /// a run "reached" 69 degrees from the goal. A noise beyond 10 degrees is refused, naming the
 /// option and the bound, before anything is planned; at the bound the tolerance is 20 degrees.
 #[test]
@@ -343,7 +343,7 @@ fn a_sensor_noise_beyond_ten_degrees_is_refused_before_planning() {
     assert!((cl.goal_tolerance.0.to_degrees() - 20.0).abs() < 1e-9);
 }
 
-/// Issue item 16: a bad loop option is refused before the plan is computed (the broad wells
+/// A bad loop option is refused before the plan is computed (the broad wells
 /// took 11 s to plan before `--sensor-noise-deg -1` was refused). A model in which no plan can
 /// be made tells the order: the error names the option, not the plan that failed.
 #[test]
@@ -409,7 +409,7 @@ fn bad_loop_options_are_refused_before_the_plan_is_computed() {
     }
 }
 
-/// Issue item 10: `run` took its worst axis error, 90 degrees, from step 0, a 0.6 degree offset
+/// `run` took its worst axis error, 90 degrees, from step 0, a 0.6 degree offset
 /// of the plant's initial commutation from the model's, whose axis points anywhere. Rows that
 /// turned the ball less than `MIN_AXIS_ANGLE_DEG` are left out of the worst (the CSV keeps
 /// them).

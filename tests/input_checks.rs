@@ -172,7 +172,7 @@ fn physical_with(from: &str, to: &str) -> String {
     text.replace(from, to)
 }
 
-/// Issue item 8: a well whose strongest torque is below `settle.torque_tol` passes the settle
+/// A well whose strongest torque is below `settle.torque_tol` passes the settle
 /// test everywhere at t = 0: every set "held", pivot plans with settle time 0 at every step.
 /// Such a scenario is refused at load, naming the field that makes the well and the tolerance.
 #[test]
@@ -225,7 +225,7 @@ fn a_well_weaker_than_the_torque_tolerance_is_refused() {
     assert!(r.settle_time_s > 0.0, "{r:?}");
 }
 
-/// Issue item 15: messages that named the wrong cause.
+/// Messages that named the wrong cause.
 #[test]
 fn messages_name_the_cause() {
     let t = tempfile::tempdir().unwrap();

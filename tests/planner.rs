@@ -280,7 +280,7 @@ fn pivot_plans_predict_each_steps_settle_time() {
     }
 }
 
-/// Issue item 7: near 180 degrees the cumulative angle wrapped (173.8 -> -175.1 -> -7.6, axis
+/// Near 180 degrees the cumulative angle wrapped (173.8 -> -175.1 -> -7.6, axis
 /// error 180), so the plan turned the ball some 352 degrees the long way round. It is tracked
 /// continuously: every step moves it by at most the step's own angle, it never runs backwards
 /// in these plans, and they stop where they pass the target, with the axis error of the turn.
@@ -366,7 +366,7 @@ fn the_cumulative_angle_does_not_wrap_near_180_degrees() {
     assert_eq!(cumulative_from(&q0, &q, &z, 0.3), cumulative(&q0, &q, &z));
 }
 
-/// Issue item 9: a step that never settles was written with the settle time t_max and nothing
+/// A step that never settles was written with the settle time t_max and nothing
 /// else; only `simulate` showed it. The plan row, the CSV (`settled`), the summary (JSON
 /// `unsettled_steps`, a warning line) and `replay` say so, and plan files without the column
 /// still read (as settled).

@@ -80,7 +80,7 @@ fn sigterm_mid_replay_sends_all_off_and_fails() {
     signal_mid_replay("-TERM");
 }
 
-/// Issue item 16: `q` in step mode quits on purpose: every coil off, where to resume said, and
+/// `q` in step mode quits on purpose: every coil off, where to resume said, and
 /// exit status 0 (quitting is what was asked, not a failure).
 #[test]
 fn q_in_step_mode_quits_with_all_off_and_status_zero() {
