@@ -134,7 +134,16 @@ def test_plan_columns_and_summary(motor, tmp_path):
     plan = motor.plan(axis=[0, 0, 1], angle=90)
     n = len(plan)
     assert n >= 2 and plan.q.shape == (n, 4) and plan.step.tolist() == list(range(n))
-    assert plan.pivot[0] is None and all(p is not None for p in plan.pivot[1:])
+    assert plan.pivot[0] is None
+    # a step keeps a held pair (its pivot), or, landing on the target orientation, switches a
+    # whole set on (its new pairs are all it has on)
+    for k in range(1, n):
+        p = plan.pivot[k]
+        if p is None:
+            assert plan.new[k] == plan.active[k], k
+        else:
+            assert p in plan.active[k - 1] and len(plan.new[k]) == len(plan.active[k]) - 1, k
+    assert any(p is not None for p in plan.pivot[1:])
     assert plan.cum_angle_deg[0] == 0.0 and abs(plan.cum_angle_deg[-1] - 90) < 2
     s = plan.summary
     assert s["steps"] == n - 1 and s["reached"] is plan.reached is True
