@@ -1,5 +1,6 @@
 //! The motor's geometry: vectors, orientations, angles and indices (`geometry`), the symmetry
-//! groups (`symmetry`) and the packings of rotor magnets and stator coils (`packing`), and seeded random numbers (`random`).
+//! groups (`symmetry`), the packings of rotor magnets and stator coils (`packing`), and seeded
+//! random numbers (`random`).
 //! Nothing here knows about forces or time.
 
 pub mod geometry;

@@ -511,13 +511,17 @@ pub fn proposals_within(
 fn within_supply(held: &[Pair], proposals: Vec<Proposal>, max_coils_on: usize) -> Vec<Proposal> {
     proposals
         .into_iter()
-        .filter(|(_, new)| {
-            let mut coils: Vec<CoilId> = held.iter().chain(new).map(|p| p.coil).collect();
-            coils.sort();
-            coils.dedup();
-            coils.len() <= max_coils_on
-        })
+        .filter(|(_, new)| fits_supply(held, new, max_coils_on))
         .collect()
+}
+
+/// Whether switching `new` on while `held` is on (make before break) keeps at most
+/// `max_coils_on` coils on.
+pub fn fits_supply(held: &[Pair], new: &[Pair], max_coils_on: usize) -> bool {
+    let mut coils: Vec<CoilId> = held.iter().chain(new).map(|p| p.coil).collect();
+    coils.sort();
+    coils.dedup();
+    coils.len() <= max_coils_on
 }
 
 /// The cheap prediction of where a set leaves the ball from `q`: the rotation that brings its

@@ -10,7 +10,7 @@ use crate::model::geometry::{rotation_axis, CoilId, MagnetId, Orientation, Pair,
 use crate::physics::dynamics::settle;
 use crate::planning::coilsets::CoilSets;
 use crate::planning::commutation::{
-    admissible, candidate_steps, evaluate_proposals, initial_states, pair_gap,
+    admissible, candidate_steps, evaluate_proposals, fits_supply, initial_states, pair_gap,
     predicted_orientation, proposals_within, settled_states, CommutationState, Motor, Proposal,
     Step, StepLimits, StepModel, PIVOT_CAPTURE,
 };
@@ -244,10 +244,11 @@ type LandingSet = (Option<Pair>, Vec<Pair>);
 
 /// The sets a landing weighs from `state` towards `goal`, as (the held pair kept, if any; the
 /// pairs switched on): pairs whose magnets lie within the capture distance of their coils at
-/// the goal (and [`LANDING_MARGIN`]), `pairs` of them in all, either with a held pair kept (the pivot) or without one,
-/// within the supply (the held coils and the new ones together, make before break) and none of
-/// `avoid`'s coils; ranked by how near the goal their cheap prediction
-/// ([`predicted_orientation`]) leaves the ball, the `settles_per_state` nearest.
+/// the goal (and [`LANDING_MARGIN`]), `pairs` of them in all, either with a held pair kept (the
+/// pivot) or without one, within the supply (the held coils and the new ones together, make
+/// before break: [`fits_supply`]) and none of `avoid`'s coils; ranked by how near the goal
+/// their cheap prediction ([`predicted_orientation`]) leaves the ball, the `settles_per_state`
+/// nearest.
 fn landing_proposals(
     motor: &Motor,
     s: &PlanSettings,
@@ -266,7 +267,6 @@ fn landing_proposals(
         })
         .filter(|p| !avoid.contains(&p.coil) && pair_gap(t, &r, *p).0 <= capture.0)
         .collect();
-    let held: Vec<CoilId> = state.active.iter().map(|p| p.coil).collect();
     let pivots = std::iter::once(None).chain(
         state
             .active
@@ -284,14 +284,7 @@ fn landing_proposals(
             .collect();
         let least = s.pairs.min.saturating_sub(kept).max(1);
         for new in combinations(&others, least, s.pairs.max - kept) {
-            let mut coils: Vec<CoilId> = held
-                .iter()
-                .copied()
-                .chain(new.iter().map(|p| p.coil))
-                .collect();
-            coils.sort();
-            coils.dedup();
-            if coils.len() > s.limits.max_coils_on {
+            if !fits_supply(&state.active, &new, s.limits.max_coils_on) {
                 continue;
             }
             let set: Vec<Pair> = pivot.iter().chain(&new).copied().collect();

@@ -1,5 +1,6 @@
 //! The cases of a batch job: one plan for a plain scenario, one per combination of a sweep's
-//! models, schemes, angles and axes (or random motions); computing them in parallel, and a sweep case's CSV row.
+//! models, schemes, angles and axes (or random motions); computing them in parallel, and a
+//! sweep case's CSV row.
 
 use super::progress::{append_progress, start_progress};
 use super::{BatchOptions, Job, SWEEP_HEADER};
@@ -155,8 +156,7 @@ pub(super) fn sweep_row_problem(c: &Case, record: &[String]) -> Option<String> {
         .enumerate()
         .chain((START_COLUMN..).zip(start_columns(c)))
         .collect();
-    for (k, want) in &fixed {
-        let k = *k;
+    for &(k, ref want) in &fixed {
         if record[k] != *want {
             return Some(format!(
                 "column `{}`: expected {want} (case {}), {}",
