@@ -518,10 +518,14 @@ fn within_supply(held: &[Pair], proposals: Vec<Proposal>, max_coils_on: usize) -
 /// Whether switching `new` on while `held` is on (make before break) keeps at most
 /// `max_coils_on` coils on.
 pub fn fits_supply(held: &[Pair], new: &[Pair], max_coils_on: usize) -> bool {
-    let mut coils: Vec<CoilId> = held.iter().chain(new).map(|p| p.coil).collect();
-    coils.sort();
-    coils.dedup();
-    coils.len() <= max_coils_on
+    // The distinct coils counted without allocating (a coil counts where it first appears):
+    // the sets are a few pairs, and the landing asks this of every combination it weighs.
+    let all = || held.iter().chain(new).map(|p| p.coil);
+    let distinct = all()
+        .enumerate()
+        .filter(|&(i, c)| all().take(i).all(|d| d != c))
+        .count();
+    distinct <= max_coils_on
 }
 
 /// The cheap prediction of where a set leaves the ball from `q`: the rotation that brings its

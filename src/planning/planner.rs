@@ -283,14 +283,23 @@ fn landing_proposals(
             .filter(|p| pivot.is_none_or(|v| p.coil != v.coil))
             .collect();
         let least = s.pairs.min.saturating_sub(kept).max(1);
-        for new in combinations(&others, least, s.pairs.max - kept) {
-            if !fits_supply(&state.active, &new, s.limits.max_coils_on) {
-                continue;
-            }
-            let set: Vec<Pair> = pivot.iter().chain(&new).copied().collect();
-            let qp = predicted_orientation(t, &state.q, &set);
-            ranked.push((qp.angle_to(goal), (pivot, new)));
-        }
+        let mut set: Vec<Pair> = Vec::new();
+        each_combination(
+            &others,
+            least,
+            s.pairs.max - kept,
+            &mut Vec::new(),
+            0,
+            &mut |new| {
+                if !fits_supply(&state.active, new, s.limits.max_coils_on) {
+                    return;
+                }
+                set.clear();
+                set.extend(pivot.iter().chain(new).copied());
+                let qp = predicted_orientation(t, &state.q, &set);
+                ranked.push((qp.angle_to(goal), (pivot, new.to_vec())));
+            },
+        );
     }
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
     ranked
@@ -300,26 +309,30 @@ fn landing_proposals(
         .collect()
 }
 
-/// The sets of `least` to `most` of `pairs` with distinct coils, in a deterministic order.
-fn combinations(pairs: &[Pair], least: usize, most: usize) -> Vec<Vec<Pair>> {
-    let mut out = Vec::new();
-    let mut stack: Vec<(usize, Vec<Pair>)> = vec![(0, Vec::new())];
-    while let Some((from, set)) = stack.pop() {
-        if set.len() >= least {
-            out.push(set.clone());
-        }
-        if set.len() == most {
-            continue;
-        }
-        for (i, p) in pairs.iter().enumerate().skip(from) {
-            if set.iter().all(|q| q.coil != p.coil) {
-                let mut next = set.clone();
-                next.push(*p);
-                stack.push((i + 1, next));
-            }
+/// Calls `f` with each set of `least` to `most` of `pairs` with distinct coils, in a
+/// deterministic order (depth first, each set before its extensions, the later pairs' branches
+/// first), growing `set` from `from` on: one buffer, no set allocated that `f` does not keep.
+fn each_combination(
+    pairs: &[Pair],
+    least: usize,
+    most: usize,
+    set: &mut Vec<Pair>,
+    from: usize,
+    f: &mut impl FnMut(&[Pair]),
+) {
+    if set.len() >= least {
+        f(set);
+    }
+    if set.len() == most {
+        return;
+    }
+    for (i, p) in pairs.iter().enumerate().skip(from).rev() {
+        if set.iter().all(|q| q.coil != p.coil) {
+            set.push(*p);
+            each_combination(pairs, least, most, set, i + 1, f);
+            set.pop();
         }
     }
-    out
 }
 
 /// The proposals from a partial plan's state that the search settles: all that pass the filter
