@@ -4,8 +4,9 @@
 use super::CsvOutput;
 use anyhow::Result;
 use spherestep::commands::args::check_out;
-use spherestep::commands::{self as app};
+use spherestep::commands::{self as app, waypoints};
 use spherestep::io::scenario::Scenario;
+use spherestep::planning::waypoints::DEFAULT_WAYPOINT_TOLERANCE_DEG;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -62,6 +63,15 @@ pub struct Args {
     pub scenario: PathBuf,
     #[command(flatten)]
     pub what: PlanArgs,
+    /// A CSV of waypoints to visit in order, as one motion, instead of --axis and --angle (or
+    /// --to): orientations (columns qx,qy,qz,qw) or turns, each from the waypoint before, the
+    /// first from the start (columns axis_x,axis_y,axis_z,angle_deg). The plan's rows say
+    /// which waypoint each step serves.
+    #[arg(long, conflicts_with_all = ["axis", "angle", "to"])]
+    pub waypoints: Option<PathBuf>,
+    /// With --waypoints: every waypoint must be reached within this many degrees (default 2).
+    #[arg(long, requires = "waypoints")]
+    pub tolerance_deg: Option<f64>,
     #[command(flatten)]
     pub output: CsvOutput,
 }
@@ -71,6 +81,8 @@ impl Args {
         let Args {
             scenario,
             what,
+            waypoints,
+            tolerance_deg,
             output: CsvOutput {
                 out: out_file,
                 json,
@@ -78,10 +90,34 @@ impl Args {
         } = self;
         let sc = Scenario::load(&scenario)?;
         if let Some(o) = &out_file {
-            check_out(o, &sc.files)?;
+            let read: Vec<PathBuf> = sc.files.iter().cloned().chain(waypoints.clone()).collect();
+            check_out(o, &read)?;
         }
         let o = what.overrides();
         let settings = app::plan_settings(&sc, &o)?;
+        if let Some(file) = &waypoints {
+            let tolerance_deg = match tolerance_deg {
+                Some(t) => waypoints::check_tolerance(t)?,
+                None => DEFAULT_WAYPOINT_TOLERANCE_DEG,
+            };
+            let job = waypoints::WaypointJob {
+                file,
+                tolerance_deg,
+            };
+            let p = waypoints::plan_waypoints_command(
+                &sc,
+                &settings,
+                job,
+                out_file.as_deref(),
+                json,
+                out,
+                &mut std::io::stderr(),
+            )?;
+            if !p.reached {
+                anyhow::bail!("{}", p.message.unwrap_or_else(|| "not reached".into()));
+            }
+            return Ok(());
+        }
         let p = app::plan_command(
             &sc,
             &settings,

@@ -7,6 +7,7 @@ pub mod closed_loop;
 pub mod closed_replay;
 pub mod rehearse;
 pub mod replay;
+pub mod waypoints;
 pub mod wells;
 
 use crate::error::{printable, Error, Result};
@@ -16,15 +17,14 @@ use crate::io::scenario::{
     check_pairs_per_step, check_supply, default_pairs_per_step, parse_pairs_per_step, Scenario,
 };
 use crate::io::table::write_csv;
-use crate::model::geometry::{
-    parse_pairs, rotation_angle, rotation_axis, xyzw, Orientation, Pair, Radians, UnitVec,
-};
+use crate::model::geometry::{parse_pairs, xyzw, Orientation, Pair};
 use crate::model::packing::{self, points_csv};
 use crate::physics::dynamics::{settle, settle_many, SettleResult};
 use crate::planning::commutation::{pair_gap, StepModel};
 use crate::planning::plan::PlanRow;
 use crate::planning::planner::{plan, target_angle, Plan, PlanSettings, Scheme};
 use crate::planning::simulate::{simulate, SimRow};
+use crate::planning::waypoints::turn_to;
 use args::{parse_axis, parse_orientation};
 use std::io::Write;
 use std::path::Path;
@@ -354,27 +354,9 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
             });
         }
         let to = parse_orientation(t, "--to")?;
-        (s.axis, s.angle) = turn_to(&s.start, &to).map_err(arg("--to"))?;
+        (s.axis, s.angle) = turn_to(&s.start, &to, "--from").map_err(arg("--to"))?;
     }
     Ok(s)
-}
-
-/// The axis and angle of the shortest rotation (world frame) from `start` to `to`.
-fn turn_to(
-    start: &Orientation,
-    to: &Orientation,
-) -> std::result::Result<(UnitVec, Radians), String> {
-    let turn = to * start.inverse();
-    let shown = |q: &Orientation| format!("{},{},{},{}", q.i, q.j, q.k, q.w);
-    let Some(axis) = rotation_axis(&turn) else {
-        return Err(format!(
-            "an orientation other than the start, got {} (the start is {})",
-            shown(to),
-            shown(start)
-        ));
-    };
-    let angle = target_angle(rotation_angle(&turn).0.to_degrees(), "--from")?;
-    Ok((axis, angle))
 }
 
 /// `spherestep plan`: plans, writes the CSV (atomically) to `out_file` when asked and prints

@@ -1,6 +1,7 @@
 //! The files: scenarios in TOML (`scenario`), plans in CSV (`planfile`), simulate results
-//! (`simfile`), closed-loop results (`loopfile`), the scenario's `[sensor]` section (`sensor_section`), the one CSV reader (`table`) and the one place that writes a file whole or not
-//! at all (`output`).
+//! (`simfile`), closed-loop results (`loopfile`), the scenario's `[sensor]` section
+//! (`sensor_section`), the waypoints of a path (`waypoints`), the one CSV reader (`table`) and
+//! the one place that writes a file whole or not at all (`output`).
 
 pub mod loopfile;
 pub mod output;
@@ -9,3 +10,4 @@ pub mod scenario;
 pub mod sensor_section;
 pub mod simfile;
 pub mod table;
+pub mod waypoints;

@@ -9,11 +9,17 @@
 //! `settled` (`true`/`false`) says whether the step settles in the dynamics within t_max (a
 //! pivot plan's geometric step may not: its `settle_time_s` is then t_max). Files written
 //! before the column was added read as settled throughout.
+//!
+//! A plan through waypoints (`plan --waypoints`) has five more columns: `waypoint` (the
+//! waypoint the row serves: 1, 2, ...) and `waypoint_qx..waypoint_qw` (its orientation), so
+//! that `simulate` can say where the ball ends against each; readers that do not need them
+//! ignore them.
 
 use crate::error::{Error, Result};
 use crate::io::table::{write_csv, Row, Table};
-use crate::model::geometry::{orientation_from_xyzw, parse_pairs, xyzw, Pair};
+use crate::model::geometry::{orientation_from_xyzw, parse_pairs, xyzw, Orientation, Pair};
 use crate::planning::plan::PlanRow;
+use crate::planning::waypoints::WaypointPlan;
 use std::io::Write;
 use std::path::Path;
 
@@ -41,6 +47,18 @@ pub const HEADER: [&str; 16] = [
 /// file written before it was added.
 pub const REQUIRED: usize = 15;
 
+/// The columns a waypoint plan adds after [`HEADER`].
+pub const WAYPOINT_COLUMNS: [&str; 5] = [
+    "waypoint",
+    "waypoint_qx",
+    "waypoint_qy",
+    "waypoint_qz",
+    "waypoint_qw",
+];
+
+/// The waypoint a row of a plan file serves (1, 2, ...) and its orientation.
+pub type Serves = (usize, Orientation);
+
 fn join(v: impl Iterator<Item = String>) -> String {
     v.collect::<Vec<_>>().join(";")
 }
@@ -49,6 +67,75 @@ fn join(v: impl Iterator<Item = String>) -> String {
 /// round-trip formatting, so the same plan gives the same bytes.
 pub fn write_plan(rows: &[PlanRow], out: &mut dyn Write) -> Result<()> {
     write_csv(out, "<plan output>", &HEADER, rows.iter().map(plan_record))
+}
+
+/// Writes a plan through waypoints: [`HEADER`] and [`WAYPOINT_COLUMNS`], one row per step.
+pub fn write_waypoint_plan(p: &WaypointPlan, out: &mut dyn Write) -> Result<()> {
+    let header: Vec<&str> = HEADER.iter().chain(&WAYPOINT_COLUMNS).copied().collect();
+    let records = p.rows.iter().zip(&p.serves).map(|(r, &w)| {
+        let mut rec = plan_record(r);
+        rec.push(w.to_string());
+        let q = p
+            .waypoints
+            .get(w.wrapping_sub(1))
+            .map(xyzw)
+            .unwrap_or_default();
+        rec.extend(q.iter().map(|c| c.to_string()));
+        rec
+    });
+    write_csv(out, "<plan output>", &header, records)
+}
+
+/// The waypoint each row of a plan file serves, with its orientation, row by row: `None` for a
+/// plan without the [`WAYPOINT_COLUMNS`].
+///
+/// # Errors
+/// A row whose waypoint is not a number from 1 or whose orientation is not a non-zero
+/// quaternion; waypoints that go back (a row serving an earlier waypoint than the row before).
+pub fn parse_plan_waypoints(text: &str, path: &Path) -> Result<Option<Vec<Serves>>> {
+    let t = Table::parse(text, path)?;
+    if t.column(WAYPOINT_COLUMNS[0]).is_none() {
+        return Ok(None);
+    }
+    let idx: Vec<usize> = WAYPOINT_COLUMNS
+        .iter()
+        .map(|h| {
+            t.require(
+                h,
+                " (a plan through waypoints has all five waypoint columns)",
+            )
+        })
+        .collect::<Result<_>>()?;
+    let mut out: Vec<Serves> = Vec::new();
+    for r in t.rows() {
+        let w = r.get(idx[0]);
+        let k = w.parse::<usize>().ok().filter(|&k| k >= 1).ok_or_else(|| {
+            r.error(format!(
+                "column `waypoint`: expected a waypoint number (1, 2, ...), got '{w}'"
+            ))
+        })?;
+        if let Some(&(before, _)) = out.last() {
+            if k < before {
+                return Err(r.error(format!(
+                    "column `waypoint`: expected {before} or later after waypoint {before}, got {k}"
+                )));
+            }
+        }
+        let c: Vec<f64> = (1..5)
+            .map(|j| r.finite(idx[j], WAYPOINT_COLUMNS[j]))
+            .collect::<Result<_>>()?;
+        let q = orientation_from_xyzw(c[0], c[1], c[2], c[3]).ok_or_else(|| {
+            r.error("columns `waypoint_qx..waypoint_qw`: expected a non-zero quaternion".into())
+        })?;
+        out.push((k, q));
+    }
+    Ok(Some(out))
+}
+
+/// [`parse_plan_waypoints`] of the plan file at `path`.
+pub fn read_plan_waypoints(path: &Path) -> Result<Option<Vec<Serves>>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    parse_plan_waypoints(&text, path)
 }
 
 /// The fields of one plan row, in [`HEADER`]'s order.

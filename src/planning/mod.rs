@@ -2,8 +2,9 @@
 //! sets of coils (`coilsets`), the searches that chain steps towards a target rotation
 //! (`search`, shared by every step model) and the planner that sets them going (`planner`) into
 //! a `plan`, the replay of a plan through the dynamics (`simulate`), the closed loop that
-//! replans from measured orientations (`closed_loop`) and how long a replay keeps each coil on
-//! (`on_time`, shared with the hardware replay's check).
+//! replans from measured orientations (`closed_loop`), motions through waypoints (`waypoints`)
+//! and how long a replay keeps each coil on (`on_time`, shared with the hardware replay's
+//! check).
 
 pub mod cancel;
 pub mod closed_loop;
@@ -17,3 +18,4 @@ pub mod planner;
 pub mod search;
 pub mod seek;
 pub mod simulate;
+pub mod waypoints;

@@ -14,6 +14,7 @@ use crate::planning::commutation::{
     predicted_orientation, proposals_within, settled_states, CommutationState, Motor, Proposal,
     Step, StepLimits, StepModel, PIVOT_CAPTURE,
 };
+use crate::planning::on_time::OnTimes;
 use crate::planning::plan::PlanRow;
 use crate::planning::search::{self, predicted_rank, weighed, wide_limits, Frontier, StepSource};
 use rayon::prelude::*;
@@ -32,10 +33,27 @@ pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
 /// a measured orientation in closed loop) instead of the initial states the model finds from
 /// `s.start`; the plan's row 0 is that state.
 pub fn plan_from(motor: &Motor, s: &PlanSettings, state: CommutationState) -> Plan {
-    plan_with(motor, s, Some(state))
+    plan_with(motor, s, Some((state, None)))
 }
 
-fn plan_with(motor: &Motor, s: &PlanSettings, from: Option<CommutationState>) -> Plan {
+/// [`plan_from`] a state whose coils are still on from the motion before (a motion that goes on
+/// where another left off): `held` says how long each has been on (the dwell of the row that
+/// left it included), and the plan keeps every coil within the on-time limit counting from
+/// there.
+pub fn plan_on_from(
+    motor: &Motor,
+    s: &PlanSettings,
+    state: CommutationState,
+    held: OnTimes<CoilId>,
+) -> Plan {
+    plan_with(motor, s, Some((state, Some(held))))
+}
+
+fn plan_with(
+    motor: &Motor,
+    s: &PlanSettings,
+    from: Option<(CommutationState, Option<OnTimes<CoilId>>)>,
+) -> Plan {
     // The capture in force, resolved once (the dynamic model's is a search over its well's
     // pull), not in every evaluation of a step.
     let capture = s.limits.capture_for(s.model, &motor.torques.well);
@@ -48,10 +66,11 @@ fn plan_with(motor: &Motor, s: &PlanSettings, from: Option<CommutationState>) ->
     };
     let s = &resolved;
     let run = |src: &dyn StepSource| match &from {
-        Some(state) => search::run(
+        Some((state, held)) => search::run(
             &FromState {
                 inner: src,
                 state: state.clone(),
+                held: held.clone(),
             },
             s,
         ),
@@ -77,10 +96,11 @@ fn plan_with(motor: &Motor, s: &PlanSettings, from: Option<CommutationState>) ->
     }
 }
 
-/// A step source that starts from one given state.
+/// A step source that starts from one given state (its coils on for `held`, when given).
 struct FromState<'a> {
     inner: &'a dyn StepSource,
     state: CommutationState,
+    held: Option<OnTimes<CoilId>>,
 }
 
 impl StepSource for FromState<'_> {
@@ -111,6 +131,10 @@ impl StepSource for FromState<'_> {
 
     fn key(&self, state: &CommutationState) -> Vec<crate::model::geometry::Pair> {
         self.inner.key(state)
+    }
+
+    fn initial_on_times(&self) -> Option<OnTimes<CoilId>> {
+        self.held.clone()
     }
 }
 

@@ -62,6 +62,13 @@ pub trait StepSource: Sync {
     fn key(&self, state: &CommutationState) -> Vec<Pair> {
         sorted(&state.active)
     }
+
+    /// How long each coil on in the initial state has been on when the plan starts, its dwell
+    /// included (a motion that goes on where another left off, the coils still on); `None` for
+    /// a plan whose row 0 switches its coils on (their on-time starts with its dwell).
+    fn initial_on_times(&self) -> Option<OnTimes<CoilId>> {
+        None
+    }
 }
 
 /// A partial plan: the states so far, their running figures and how long each coil on at its
@@ -181,9 +188,13 @@ pub fn run(src: &dyn StepSource, s: &PlanSettings) -> Plan {
             settles: 0,
         };
     };
-    let roots: Vec<Node> = inits.iter().filter_map(|i| root_node(i, s).ok()).collect();
+    let before = src.initial_on_times();
+    let roots: Vec<Node> = inits
+        .iter()
+        .filter_map(|i| root_node(i, s, before.as_ref()).ok())
+        .collect();
     let Some(first) = roots.first().cloned() else {
-        let why = root_node(first, s)
+        let why = root_node(first, s, before.as_ref())
             .err()
             .map(|o| o.describe())
             .unwrap_or_default();
@@ -241,15 +252,31 @@ pub(crate) fn first_row(init: &CommutationState) -> PlanRow {
 }
 
 /// A plan's start: row 0, the initial commutation state (unless holding it alone would keep a
-/// coil on too long).
-fn root_node(init: &CommutationState, s: &PlanSettings) -> Result<Node, OverTime> {
-    let on = held_after(
-        &OnTimes::new(),
-        s.limits.on_time,
-        &init.active,
-        0,
-        init.settle_time_s,
-    )?;
+/// coil on too long); `before`, the on-times its coils have when the plan goes on where another
+/// left off ([`StepSource::initial_on_times`]).
+fn root_node(
+    init: &CommutationState,
+    s: &PlanSettings,
+    before: Option<&OnTimes<CoilId>>,
+) -> Result<Node, OverTime> {
+    let on = match (before, s.limits.on_time) {
+        (Some(b), Some(l)) => match on_time::over(b, l.max_on) {
+            Some((coil, h)) => Err(OverTime {
+                coil,
+                since_step: h.since_step,
+                on: h.on,
+                max: l.max_on,
+            }),
+            None => Ok(b.clone()),
+        },
+        _ => held_after(
+            &OnTimes::new(),
+            s.limits.on_time,
+            &init.active,
+            0,
+            init.settle_time_s,
+        ),
+    }?;
     Ok(Node {
         rows: vec![first_row(init)],
         state: init.clone(),
@@ -468,10 +495,11 @@ fn greedy_best(
     better: fn(&Node, Option<&Node>, &PlanSettings) -> bool,
 ) -> Option<Node> {
     let mut best: Option<Node> = None;
+    let before = src.initial_on_times();
     for g in [Scheme::Weighted, Scheme::MinAxisError, Scheme::MaxAngle] {
         let p = greedy(src, s, root.clone(), g);
         if p.reached {
-            let cand = node_of(&p.rows, s.limits.on_time);
+            let cand = node_of(&p.rows, s.limits.on_time, before.as_ref());
             if better(&cand, best.as_ref(), s) {
                 best = Some(cand);
             }
@@ -722,10 +750,17 @@ fn land(src: &dyn StepSource, s: &PlanSettings, plans: Vec<Node>, budget: usize)
     let mut open = std::collections::BinaryHeap::new();
     let mut seen: Vec<(Vec<Pair>, Orientation)> = Vec::new();
     // and each plan without its last step, whose landing may take another way to the goal
+    let before = src.initial_on_times();
     let parents: Vec<Node> = plans
         .iter()
         .filter(|p| p.rows.len() > 2)
-        .map(|p| node_of(&p.rows[..p.rows.len() - 1], s.limits.on_time))
+        .map(|p| {
+            node_of(
+                &p.rows[..p.rows.len() - 1],
+                s.limits.on_time,
+                before.as_ref(),
+            )
+        })
         .collect();
     for p in plans.into_iter().chain(parents) {
         let goal = goal_of_node(&p, s);
@@ -812,8 +847,9 @@ fn tired_coils(p: &Node, limit: Option<OnTimeLimit>) -> Vec<CoilId> {
         .collect()
 }
 
-/// The partial plan of `rows` (at least row 0), with its running figures and on-times.
-fn node_of(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> Node {
+/// The partial plan of `rows` (at least row 0), with its running figures and on-times (`before`:
+/// those of row 0's coils, when the plan goes on where another left off).
+fn node_of(rows: &[PlanRow], limit: Option<OnTimeLimit>, before: Option<&OnTimes<CoilId>>) -> Node {
     let last = &rows[rows.len() - 1];
     Node {
         state: CommutationState {
@@ -821,7 +857,7 @@ fn node_of(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> Node {
             active: last.active.clone(),
             settle_time_s: last.settle_time_s,
         },
-        on: on_times_of(rows, limit),
+        on: on_times_of(rows, limit, before),
         rows: rows.to_vec(),
         worst: max_axis_error_deg(rows).to_radians(),
         cum: last.cum_angle_deg.to_radians(),
@@ -829,13 +865,22 @@ fn node_of(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> Node {
 }
 
 /// How long each coil on at the end of `rows` has been on, with the replay's dwells (empty
-/// without a limit).
-fn on_times_of(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> OnTimes<CoilId> {
-    let mut on = OnTimes::new();
-    if let Some(l) = limit {
-        for r in rows {
-            on_time::hold_row(&mut on, r, &l);
-        }
+/// without a limit); `before`, the on-times after row 0 when the plan goes on where another
+/// left off, else row 0 switches its coils on.
+fn on_times_of(
+    rows: &[PlanRow],
+    limit: Option<OnTimeLimit>,
+    before: Option<&OnTimes<CoilId>>,
+) -> OnTimes<CoilId> {
+    let Some(l) = limit else {
+        return OnTimes::new();
+    };
+    let (mut on, skip) = match before {
+        Some(b) => (b.clone(), 1),
+        None => (OnTimes::new(), 0),
+    };
+    for r in rows.iter().skip(skip) {
+        on_time::hold_row(&mut on, r, &l);
     }
     on
 }

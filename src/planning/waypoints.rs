@@ -1,0 +1,486 @@
+//! Paths through waypoints: one motion that visits a list of orientations in order (a camera
+//! raster, a tracking pattern), each reached within a tolerance. Each waypoint is planned as a
+//! leg from where the plan before it leaves the ball (the settled state, its coils still on,
+//! their on-times counted on), so that errors do not pile up from one waypoint to the next; a
+//! leg that ends further than the tolerance from its waypoint is followed by correction legs
+//! from where it ended. A consumer of the planner ([`plan`], [`plan_on_from`]): it settles
+//! nothing itself.
+
+use crate::model::geometry::{rotation_angle, rotation_axis, CoilId, Orientation, UnitVec};
+use crate::model::geometry::Pair;
+use crate::planning::commutation::{
+    combinations, cumulative_from, holds, settled_states, step_measure, CommutationState, Motor,
+};
+use crate::planning::on_time::{self, OnTimes};
+use crate::planning::plan::{
+    max_axis_error_deg, target_angle, total_settle_time, unsettled_steps, Plan, PlanRow,
+    PlanSettings,
+};
+use crate::planning::planner::{plan, plan_on_from};
+use crate::planning::search::over_on_time;
+use serde::Serialize;
+
+/// The default tolerance within which every waypoint must be reached, degrees.
+pub const DEFAULT_WAYPOINT_TOLERANCE_DEG: f64 = 2.0;
+
+/// How many legs may serve one waypoint: the first, then corrections from where the last ended
+/// while it ends further than the tolerance from the waypoint and nearer than before.
+pub const LEGS_PER_WAYPOINT: usize = 3;
+
+/// The axis and angle of the shortest rotation (world frame) from `start` to `to`, or what was
+/// expected instead (`start` is named in the message as `start_name`).
+pub fn turn_to(
+    start: &Orientation,
+    to: &Orientation,
+    start_name: &str,
+) -> Result<(UnitVec, crate::model::geometry::Radians), String> {
+    let turn = to * start.inverse();
+    let shown = |q: &Orientation| format!("{},{},{},{}", q.i, q.j, q.k, q.w);
+    let Some(axis) = rotation_axis(&turn) else {
+        return Err(format!(
+            "an orientation other than the start, got {} (the start is {})",
+            shown(to),
+            shown(start)
+        ));
+    };
+    let angle = target_angle(rotation_angle(&turn).0.to_degrees(), start_name)?;
+    Ok((axis, angle))
+}
+
+/// A plan through waypoints.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WaypointPlan {
+    /// The steps, numbered 0, 1, ... through the whole motion (row 0: the initial commutation).
+    /// A row's cumulative figures (`cum_angle_deg`, `cum_axis_error_deg`) count from where the
+    /// ball was when it set out for the row's waypoint (the row before the waypoint's first;
+    /// row 0 for the first waypoint), about the axis of the shortest turn from there to it.
+    pub rows: Vec<PlanRow>,
+    /// The waypoint (1, 2, ...) each row serves, row by row.
+    pub serves: Vec<usize>,
+    /// The waypoints, in order.
+    pub waypoints: Vec<Orientation>,
+    /// Every waypoint reached within the tolerance, within the on-time limit.
+    pub reached: bool,
+    /// Why not, when not.
+    pub message: Option<String>,
+    /// Settles the search spent over all legs.
+    pub settles: usize,
+}
+
+/// Where a waypoint is reached: the last row serving it (or, when none does, the row the ball
+/// was already within the tolerance at) and how far from it that row leaves the ball.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WaypointReached {
+    /// The waypoint, 1, 2, ...
+    pub waypoint: usize,
+    /// The row (step) where it is reached.
+    pub step: usize,
+    /// The angle from that row's orientation to the waypoint, degrees.
+    pub error_deg: f64,
+}
+
+/// A waypoint plan's figures (the JSON summary of `plan --waypoints`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WaypointSummary {
+    pub steps: usize,
+    pub waypoints: Vec<WaypointReached>,
+    /// The largest of the waypoints' errors, degrees.
+    pub worst_waypoint_error_deg: f64,
+    /// The worst cumulative axis error of any leg, degrees.
+    pub max_axis_error_deg: f64,
+    pub tolerance_deg: f64,
+    pub reached: bool,
+    pub total_settle_time_s: f64,
+    pub scheme: String,
+    pub model: String,
+    pub message: Option<String>,
+    pub settles: usize,
+    pub unsettled_steps: Vec<usize>,
+}
+
+impl WaypointPlan {
+    /// Where each waypoint is reached, in order.
+    pub fn reached_at(&self) -> Vec<WaypointReached> {
+        reached_at(&self.rows, &self.serves, &self.waypoints)
+    }
+
+    /// The plan's figures, for the settings it was made with.
+    pub fn summary(&self, s: &PlanSettings, tolerance_deg: f64) -> WaypointSummary {
+        let at = self.reached_at();
+        WaypointSummary {
+            steps: self.rows.len().saturating_sub(1),
+            worst_waypoint_error_deg: at.iter().map(|w| w.error_deg).fold(0.0, f64::max),
+            waypoints: at,
+            max_axis_error_deg: max_axis_error_deg(&self.rows),
+            tolerance_deg,
+            reached: self.reached,
+            total_settle_time_s: total_settle_time(&self.rows),
+            scheme: s.scheme.name().into(),
+            model: s.model.name().into(),
+            message: self.message.clone(),
+            settles: self.settles,
+            unsettled_steps: unsettled_steps(&self.rows),
+        }
+    }
+}
+
+/// Where each of `waypoints` is reached by the rows that serve them (`serves`, row by row): its
+/// last row, or for a waypoint no row serves, the last row before the next one's.
+pub fn reached_at(
+    rows: &[PlanRow],
+    serves: &[usize],
+    waypoints: &[Orientation],
+) -> Vec<WaypointReached> {
+    let mut out = Vec::with_capacity(waypoints.len());
+    for (k, w) in waypoints.iter().enumerate() {
+        let number = k + 1;
+        // the last row serving this waypoint or an earlier one
+        let Some(row) = serves.iter().rposition(|&v| v <= number) else {
+            continue;
+        };
+        let Some(r) = rows.get(row) else {
+            continue;
+        };
+        out.push(WaypointReached {
+            waypoint: number,
+            step: r.step,
+            error_deg: r.q.angle_to(w).to_degrees(),
+        });
+    }
+    out
+}
+
+/// Plans one motion through `waypoints` in order from `s.start` with the settings' model,
+/// scheme and limits (their axis and angle are ignored: each leg's are the shortest turn to its
+/// waypoint from where the ball is), every waypoint within `tolerance_deg`.
+pub fn plan_waypoints(
+    motor: &Motor,
+    s: &PlanSettings,
+    waypoints: &[Orientation],
+    tolerance_deg: f64,
+) -> WaypointPlan {
+    let mut out = WaypointPlan {
+        rows: Vec::new(),
+        serves: Vec::new(),
+        waypoints: waypoints.to_vec(),
+        reached: false,
+        message: None,
+        settles: 0,
+    };
+    let tolerance = tolerance_deg.to_radians();
+    for (k, goal) in waypoints.iter().enumerate() {
+        if let Err(why) = serve(motor, s, &mut out, k + 1, goal, tolerance) {
+            out.message = Some(why);
+            return out;
+        }
+    }
+    if let Some(why) = over_on_time(&out.rows, s.limits.on_time) {
+        out.message = Some(why);
+        return out;
+    }
+    out.reached = !out.rows.is_empty();
+    if !out.reached {
+        out.message = Some("no waypoint to plan for".into());
+    }
+    out
+}
+
+/// Plans the legs that take the ball from the end of `out` to waypoint `number` (`goal`) and
+/// appends them; an error when it cannot be reached within `tolerance` (rad).
+fn serve(
+    motor: &Motor,
+    s: &PlanSettings,
+    out: &mut WaypointPlan,
+    number: usize,
+    goal: &Orientation,
+    tolerance: f64,
+) -> Result<(), String> {
+    let first = out.rows.len();
+    for _ in 0..LEGS_PER_WAYPOINT {
+        let here = out.rows.last().map_or(s.start, |r| r.q);
+        let distance = here.angle_to(goal);
+        if !out.rows.is_empty() && distance <= tolerance {
+            break;
+        }
+        let Leg { release, plan: leg } = plan_leg(motor, s, out, goal, number)?;
+        out.settles += leg.settles;
+        let skip = usize::from(!out.rows.is_empty());
+        let Some(end) = leg.rows.last().filter(|_| leg.rows.len() > skip) else {
+            break;
+        };
+        // a correction that does not bring the ball nearer is not taken
+        if !out.rows.is_empty() && end.q.angle_to(goal) >= distance {
+            break;
+        }
+        let base = out.rows.len();
+        let rows = release.into_iter().chain(leg.rows.into_iter().skip(skip));
+        for (j, r) in rows.enumerate() {
+            out.rows.push(PlanRow {
+                step: base + j,
+                ..r
+            });
+            out.serves.push(number);
+        }
+    }
+    if let Some(base) = first_base(&out.rows, first) {
+        recount(&mut out.rows[first..], base, goal);
+    }
+    let error = out
+        .rows
+        .last()
+        .map_or(f64::INFINITY, |r| r.q.angle_to(goal));
+    if error > tolerance {
+        return Err(format!(
+            "waypoint {number} not reached: the plan leaves the ball {:.2} deg from it, over the \
+             tolerance of {:.2} deg",
+            error.to_degrees(),
+            tolerance.to_degrees()
+        ));
+    }
+    Ok(())
+}
+
+/// One leg towards `goal` from the end of `out` (from `s.start` with an initial commutation
+/// when `out` has no rows yet), or why there is none.
+fn plan_leg(
+    motor: &Motor,
+    s: &PlanSettings,
+    out: &WaypointPlan,
+    goal: &Orientation,
+    number: usize,
+) -> Result<Leg, String> {
+    let here = out.rows.last().map_or(s.start, |r| r.q);
+    let (axis, angle) = turn_to(&here, goal, "the waypoint before")
+        .map_err(|e| format!("waypoint {number}: expected {e}"))?;
+    let leg = PlanSettings {
+        axis,
+        angle,
+        start: here,
+        ..s.clone()
+    };
+    let (p, release) = match out.rows.last() {
+        None => (first_leg(motor, &leg, goal), None),
+        Some(last) => go_on(motor, &leg, out, last, goal),
+    };
+    if p.rows.is_empty() {
+        return Err(format!(
+            "waypoint {number}: {}",
+            p.message.unwrap_or_else(|| "no plan".into())
+        ));
+    }
+    Ok(Leg { release, plan: p })
+}
+
+/// The first leg, from `leg.start` with an initial commutation: the initial commutation moves
+/// the ball before the first step (it settles where the coils switched on hold it), so the leg
+/// is planned again from where row 0 leaves the ball, aimed at `goal`; the one that ends nearer
+/// it is kept.
+fn first_leg(motor: &Motor, leg: &PlanSettings, goal: &Orientation) -> Plan {
+    let p = plan(motor, leg);
+    let Some(row0) = p.rows.first() else {
+        return p;
+    };
+    let Ok((axis, angle)) = turn_to(&row0.q, goal, "row 0") else {
+        return p;
+    };
+    let aimed = PlanSettings {
+        axis,
+        angle,
+        start: row0.q,
+        ..leg.clone()
+    };
+    let state = CommutationState {
+        q: row0.q,
+        active: row0.active.clone(),
+        settle_time_s: row0.settle_time_s,
+    };
+    let again = plan_on_from(motor, &aimed, state, on_times(&p.rows[..1], leg));
+    let end = |p: &Plan| p.rows.last().map_or(f64::INFINITY, |r| r.q.angle_to(goal));
+    if again.rows.len() > 1 && end(&again) < end(&p) {
+        again
+    } else {
+        p
+    }
+}
+
+/// A leg: a release step when the ball set out with too many coils on to switch any on, then
+/// the plan from there (its row 0 the state the leg starts from).
+struct Leg {
+    release: Option<PlanRow>,
+    plan: Plan,
+}
+
+/// The fewest coils a leg sets out with switched off, so that a step can switch coils on within
+/// the supply (make before break): a pair's coil and another's, as an initial commutation has.
+const ROOM_FOR_NEW_COILS: usize = 2;
+
+/// How many release steps a leg tries before giving up: the ones that keep the coils on the
+/// shortest time first.
+const RELEASES_TRIED: usize = 3;
+
+/// A leg from `last` (the end of `out`), its coils still on: straight on when `last` leaves
+/// room to switch coils on ([`ROOM_FOR_NEW_COILS`]) and that plan has steps; else after a
+/// release step that switches some of the held pairs off (see [`releases`]), the first of
+/// [`RELEASES_TRIED`] that gives a plan. The last plan tried (its message) when none does.
+fn go_on(
+    motor: &Motor,
+    leg: &PlanSettings,
+    out: &WaypointPlan,
+    last: &PlanRow,
+    goal: &Orientation,
+) -> (Plan, Option<PlanRow>) {
+    let on = on_times(&out.rows, leg);
+    let held = CommutationState {
+        q: last.q,
+        active: last.active.clone(),
+        settle_time_s: last.settle_time_s,
+    };
+    let mut tried = None;
+    if distinct_coils(&last.active) + ROOM_FOR_NEW_COILS <= leg.limits.max_coils_on {
+        let p = plan_on_from(motor, leg, held, on.clone());
+        if p.rows.len() > 1 {
+            return (p, None);
+        }
+        tried = Some(p);
+    }
+    for freed in releases(motor, leg, last, goal, &on)
+        .into_iter()
+        .take(RELEASES_TRIED)
+    {
+        let row = release_row(last, &freed);
+        let mut on = on.clone();
+        if let Some(l) = leg.limits.on_time {
+            on_time::hold_row(&mut on, &row, &l);
+        }
+        let (axis, angle) = match turn_to(&freed.q, goal, "the release") {
+            Ok(t) => t,
+            Err(_) => (leg.axis, leg.angle),
+        };
+        let from = PlanSettings {
+            axis,
+            angle,
+            start: freed.q,
+            ..leg.clone()
+        };
+        let p = plan_on_from(motor, &from, freed, on);
+        if p.rows.len() > 1 {
+            return (p, Some(row));
+        }
+        tried = Some(p);
+    }
+    let p = tried.unwrap_or_else(|| Plan {
+        rows: Vec::new(),
+        reached: false,
+        message: Some(format!(
+            "the coils on at step {} hold the ball, and no subset of them that leaves room to \
+             switch coils on does",
+            last.step
+        )),
+        settles: 0,
+    });
+    (p, None)
+}
+
+/// The states a release step from `last` can leave the ball in: some of its pairs switched off,
+/// the rest held, at most the supply less [`ROOM_FOR_NEW_COILS`] coils on, each settled and
+/// holding the ball; those whose coils have been on the shortest time (by `on`) first, then
+/// those nearest `goal`.
+fn releases(
+    motor: &Motor,
+    s: &PlanSettings,
+    last: &PlanRow,
+    goal: &Orientation,
+    on: &OnTimes<CoilId>,
+) -> Vec<CommutationState> {
+    let keep = s
+        .limits
+        .max_coils_on
+        .saturating_sub(ROOM_FOR_NEW_COILS)
+        .max(1);
+    let sets: Vec<Vec<Pair>> = (1..=keep.min(last.active.len().saturating_sub(1)))
+        .flat_map(|k| combinations(last.active.len(), k))
+        .map(|idx| idx.iter().map(|&i| last.active[i]).collect::<Vec<_>>())
+        .filter(|set| distinct_coils(set) <= keep)
+        .collect();
+    let capture = s.limits.capture_for(s.model, &motor.torques.well);
+    let longest = |st: &CommutationState| {
+        st.active
+            .iter()
+            .filter_map(|p| on.get(&p.coil))
+            .map(|h| h.on)
+            .max()
+            .unwrap_or_default()
+    };
+    let mut held: Vec<CommutationState> = settled_states(motor, sets, &last.q)
+        .into_iter()
+        .flatten()
+        .filter(|st| holds(&motor.torques, st, capture))
+        .collect();
+    held.sort_by(|a, b| {
+        longest(a)
+            .cmp(&longest(b))
+            .then(a.q.angle_to(goal).total_cmp(&b.q.angle_to(goal)))
+    });
+    held
+}
+
+/// How many distinct coils `pairs` switch on.
+fn distinct_coils(pairs: &[Pair]) -> usize {
+    let mut coils: Vec<CoilId> = pairs.iter().map(|p| p.coil).collect();
+    coils.sort_unstable();
+    coils.dedup();
+    coils.len()
+}
+
+/// The row of a release step from `last` to `to`: no pivot, nothing switched on.
+fn release_row(last: &PlanRow, to: &CommutationState) -> PlanRow {
+    PlanRow {
+        step: last.step + 1,
+        pivot: None,
+        new: Vec::new(),
+        active: to.active.clone(),
+        q: to.q,
+        settle_time_s: to.settle_time_s,
+        settled: true,
+        ..last.clone()
+    }
+}
+
+/// How long each coil on at the end of `rows` has been on, with the replay's dwells.
+fn on_times(rows: &[PlanRow], s: &PlanSettings) -> OnTimes<CoilId> {
+    let mut on = OnTimes::new();
+    if let Some(l) = s.limits.on_time {
+        for r in rows {
+            on_time::hold_row(&mut on, r, &l);
+        }
+    }
+    on
+}
+
+/// The orientation a waypoint's rows count from: the row before its first (`first`), or its
+/// first row for the first waypoint (`None` without rows).
+fn first_base(rows: &[PlanRow], first: usize) -> Option<Orientation> {
+    rows.get(first.saturating_sub(1)).map(|r| r.q)
+}
+
+/// Counts a waypoint's rows' step and cumulative figures from `base` about the shortest turn
+/// from it to `goal`.
+fn recount(rows: &mut [PlanRow], base: Orientation, goal: &Orientation) {
+    let Some(axis) = rotation_axis(&(goal * base.inverse())) else {
+        return;
+    };
+    let mut before = base;
+    let mut cum = 0.0;
+    for r in rows {
+        let (sa, se) = step_measure(&before, &r.q, &axis);
+        let (ca, ce) = cumulative_from(&base, &r.q, &axis, cum);
+        if r.pivot.is_some() || r.step > 0 {
+            r.step_angle_deg = sa.0.to_degrees();
+            r.step_axis_error_deg = se.0.to_degrees();
+        }
+        r.cum_angle_deg = ca.0.to_degrees();
+        r.cum_axis_error_deg = ce.0.to_degrees();
+        cum = ca.0;
+        before = r.q;
+    }
+}
