@@ -314,14 +314,15 @@ struct Leg {
 /// the supply (make before break): a pair's coil and another's, as an initial commutation has.
 const ROOM_FOR_NEW_COILS: usize = 2;
 
-/// How many release steps a leg tries before giving up: the ones that keep the coils on the
-/// shortest time first.
+/// How many release steps a leg tries beside going straight on: the ones that keep the coils on
+/// the shortest time first.
 const RELEASES_TRIED: usize = 3;
 
-/// A leg from `last` (the end of `out`), its coils still on: straight on when `last` leaves
-/// room to switch coils on ([`ROOM_FOR_NEW_COILS`]) and that plan has steps; else after a
-/// release step that switches some of the held pairs off (see [`releases`]), the first of
-/// [`RELEASES_TRIED`] that gives a plan. The last plan tried (its message) when none does.
+/// A leg from `last` (the end of `out`), its coils still on: of the plans straight on (when
+/// `last` leaves room to switch coils on, [`ROOM_FOR_NEW_COILS`]) and after each of
+/// [`RELEASES_TRIED`] release steps that switch some of the held pairs off (see [`releases`]),
+/// the one with steps that ends nearest `goal`, with its release row. The last plan tried (its
+/// message) when none has steps.
 fn go_on(
     motor: &Motor,
     leg: &PlanSettings,
@@ -335,13 +336,20 @@ fn go_on(
         active: last.active.clone(),
         settle_time_s: last.settle_time_s,
     };
-    let mut tried = None;
-    if distinct_coils(&last.active) + ROOM_FOR_NEW_COILS <= leg.limits.max_coils_on {
-        let p = plan_on_from(motor, leg, held, on.clone());
-        if p.rows.len() > 1 {
-            return (p, None);
+    let end = |p: &Plan| p.rows.last().map_or(f64::INFINITY, |r| r.q.angle_to(goal));
+    let mut tried: Option<Plan> = None;
+    let mut best: Option<(Plan, Option<PlanRow>)> = None;
+    let mut keep = |p: Plan, row: Option<PlanRow>| {
+        if p.rows.len() < 2 {
+            tried = Some(p);
+            return;
         }
-        tried = Some(p);
+        if best.as_ref().is_none_or(|(b, _)| end(&p) < end(b)) {
+            best = Some((p, row));
+        }
+    };
+    if distinct_coils(&last.active) + ROOM_FOR_NEW_COILS <= leg.limits.max_coils_on {
+        keep(plan_on_from(motor, leg, held, on.clone()), None);
     }
     for freed in releases(motor, leg, last, goal, &on)
         .into_iter()
@@ -362,11 +370,10 @@ fn go_on(
             start: freed.q,
             ..leg.clone()
         };
-        let p = plan_on_from(motor, &from, freed, on);
-        if p.rows.len() > 1 {
-            return (p, Some(row));
-        }
-        tried = Some(p);
+        keep(plan_on_from(motor, &from, freed, on), Some(row));
+    }
+    if let Some(b) = best {
+        return b;
     }
     let p = tried.unwrap_or_else(|| Plan {
         rows: Vec::new(),
