@@ -100,14 +100,30 @@ impl Args {
         let mut stderr = std::io::stderr();
         let note = emit_csv(&csv, out_file.as_deref(), json, out, &mut stderr)?;
         let s = spherestep::planning::simulate::summary(&sim);
+        let waypoints = spherestep::io::planfile::read_plan_waypoints(&plan)?
+            .map(|serves| app::waypoints::check_waypoints(&serves, &sim));
         if json {
-            writeln!(note, "{}", serde_json::to_string(&s)?)?;
+            let text = match &waypoints {
+                Some(w) => serde_json::to_string(&app::waypoints::SimulatedWaypoints {
+                    simulation: &s,
+                    waypoints: w,
+                })?,
+                None => serde_json::to_string(&s)?,
+            };
+            writeln!(note, "{text}")?;
         } else {
             writeln!(
                 note,
                 "{} steps: max deviation {:.3} deg, final deviation {:.3} deg, {} unsettled",
                 s.steps, s.max_deviation_deg, s.final_deviation_deg, s.unsettled_steps
             )?;
+            for w in waypoints.iter().flatten() {
+                writeln!(
+                    note,
+                    "  waypoint {}: step {}, the simulated ball {:.2} deg from it",
+                    w.waypoint, w.step, w.error_deg
+                )?;
+            }
         }
         Ok(())
     }

@@ -110,6 +110,15 @@ pub struct WaypointCheck {
     pub error_deg: f64,
 }
 
+/// The JSON summary of `simulate` for a plan through waypoints: the simulation's figures and
+/// where the simulated ball is at each waypoint.
+#[derive(Debug, Clone, Serialize)]
+pub struct SimulatedWaypoints<'a> {
+    #[serde(flatten)]
+    pub simulation: &'a crate::planning::simulate::SimSummary,
+    pub waypoints: &'a [WaypointCheck],
+}
+
 /// Each waypoint of a plan (`serves`, row by row, from the plan file) against the simulated
 /// rows: the simulated orientation after the last step serving it.
 pub fn check_waypoints(serves: &[Serves], sim: &[SimRow]) -> Vec<WaypointCheck> {

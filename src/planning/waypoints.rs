@@ -341,6 +341,9 @@ fn go_on(
     let mut best: Option<(Plan, Option<PlanRow>)> = None;
     let mut keep = |p: Plan, row: Option<PlanRow>| {
         if p.rows.len() < 2 {
+            if std::env::var_os("WP_DEBUG").is_some() {
+                eprintln!("  failed release={}: {:?}", row.is_some(), p.message);
+            }
             tried = Some(p);
             return;
         }
@@ -348,18 +351,22 @@ fn go_on(
             best = Some((p, row));
         }
     };
-    if distinct_coils(&last.active) + ROOM_FOR_NEW_COILS <= leg.limits.max_coils_on {
-        keep(plan_on_from(motor, leg, held, on.clone()), None);
-    }
-    for freed in releases(motor, leg, last, goal, &on)
+    keep(plan_on_from(motor, leg, held, on.clone()), None);
+    // a release whose coils would be on too long by the end of its own dwell is not tried
+    let released = releases(motor, leg, last, goal, &on)
         .into_iter()
-        .take(RELEASES_TRIED)
-    {
-        let row = release_row(last, &freed);
-        let mut on = on.clone();
-        if let Some(l) = leg.limits.on_time {
-            on_time::hold_row(&mut on, &row, &l);
-        }
+        .filter_map(|freed| {
+            let row = release_row(last, &freed);
+            let mut on = on.clone();
+            if let Some(l) = leg.limits.on_time {
+                on_time::hold_row(&mut on, &row, &l);
+                if on_time::over(&on, l.max_on).is_some() {
+                    return None;
+                }
+            }
+            Some((freed, row, on))
+        });
+    for (freed, row, on) in released.take(RELEASES_TRIED) {
         let (axis, angle) = match turn_to(&freed.q, goal, "the release") {
             Ok(t) => t,
             Err(_) => (leg.axis, leg.angle),
