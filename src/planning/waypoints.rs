@@ -186,7 +186,10 @@ pub fn plan_waypoints(
 }
 
 /// Plans the legs that take the ball from the end of `out` to waypoint `number` (`goal`) and
-/// appends them; an error when it cannot be reached within `tolerance` (rad).
+/// appends them; an error when it cannot be reached within `tolerance` (rad). The candidate
+/// legs towards it (see [`candidate_legs`]) are tried nearest-ending first, each followed by
+/// correction legs; the first that ends within the tolerance is kept, else the one that ends
+/// nearest.
 fn serve(
     motor: &Motor,
     s: &PlanSettings,
@@ -196,39 +199,36 @@ fn serve(
     tolerance: f64,
 ) -> Result<(), String> {
     let first = out.rows.len();
-    for _ in 0..LEGS_PER_WAYPOINT {
-        let here = out.rows.last().map_or(s.start, |r| r.q);
-        let distance = here.angle_to(goal);
-        if !out.rows.is_empty() && distance <= tolerance {
-            break;
+    let here = out.rows.last().map_or(s.start, |r| r.q);
+    if !out.rows.is_empty() && here.angle_to(goal) <= tolerance {
+        return Ok(()); // already there: no row serves it
+    }
+    let (legs, settles) = candidate_legs(motor, s, out, goal, number)?;
+    out.settles += settles;
+    let end = |p: &WaypointPlan| p.rows.last().map_or(f64::INFINITY, |r| r.q.angle_to(goal));
+    let mut best: Option<WaypointPlan> = None;
+    for leg in legs.into_iter().take(CANDIDATE_LEGS) {
+        let mut trial = out.clone();
+        append(&mut trial, leg, number);
+        correct(motor, s, &mut trial, number, goal);
+        if best.as_ref().is_none_or(|b| end(&trial) < end(b)) {
+            let done = end(&trial) <= tolerance;
+            best = Some(trial);
+            if done {
+                break;
+            }
         }
-        let Leg { release, plan: leg } = plan_leg(motor, s, out, goal, number)?;
-        out.settles += leg.settles;
-        let skip = usize::from(!out.rows.is_empty());
-        let Some(end) = leg.rows.last().filter(|_| leg.rows.len() > skip) else {
-            break;
-        };
-        // a correction that does not bring the ball nearer is not taken
-        if !out.rows.is_empty() && end.q.angle_to(goal) >= distance {
-            break;
-        }
-        let base = out.rows.len();
-        let rows = release.into_iter().chain(leg.rows.into_iter().skip(skip));
-        for (j, r) in rows.enumerate() {
-            out.rows.push(PlanRow {
-                step: base + j,
-                ..r
-            });
-            out.serves.push(number);
-        }
+    }
+    if let Some(b) = best {
+        // the settles of the candidates not kept were spent too
+        let spent = b.settles;
+        *out = b;
+        out.settles = spent;
     }
     if let Some(base) = first_base(&out.rows, first) {
         recount(&mut out.rows[first..], base, goal);
     }
-    let error = out
-        .rows
-        .last()
-        .map_or(f64::INFINITY, |r| r.q.angle_to(goal));
+    let error = end(out);
     if error > tolerance {
         return Err(format!(
             "waypoint {number} not reached: the plan leaves the ball {:.2} deg from it, over the \
@@ -240,15 +240,58 @@ fn serve(
     Ok(())
 }
 
-/// One leg towards `goal` from the end of `out` (from `s.start` with an initial commutation
-/// when `out` has no rows yet), or why there is none.
-fn plan_leg(
+/// How many candidate legs towards a waypoint are tried before it is given up.
+const CANDIDATE_LEGS: usize = 4;
+
+/// Appends `leg` to `out`, its rows serving waypoint `number` (a leg that goes on from the end
+/// of `out` without its row 0, which is that end).
+fn append(out: &mut WaypointPlan, leg: Leg, number: usize) {
+    let skip = usize::from(!out.rows.is_empty());
+    let base = out.rows.len();
+    let rows = leg.release.into_iter().chain(leg.plan.rows.into_iter().skip(skip));
+    for (j, r) in rows.enumerate() {
+        out.rows.push(PlanRow {
+            step: base + j,
+            ..r
+        });
+        out.serves.push(number);
+    }
+}
+
+/// Correction legs from where `out` ends towards `goal`, at most [`LEGS_PER_WAYPOINT`] - 1 of
+/// them, each the nearest-ending candidate, while it brings the ball nearer.
+fn correct(motor: &Motor, s: &PlanSettings, out: &mut WaypointPlan, number: usize, goal: &Orientation) {
+    for _ in 1..LEGS_PER_WAYPOINT {
+        let Some(distance) = out.rows.last().map(|r| r.q.angle_to(goal)) else {
+            return;
+        };
+        if distance <= s.angle_tolerance.0 {
+            return;
+        }
+        let Ok((legs, settles)) = candidate_legs(motor, s, out, goal, number) else {
+            return;
+        };
+        out.settles += settles;
+        let Some(leg) = legs.into_iter().next() else {
+            return;
+        };
+        if leg.end(goal) >= distance {
+            return; // a correction that does not bring the ball nearer is not taken
+        }
+        append(out, leg, number);
+    }
+}
+
+/// The legs towards `goal` from the end of `out` (from `s.start` with an initial commutation
+/// when `out` has no rows yet), those with steps, nearest-ending first, with the settles spent
+/// on them; or why there is none.
+fn candidate_legs(
     motor: &Motor,
     s: &PlanSettings,
     out: &WaypointPlan,
     goal: &Orientation,
     number: usize,
-) -> Result<Leg, String> {
+) -> Result<(Vec<Leg>, usize), String> {
     let here = out.rows.last().map_or(s.start, |r| r.q);
     let (axis, angle) = turn_to(&here, goal, "the waypoint before")
         .map_err(|e| format!("waypoint {number}: expected {e}"))?;
@@ -258,49 +301,60 @@ fn plan_leg(
         start: here,
         ..s.clone()
     };
-    let (p, release) = match out.rows.last() {
-        None => (first_leg(motor, &leg, goal), None),
+    let tried = match out.rows.last() {
+        None => first_legs(motor, &leg, goal),
         Some(last) => go_on(motor, &leg, out, last, goal),
     };
-    if p.rows.is_empty() {
-        return Err(format!(
-            "waypoint {number}: {}",
-            p.message.unwrap_or_else(|| "no plan".into())
-        ));
+    let settles = tried.iter().map(|l| l.plan.settles).sum();
+    let skip = usize::from(!out.rows.is_empty());
+    let (mut legs, failed): (Vec<Leg>, Vec<Leg>) =
+        tried.into_iter().partition(|l| l.plan.rows.len() > skip);
+    if legs.is_empty() {
+        let why = failed
+            .into_iter()
+            .find_map(|l| l.plan.message)
+            .unwrap_or_else(|| "no plan".into());
+        return Err(format!("waypoint {number}: {why}"));
     }
-    Ok(Leg { release, plan: p })
+    // nearest-ending first; a stable sort keeps the order tried on a tie
+    legs.sort_by(|a, b| a.end(goal).total_cmp(&b.end(goal)));
+    Ok((legs, settles))
 }
 
-/// The first leg, from `leg.start` with an initial commutation: the initial commutation moves
+/// The first legs, from `leg.start` with an initial commutation: the initial commutation moves
 /// the ball before the first step (it settles where the coils switched on hold it), so the leg
-/// is planned again from where row 0 leaves the ball, aimed at `goal`; the one that ends nearer
-/// it is kept.
-fn first_leg(motor: &Motor, leg: &PlanSettings, goal: &Orientation) -> Plan {
+/// is planned both as asked and again from where row 0 leaves the ball, aimed at `goal`.
+fn first_legs(motor: &Motor, leg: &PlanSettings, goal: &Orientation) -> Vec<Leg> {
     let p = plan(motor, leg);
-    let Some(row0) = p.rows.first() else {
-        return p;
-    };
-    let Ok((axis, angle)) = turn_to(&row0.q, goal, "row 0") else {
-        return p;
-    };
-    let aimed = PlanSettings {
-        axis,
-        angle,
-        start: row0.q,
-        ..leg.clone()
-    };
-    let state = CommutationState {
-        q: row0.q,
-        active: row0.active.clone(),
-        settle_time_s: row0.settle_time_s,
-    };
-    let again = plan_on_from(motor, &aimed, state, on_times(&p.rows[..1], leg));
-    let end = |p: &Plan| p.rows.last().map_or(f64::INFINITY, |r| r.q.angle_to(goal));
-    if again.rows.len() > 1 && end(&again) < end(&p) {
-        again
-    } else {
-        p
+    let mut out = Vec::new();
+    if let Some(row0) = p.rows.first() {
+        if let Ok((axis, angle)) = turn_to(&row0.q, goal, "row 0") {
+            let aimed = PlanSettings {
+                axis,
+                angle,
+                start: row0.q,
+                ..leg.clone()
+            };
+            let state = CommutationState {
+                q: row0.q,
+                active: row0.active.clone(),
+                settle_time_s: row0.settle_time_s,
+            };
+            let again = plan_on_from(motor, &aimed, state, on_times(&p.rows[..1], leg));
+            out.push(Leg {
+                release: None,
+                plan: again,
+            });
+        }
     }
+    out.insert(
+        0,
+        Leg {
+            release: None,
+            plan: p,
+        },
+    );
+    out
 }
 
 /// A leg: a release step when the ball set out with too many coils on to switch any on, then
@@ -308,6 +362,16 @@ fn first_leg(motor: &Motor, leg: &PlanSettings, goal: &Orientation) -> Plan {
 struct Leg {
     release: Option<PlanRow>,
     plan: Plan,
+}
+
+impl Leg {
+    /// How far from `goal` the leg leaves the ball, rad.
+    fn end(&self, goal: &Orientation) -> f64 {
+        self.plan
+            .rows
+            .last()
+            .map_or(f64::INFINITY, |r| r.q.angle_to(goal))
+    }
 }
 
 /// The fewest coils a leg sets out with switched off, so that a step can switch coils on within
@@ -329,29 +393,17 @@ fn go_on(
     out: &WaypointPlan,
     last: &PlanRow,
     goal: &Orientation,
-) -> (Plan, Option<PlanRow>) {
+) -> Vec<Leg> {
     let on = on_times(&out.rows, leg);
     let held = CommutationState {
         q: last.q,
         active: last.active.clone(),
         settle_time_s: last.settle_time_s,
     };
-    let end = |p: &Plan| p.rows.last().map_or(f64::INFINITY, |r| r.q.angle_to(goal));
-    let mut tried: Option<Plan> = None;
-    let mut best: Option<(Plan, Option<PlanRow>)> = None;
-    let mut keep = |p: Plan, row: Option<PlanRow>| {
-        if p.rows.len() < 2 {
-            if std::env::var_os("WP_DEBUG").is_some() {
-                eprintln!("  failed release={}: {:?}", row.is_some(), p.message);
-            }
-            tried = Some(p);
-            return;
-        }
-        if best.as_ref().is_none_or(|(b, _)| end(&p) < end(b)) {
-            best = Some((p, row));
-        }
-    };
-    keep(plan_on_from(motor, leg, held, on.clone()), None);
+    let mut tried = vec![Leg {
+        release: None,
+        plan: plan_on_from(motor, leg, held, on.clone()),
+    }];
     // a release whose coils would be on too long by the end of its own dwell is not tried
     let released = releases(motor, leg, last, goal, &on)
         .into_iter()
@@ -377,22 +429,19 @@ fn go_on(
             start: freed.q,
             ..leg.clone()
         };
-        keep(plan_on_from(motor, &from, freed, on), Some(row));
+        tried.push(Leg {
+            release: Some(row),
+            plan: plan_on_from(motor, &from, freed, on),
+        });
     }
-    if let Some(b) = best {
-        return b;
-    }
-    let p = tried.unwrap_or_else(|| Plan {
-        rows: Vec::new(),
-        reached: false,
-        message: Some(format!(
+    if tried.len() == 1 && tried[0].plan.rows.len() < 2 && tried[0].plan.message.is_none() {
+        tried[0].plan.message = Some(format!(
             "the coils on at step {} hold the ball, and no subset of them that leaves room to \
              switch coils on does",
             last.step
-        )),
-        settles: 0,
-    });
-    (p, None)
+        ));
+    }
+    tried
 }
 
 /// The states a release step from `last` can leave the ball in: some of its pairs switched off,
