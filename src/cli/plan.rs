@@ -69,7 +69,7 @@ pub struct Args {
     /// which waypoint each step serves.
     #[arg(long, conflicts_with_all = ["axis", "angle", "to"])]
     pub waypoints: Option<PathBuf>,
-    /// With --waypoints: every waypoint must be reached within this many degrees (default 2).
+    /// With --waypoints: every waypoint must be reached within this many degrees (default 3).
     #[arg(long, requires = "waypoints")]
     pub tolerance_deg: Option<f64>,
     #[command(flatten)]

@@ -20,8 +20,10 @@ use crate::planning::planner::{plan, plan_on_from};
 use crate::planning::search::over_on_time;
 use serde::Serialize;
 
-/// The default tolerance within which every waypoint must be reached, degrees.
-pub const DEFAULT_WAYPOINT_TOLERANCE_DEG: f64 = 2.0;
+/// The default tolerance within which every waypoint must be reached, degrees: the prototype's
+/// nearest equilibrium to an orientation can be over 2 degrees from it (2.3 on one of the
+/// random paths tried), so a tighter tolerance refuses paths the motor cannot do better on.
+pub const DEFAULT_WAYPOINT_TOLERANCE_DEG: f64 = 3.0;
 
 /// How many legs may serve one waypoint: the first, then corrections from where the last ended
 /// while it ends further than the tolerance from the waypoint and nearer than before.
@@ -168,12 +170,48 @@ pub fn plan_waypoints(
         settles: 0,
     };
     let tolerance = tolerance_deg.to_radians();
-    for (k, goal) in waypoints.iter().enumerate() {
-        if let Err(why) = serve(motor, s, &mut out, k + 1, goal, tolerance) {
-            out.message = Some(why);
-            return out;
+    let mut spent = 0usize;
+    // the waypoints served so far, each with the plan before it and its untried legs
+    let mut pending: Vec<Pending> = Vec::new();
+    let mut failure: Option<(usize, WaypointPlan, String)> = None;
+    let (mut k, mut legs, mut backtracks) = (0usize, None, 0usize);
+    while let Some(goal) = waypoints.get(k) {
+        let before = out.clone();
+        match serve(motor, s, &mut out, (k + 1, goal), tolerance, legs.take(), &mut spent) {
+            Ok(rest) => {
+                pending.push(Pending {
+                    before,
+                    index: k,
+                    legs: rest,
+                });
+                k += 1;
+            }
+            Err(why) => {
+                if failure.as_ref().is_none_or(|(f, _, _)| k >= *f) {
+                    failure = Some((k, out.clone(), why));
+                }
+                // back to the latest waypoint with a leg not tried yet
+                while pending.last().is_some_and(|p| p.legs.is_empty()) {
+                    pending.pop();
+                }
+                match pending.pop().filter(|_| backtracks < MAX_BACKTRACKS) {
+                    Some(p) => {
+                        backtracks += 1;
+                        out = p.before;
+                        k = p.index;
+                        legs = Some(p.legs);
+                    }
+                    None => {
+                        let (_, mut f, why) = failure.unwrap_or((k, out, String::new()));
+                        f.message = Some(why);
+                        f.settles = spent;
+                        return f;
+                    }
+                }
+            }
         }
     }
+    out.settles = spent;
     if let Some(why) = over_on_time(&out.rows, s.limits.on_time) {
         out.message = Some(why);
         return out;
@@ -187,30 +225,34 @@ pub fn plan_waypoints(
 
 /// Plans the legs that take the ball from the end of `out` to waypoint `number` (`goal`) and
 /// appends them; an error when it cannot be reached within `tolerance` (rad). The candidate
-/// legs towards it (see [`candidate_legs`]) are tried nearest-ending first, each followed by
-/// correction legs; the first that ends within the tolerance is kept, else the one that ends
-/// nearest.
+/// legs towards it (`legs`, when going back to it; else [`candidate_legs`]) are tried in order,
+/// each followed by correction legs; the first that ends within the tolerance is kept (the
+/// legs not tried are returned, for a later waypoint to come back to), else `out` is left with
+/// the one that ends nearest. Settles are counted in `spent`.
 fn serve(
     motor: &Motor,
     s: &PlanSettings,
     out: &mut WaypointPlan,
-    number: usize,
-    goal: &Orientation,
+    (number, goal): (usize, &Orientation),
     tolerance: f64,
-) -> Result<(), String> {
+    legs: Option<Vec<Leg>>,
+    spent: &mut usize,
+) -> Result<Vec<Leg>, String> {
     let first = out.rows.len();
-    let here = out.rows.last().map_or(s.start, |r| r.q);
-    if !out.rows.is_empty() && here.angle_to(goal) <= tolerance {
-        return Ok(()); // already there: no row serves it
-    }
-    let (legs, settles) = candidate_legs(motor, s, out, goal, number)?;
-    out.settles += settles;
     let end = |p: &WaypointPlan| p.rows.last().map_or(f64::INFINITY, |r| r.q.angle_to(goal));
+    let legs = match legs {
+        Some(l) => l,
+        None if !out.rows.is_empty() && end(out) <= tolerance => {
+            return Ok(Vec::new()); // already there: no row serves it
+        }
+        None => candidate_legs(motor, s, out, goal, number, spent)?,
+    };
     let mut best: Option<WaypointPlan> = None;
-    for leg in legs.into_iter().take(CANDIDATE_LEGS) {
+    let mut legs = legs.into_iter().take(CANDIDATE_LEGS);
+    for leg in legs.by_ref() {
         let mut trial = out.clone();
         append(&mut trial, leg, number);
-        correct(motor, s, &mut trial, number, goal);
+        correct(motor, s, &mut trial, number, goal, spent);
         if best.as_ref().is_none_or(|b| end(&trial) < end(b)) {
             let done = end(&trial) <= tolerance;
             best = Some(trial);
@@ -220,10 +262,7 @@ fn serve(
         }
     }
     if let Some(b) = best {
-        // the settles of the candidates not kept were spent too
-        let spent = b.settles;
         *out = b;
-        out.settles = spent;
     }
     if let Some(base) = first_base(&out.rows, first) {
         recount(&mut out.rows[first..], base, goal);
@@ -237,8 +276,19 @@ fn serve(
             tolerance.to_degrees()
         ));
     }
-    Ok(())
+    Ok(legs.collect())
 }
+
+/// A waypoint served: the plan before it and the candidate legs towards it not tried yet.
+struct Pending {
+    before: WaypointPlan,
+    index: usize,
+    legs: Vec<Leg>,
+}
+
+/// How many times the planner goes back to an earlier waypoint to take another of its legs
+/// when a later one cannot be reached (a budget in legs, the same on any machine).
+const MAX_BACKTRACKS: usize = 8;
 
 /// How many candidate legs towards a waypoint are tried before it is given up.
 const CANDIDATE_LEGS: usize = 4;
@@ -260,7 +310,14 @@ fn append(out: &mut WaypointPlan, leg: Leg, number: usize) {
 
 /// Correction legs from where `out` ends towards `goal`, at most [`LEGS_PER_WAYPOINT`] - 1 of
 /// them, each the nearest-ending candidate, while it brings the ball nearer.
-fn correct(motor: &Motor, s: &PlanSettings, out: &mut WaypointPlan, number: usize, goal: &Orientation) {
+fn correct(
+    motor: &Motor,
+    s: &PlanSettings,
+    out: &mut WaypointPlan,
+    number: usize,
+    goal: &Orientation,
+    spent: &mut usize,
+) {
     for _ in 1..LEGS_PER_WAYPOINT {
         let Some(distance) = out.rows.last().map(|r| r.q.angle_to(goal)) else {
             return;
@@ -268,10 +325,9 @@ fn correct(motor: &Motor, s: &PlanSettings, out: &mut WaypointPlan, number: usiz
         if distance <= s.angle_tolerance.0 {
             return;
         }
-        let Ok((legs, settles)) = candidate_legs(motor, s, out, goal, number) else {
+        let Ok(legs) = candidate_legs(motor, s, out, goal, number, spent) else {
             return;
         };
-        out.settles += settles;
         let Some(leg) = legs.into_iter().next() else {
             return;
         };
@@ -283,15 +339,16 @@ fn correct(motor: &Motor, s: &PlanSettings, out: &mut WaypointPlan, number: usiz
 }
 
 /// The legs towards `goal` from the end of `out` (from `s.start` with an initial commutation
-/// when `out` has no rows yet), those with steps, nearest-ending first, with the settles spent
-/// on them; or why there is none.
+/// when `out` has no rows yet), those with steps, nearest-ending first (the settles spent on
+/// them added to `spent`); or why there is none.
 fn candidate_legs(
     motor: &Motor,
     s: &PlanSettings,
     out: &WaypointPlan,
     goal: &Orientation,
     number: usize,
-) -> Result<(Vec<Leg>, usize), String> {
+    spent: &mut usize,
+) -> Result<Vec<Leg>, String> {
     let here = out.rows.last().map_or(s.start, |r| r.q);
     let (axis, angle) = turn_to(&here, goal, "the waypoint before")
         .map_err(|e| format!("waypoint {number}: expected {e}"))?;
@@ -305,7 +362,7 @@ fn candidate_legs(
         None => first_legs(motor, &leg, goal),
         Some(last) => go_on(motor, &leg, out, last, goal),
     };
-    let settles = tried.iter().map(|l| l.plan.settles).sum();
+    *spent += tried.iter().map(|l| l.plan.settles).sum::<usize>();
     let skip = usize::from(!out.rows.is_empty());
     let (mut legs, failed): (Vec<Leg>, Vec<Leg>) =
         tried.into_iter().partition(|l| l.plan.rows.len() > skip);
@@ -318,7 +375,7 @@ fn candidate_legs(
     }
     // nearest-ending first; a stable sort keeps the order tried on a tie
     legs.sort_by(|a, b| a.end(goal).total_cmp(&b.end(goal)));
-    Ok((legs, settles))
+    Ok(legs)
 }
 
 /// The first legs, from `leg.start` with an initial commutation: the initial commutation moves
