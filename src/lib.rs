@@ -137,3 +137,6 @@ pub use planning::commutation::{CommutationState, Motor, PairsPerStep, StepLimit
 pub use planning::plan::{Plan, PlanRow, PlanSettings, PlanSummary, Scheme};
 pub use planning::planner::max_axis_error_deg;
 pub use planning::simulate::SimRow;
+pub use planning::waypoints::{
+    WaypointPlan, WaypointReached, WaypointSummary, DEFAULT_WAYPOINT_TOLERANCE_DEG,
+};

@@ -11,6 +11,7 @@ use crate::planning::commutation::Motor;
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::planner;
 use crate::planning::simulate::{self, SimRow};
+use crate::planning::waypoints::WaypointPlan;
 
 impl Motor {
     /// Settles the ball from `q0` under the coil:magnet pairs `pairs` (see
@@ -80,6 +81,39 @@ impl Motor {
     /// ```
     pub fn plan(&self, settings: &PlanSettings) -> Plan {
         planner::plan(self, settings)
+    }
+
+    /// Plans one motion through `waypoints` (orientations, in order) from `settings.start`,
+    /// every waypoint reached within `tolerance_deg` degrees: each leg is the shortest turn to
+    /// its waypoint from where the ball is, planned with the settings' model, scheme and
+    /// limits, its coils still on from the leg before (their on-times counted on). The
+    /// settings' axis and angle are not used.
+    ///
+    /// # Errors
+    ///
+    /// None: a path that cannot be followed is a plan with `reached` false and
+    /// [`WaypointPlan::message`] saying which waypoint was missed and why.
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use spherestep::{Orientation, Scenario};
+    ///
+    /// let sc = Scenario::prototype();
+    /// // 20 degrees about Y, then 10 about X from there (world frame)
+    /// let first = Orientation::from_euler_angles(0.0, 20f64.to_radians(), 0.0);
+    /// let second = Orientation::from_euler_angles(10f64.to_radians(), 0.0, 0.0) * first;
+    /// let p = sc.motor().plan_waypoints(&sc.plan, &[first, second], 3.0);
+    /// assert!(p.reached, "{:?}", p.message);
+    /// assert!(p.reached_at().iter().all(|w| w.error_deg <= 3.0));
+    /// ```
+    pub fn plan_waypoints(
+        &self,
+        settings: &PlanSettings,
+        waypoints: &[Orientation],
+        tolerance_deg: f64,
+    ) -> WaypointPlan {
+        crate::planning::waypoints::plan_waypoints(self, settings, waypoints, tolerance_deg)
     }
 
     /// Replays a plan's rows through the dynamics: where the ball really settles at each step

@@ -84,19 +84,29 @@ pub struct WaypointReached {
 /// A waypoint plan's figures (the JSON summary of `plan --waypoints`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WaypointSummary {
+    /// Steps after row 0 (release steps included).
     pub steps: usize,
+    /// Where each waypoint is reached, in order.
     pub waypoints: Vec<WaypointReached>,
     /// The largest of the waypoints' errors, degrees.
     pub worst_waypoint_error_deg: f64,
     /// The worst cumulative axis error of any leg, degrees.
     pub max_axis_error_deg: f64,
+    /// The tolerance every waypoint had to be reached within, degrees.
     pub tolerance_deg: f64,
+    /// Every waypoint reached within the tolerance, within the on-time limit.
     pub reached: bool,
+    /// The sum of the steps' predicted settle times, s.
     pub total_settle_time_s: f64,
+    /// The planning scheme of every leg.
     pub scheme: String,
+    /// The step model of every leg.
     pub model: String,
+    /// Why the path was not followed, when it was not.
     pub message: Option<String>,
+    /// Settles spent over all legs, those tried and not kept included.
     pub settles: usize,
+    /// The steps predicted not to settle.
     pub unsettled_steps: Vec<usize>,
 }
 
