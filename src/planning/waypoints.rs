@@ -6,8 +6,8 @@
 //! from where it ended. A consumer of the planner ([`plan`], [`plan_on_from`]): it settles
 //! nothing itself.
 
-use crate::model::geometry::{rotation_angle, rotation_axis, CoilId, Orientation, UnitVec};
 use crate::model::geometry::Pair;
+use crate::model::geometry::{rotation_angle, rotation_axis, CoilId, Orientation, UnitVec};
 use crate::planning::commutation::{
     combinations, cumulative_from, holds, settled_states, step_measure, CommutationState, Motor,
 };
@@ -187,7 +187,15 @@ pub fn plan_waypoints(
     let (mut k, mut legs, mut backtracks) = (0usize, None, 0usize);
     while let Some(goal) = waypoints.get(k) {
         let before = out.clone();
-        match serve(motor, s, &mut out, (k + 1, goal), tolerance, legs.take(), &mut spent) {
+        match serve(
+            motor,
+            s,
+            &mut out,
+            (k + 1, goal),
+            tolerance,
+            legs.take(),
+            &mut spent,
+        ) {
             Ok(rest) => {
                 pending.push(Pending {
                     before,
@@ -308,7 +316,10 @@ const CANDIDATE_LEGS: usize = 4;
 fn append(out: &mut WaypointPlan, leg: Leg, number: usize) {
     let skip = usize::from(!out.rows.is_empty());
     let base = out.rows.len();
-    let rows = leg.release.into_iter().chain(leg.plan.rows.into_iter().skip(skip));
+    let rows = leg
+        .release
+        .into_iter()
+        .chain(leg.plan.rows.into_iter().skip(skip));
     for (j, r) in rows.enumerate() {
         out.rows.push(PlanRow {
             step: base + j,
