@@ -15,6 +15,8 @@
 //!   sweep, on a longitude/latitude map of the sphere of axes;
 //! - [`loop_plot`]: a run on a plant (open or closed loop): the distance to the goal by step,
 //!   the replans marked;
+//! - [`waypoint_plot`]: a plan through waypoints: the ball's path and the waypoints, as
+//!   rotation vectors projected on the two world axes the waypoints spread along most;
 //! - [`plot_csv`]: `spherestep plot`, the figure that suits an existing result CSV, with
 //!   [`sweep_csv`] reading a sweep CSV's points;
 //! - [`view`]: `spherestep view`, the interactive 3-D page of a plan;
@@ -43,6 +45,7 @@ pub mod sweep_csv;
 pub mod sweep_map;
 pub mod view;
 pub mod view_3d;
+pub mod waypoint_plot;
 pub mod well_plot;
 
 pub use axis_error::{plan_series, AxisErrorPlot, ErrorSeries, ReferenceLine};
@@ -57,4 +60,5 @@ pub use sweep_csv::{
 };
 pub use sweep_map::{scale_color, SweepMap};
 pub use view_3d::View3d;
+pub use waypoint_plot::WaypointPlot;
 pub use well_plot::WellPlot;

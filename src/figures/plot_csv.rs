@@ -1,5 +1,5 @@
 //! `spherestep plot` ([`plot_csv`]): the figure that suits an existing result CSV, told by its
-//! header: a plan's axis error curve, a sweep's maps (one per scheme, and one of the pivot
+//! header: a plan's axis error curve (a plan through waypoints: its path through them), a sweep's maps (one per scheme, and one of the pivot
 //! model's floor when the sweep has that column), or a run's distance to the goal by step.
 
 use crate::error::{Error, Result};
@@ -10,12 +10,14 @@ use crate::figures::sweep_csv::{
     parse_sweep, parse_sweep_column, parse_unreached, SweepPoints, FLOOR_COLUMN, SWEEP_COLUMNS,
 };
 use crate::figures::sweep_map::{value_range, SweepMap};
+use crate::figures::waypoint_plot::WaypointPlot;
 use crate::io::{loopfile, planfile};
 use std::path::{Path, PathBuf};
 
 /// Draws an existing result CSV (for `spherestep plot`), recognised by its header:
 /// - a plan CSV (the columns of [`planfile::HEADER`]): a Figure 7-style plot of its cumulative
-///   axis error against rotation angle, written as `STEM.svg` and `STEM.png`;
+///   axis error against rotation angle, written as `STEM.svg` and `STEM.png`; a plan through
+///   waypoints (with the waypoint columns): the ball's path through them, `STEM.svg/.png`;
 /// - a sweep CSV (the columns [`SWEEP_COLUMNS`], optionally `scheme`): one map of the worst
 ///   axis error per scheme, `STEM_SCHEME.svg/.png` (or `STEM.svg/.png` without `scheme`);
 /// - a run CSV (`spherestep run`, `simulate --closed-loop`: the columns of
@@ -157,6 +159,9 @@ impl ResultCsv<'_> {
     /// A plan's axis error curve, `STEM.svg/.png`.
     fn plan_figure(&self, title: Option<&str>) -> Result<Vec<PathBuf>> {
         let rows = planfile::parse_plan(self.text, self.path)?;
+        if let Some(serves) = planfile::parse_plan_waypoints(self.text, self.path)? {
+            return self.waypoint_figure(&rows, &serves, title);
+        }
         let fig = AxisErrorPlot {
             title: title
                 .map(str::to_string)
@@ -164,6 +169,37 @@ impl ResultCsv<'_> {
             series: vec![plan_series(&self.stem, &rows)],
             reference: None,
             target_deg: None,
+        };
+        write_figure(&fig, &self.dir.join(&self.stem))
+    }
+
+    /// A plan through waypoints: the ball's path and the waypoints, `STEM.svg/.png`.
+    fn waypoint_figure(
+        &self,
+        rows: &[crate::planning::plan::PlanRow],
+        serves: &[planfile::Serves],
+        title: Option<&str>,
+    ) -> Result<Vec<PathBuf>> {
+        let deg = |q: &crate::model::geometry::Orientation| {
+            let v = q.scaled_axis() * (180.0 / std::f64::consts::PI);
+            [v.x, v.y, v.z]
+        };
+        // each waypoint at the last row serving it
+        let waypoints = serves
+            .iter()
+            .enumerate()
+            .filter(|(k, (w, _))| serves.get(k + 1).is_none_or(|(next, _)| next != w))
+            .filter_map(|(k, (_, q))| {
+                rows.get(k)
+                    .map(|r| (deg(q), k, r.q.angle_to(q).to_degrees()))
+            })
+            .collect();
+        let fig = WaypointPlot {
+            title: title
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("the path through the waypoints: {}", self.stem)),
+            path: rows.iter().map(|r| deg(&r.q)).collect(),
+            waypoints,
         };
         write_figure(&fig, &self.dir.join(&self.stem))
     }
