@@ -4,10 +4,12 @@
 use super::{CsvOutput, LoopArgs};
 use anyhow::Result;
 use spherestep::commands::args::check_out;
+use spherestep::commands::waypoints::WaypointCheck;
 use spherestep::commands::{self as app};
 use spherestep::io::output::emit_csv;
 use spherestep::io::scenario::Scenario;
 use spherestep::io::simfile::write_sim;
+use spherestep::planning::simulate::SimSummary;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -102,29 +104,41 @@ impl Args {
         let s = spherestep::planning::simulate::summary(&sim);
         let waypoints = spherestep::io::planfile::read_plan_waypoints(&plan)?
             .map(|serves| app::waypoints::check_waypoints(&serves, &sim));
-        if json {
-            let text = match &waypoints {
-                Some(w) => serde_json::to_string(&app::waypoints::SimulatedWaypoints {
-                    simulation: &s,
-                    waypoints: w,
-                })?,
-                None => serde_json::to_string(&s)?,
-            };
-            writeln!(note, "{text}")?;
-        } else {
-            writeln!(
-                note,
-                "{} steps: max deviation {:.3} deg, final deviation {:.3} deg, {} unsettled",
-                s.steps, s.max_deviation_deg, s.final_deviation_deg, s.unsettled_steps
-            )?;
-            for w in waypoints.iter().flatten() {
-                writeln!(
-                    note,
-                    "  waypoint {}: step {}, the simulated ball {:.2} deg from it",
-                    w.waypoint, w.step, w.error_deg
-                )?;
-            }
-        }
+        report(note, &s, waypoints.as_deref(), json)?;
         Ok(())
     }
+}
+
+/// The summary of an open-loop `simulate` (and, for a plan through waypoints, where the
+/// simulated ball is at each), as JSON or as text.
+fn report(
+    note: &mut dyn Write,
+    s: &SimSummary,
+    waypoints: Option<&[WaypointCheck]>,
+    json: bool,
+) -> Result<()> {
+    if json {
+        let text = match waypoints {
+            Some(w) => serde_json::to_string(&app::waypoints::SimulatedWaypoints {
+                simulation: s,
+                waypoints: w,
+            })?,
+            None => serde_json::to_string(s)?,
+        };
+        writeln!(note, "{text}")?;
+        return Ok(());
+    }
+    writeln!(
+        note,
+        "{} steps: max deviation {:.3} deg, final deviation {:.3} deg, {} unsettled",
+        s.steps, s.max_deviation_deg, s.final_deviation_deg, s.unsettled_steps
+    )?;
+    for w in waypoints.into_iter().flatten() {
+        writeln!(
+            note,
+            "  waypoint {}: step {}, the simulated ball {:.2} deg from it",
+            w.waypoint, w.step, w.error_deg
+        )?;
+    }
+    Ok(())
 }

@@ -750,18 +750,7 @@ fn land(src: &dyn StepSource, s: &PlanSettings, plans: Vec<Node>, budget: usize)
     let mut open = std::collections::BinaryHeap::new();
     let mut seen: Vec<(Vec<Pair>, Orientation)> = Vec::new();
     // and each plan without its last step, whose landing may take another way to the goal
-    let before = src.initial_on_times();
-    let parents: Vec<Node> = plans
-        .iter()
-        .filter(|p| p.rows.len() > 2)
-        .map(|p| {
-            node_of(
-                &p.rows[..p.rows.len() - 1],
-                s.limits.on_time,
-                before.as_ref(),
-            )
-        })
-        .collect();
+    let parents = parents_of(&plans, s, src.initial_on_times().as_ref());
     for p in plans.into_iter().chain(parents) {
         let goal = goal_of_node(&p, s);
         let d = p.state.q.angle_to(&goal);
@@ -824,6 +813,16 @@ fn land(src: &dyn StepSource, s: &PlanSettings, plans: Vec<Node>, budget: usize)
         }
     }
     (nodes.swap_remove(nearest).0, spent)
+}
+
+/// Each plan of `plans` with more than one step, without its last step (`before`: the on-times
+/// of row 0's coils, when the plans go on where another left off).
+fn parents_of(plans: &[Node], s: &PlanSettings, before: Option<&OnTimes<CoilId>>) -> Vec<Node> {
+    plans
+        .iter()
+        .filter(|p| p.rows.len() > 2)
+        .map(|p| node_of(&p.rows[..p.rows.len() - 1], s.limits.on_time, before))
+        .collect()
 }
 
 /// A partial plan's [`score`] as far as it goes: its worst axis error, or how far it has
