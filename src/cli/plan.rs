@@ -95,42 +95,30 @@ impl Args {
         }
         let o = what.overrides();
         let settings = app::plan_settings(&sc, &o)?;
-        if let Some(file) = &waypoints {
-            let tolerance_deg = match tolerance_deg {
-                Some(t) => waypoints::check_tolerance(t)?,
-                None => DEFAULT_WAYPOINT_TOLERANCE_DEG,
-            };
-            let job = waypoints::WaypointJob {
-                file,
-                tolerance_deg,
-            };
-            let p = waypoints::plan_waypoints_command(
-                &sc,
-                &settings,
-                job,
-                out_file.as_deref(),
-                json,
-                out,
-                &mut std::io::stderr(),
-            )?;
-            if !p.reached {
-                anyhow::bail!("{}", p.message.unwrap_or_else(|| "not reached".into()));
+        let (file, json) = (out_file.as_deref(), json);
+        let mut note = std::io::stderr();
+        let (reached, message) = match &waypoints {
+            Some(waypoints_file) => {
+                let tolerance_deg = match tolerance_deg {
+                    Some(t) => waypoints::check_tolerance(t)?,
+                    None => DEFAULT_WAYPOINT_TOLERANCE_DEG,
+                };
+                let job = waypoints::WaypointJob {
+                    file: waypoints_file,
+                    tolerance_deg,
+                };
+                let p = waypoints::plan_waypoints_command(
+                    &sc, &settings, job, file, json, out, &mut note,
+                )?;
+                (p.reached, p.message)
             }
-            return Ok(());
-        }
-        let p = app::plan_command(
-            &sc,
-            &settings,
-            out_file.as_deref(),
-            json,
-            out,
-            &mut std::io::stderr(),
-        )?;
-        if !p.reached {
-            anyhow::bail!(
-                "{}",
-                p.message.unwrap_or_else(|| "target not reached".into())
-            );
+            None => {
+                let p = app::plan_command(&sc, &settings, file, json, out, &mut note)?;
+                (p.reached, p.message)
+            }
+        };
+        if !reached {
+            anyhow::bail!("{}", message.unwrap_or_else(|| "target not reached".into()));
         }
         Ok(())
     }
