@@ -4,7 +4,7 @@
 
 use crate::error::{printable, Error, Result};
 use crate::io::output::emit_csv;
-use crate::io::planfile::{write_waypoint_plan, Serves};
+use crate::io::planfile::{waypoint_ends, write_waypoint_plan, Serves};
 use crate::io::scenario::Scenario;
 use crate::io::waypoints::read_waypoints;
 use crate::planning::plan::PlanSettings;
@@ -122,17 +122,15 @@ pub struct SimulatedWaypoints<'a> {
 /// Each waypoint of a plan (`serves`, row by row, from the plan file) against the simulated
 /// rows: the simulated orientation after the last step serving it.
 pub fn check_waypoints(serves: &[Serves], sim: &[SimRow]) -> Vec<WaypointCheck> {
-    let mut out: Vec<WaypointCheck> = Vec::new();
-    for (k, (w, q)) in serves.iter().enumerate() {
-        let last = serves.get(k + 1).is_none_or(|(next, _)| next != w);
-        let Some(row) = sim.get(k).filter(|_| last) else {
-            continue;
-        };
-        out.push(WaypointCheck {
-            waypoint: *w,
-            step: row.step,
-            error_deg: row.q.angle_to(q).to_degrees(),
-        });
-    }
-    out
+    waypoint_ends(serves)
+        .into_iter()
+        .filter_map(|k| {
+            let (w, q) = &serves[k];
+            sim.get(k).map(|row| WaypointCheck {
+                waypoint: *w,
+                step: row.step,
+                error_deg: row.q.angle_to(q).to_degrees(),
+            })
+        })
+        .collect()
 }

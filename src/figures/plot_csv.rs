@@ -185,11 +185,10 @@ impl ResultCsv<'_> {
             [v.x, v.y, v.z]
         };
         // each waypoint at the last row serving it
-        let waypoints = serves
-            .iter()
-            .enumerate()
-            .filter(|(k, (w, _))| serves.get(k + 1).is_none_or(|(next, _)| next != w))
-            .filter_map(|(k, (_, q))| {
+        let waypoints = planfile::waypoint_ends(serves)
+            .into_iter()
+            .filter_map(|k| {
+                let (_, q) = &serves[k];
                 rows.get(k)
                     .map(|r| (deg(q), k, r.q.angle_to(q).to_degrees()))
             })

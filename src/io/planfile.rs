@@ -132,6 +132,19 @@ pub fn parse_plan_waypoints(text: &str, path: &Path) -> Result<Option<Vec<Serves
     Ok(Some(out))
 }
 
+/// Where each waypoint of a plan is reached: the index of the last row serving it (of
+/// `serves`, row by row, as [`parse_plan_waypoints`] gives them), in order. A waypoint no row
+/// serves has none.
+pub fn waypoint_ends(serves: &[Serves]) -> Vec<usize> {
+    (0..serves.len())
+        .filter(|&k| {
+            serves
+                .get(k + 1)
+                .is_none_or(|(next, _)| *next != serves[k].0)
+        })
+        .collect()
+}
+
 /// [`parse_plan_waypoints`] of the plan file at `path`.
 pub fn read_plan_waypoints(path: &Path) -> Result<Option<Vec<Serves>>> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
@@ -344,6 +357,15 @@ mod tests {
         assert!((back[1].q.angle_to(&rows[1].q)) < 1e-15);
         assert_eq!(back[1].step_angle_deg, 11.459);
         assert!(back[0].settled && !back[1].settled);
+    }
+
+    #[test]
+    fn waypoint_ends_are_the_last_rows_of_each_waypoint() {
+        let q = UnitQuaternion::identity();
+        let serves: Vec<Serves> = [1, 1, 1, 3, 4, 4].iter().map(|&w| (w, q)).collect();
+        assert_eq!(waypoint_ends(&serves), vec![2, 3, 5]);
+        assert_eq!(waypoint_ends(&serves[..1]), vec![0]);
+        assert!(waypoint_ends(&[]).is_empty());
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! summary.
 
 use crate::model::geometry::{Degrees, Orientation, Pair, Radians, UnitVec};
-use crate::planning::commutation::{PairsPerStep, StepLimits, StepModel};
+use crate::planning::commutation::{CommutationState, PairsPerStep, StepLimits, StepModel};
 use serde::{Deserialize, Serialize};
 
 /// One step of a plan.
@@ -35,6 +35,18 @@ pub struct PlanRow {
     /// geometry's, and one of them may not settle (its settle time is then t_max, not a settle
     /// time). Plan files written before the column read as settled.
     pub settled: bool,
+}
+
+impl PlanRow {
+    /// The commutation state the row leaves the ball in: its orientation, what is on and the
+    /// settle time of the move into it.
+    pub fn state(&self) -> CommutationState {
+        CommutationState {
+            q: self.q,
+            active: self.active.clone(),
+            settle_time_s: self.settle_time_s,
+        }
+    }
 }
 
 /// The dynamic search's default budget, in settles.

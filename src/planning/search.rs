@@ -851,11 +851,7 @@ fn tired_coils(p: &Node, limit: Option<OnTimeLimit>) -> Vec<CoilId> {
 fn node_of(rows: &[PlanRow], limit: Option<OnTimeLimit>, before: Option<&OnTimes<CoilId>>) -> Node {
     let last = &rows[rows.len() - 1];
     Node {
-        state: CommutationState {
-            q: last.q,
-            active: last.active.clone(),
-            settle_time_s: last.settle_time_s,
-        },
+        state: last.state(),
         on: on_times_of(rows, limit, before),
         rows: rows.to_vec(),
         worst: max_axis_error_deg(rows).to_radians(),
@@ -866,7 +862,7 @@ fn node_of(rows: &[PlanRow], limit: Option<OnTimeLimit>, before: Option<&OnTimes
 /// How long each coil on at the end of `rows` has been on, with the replay's dwells (empty
 /// without a limit); `before`, the on-times after row 0 when the plan goes on where another
 /// left off, else row 0 switches its coils on.
-fn on_times_of(
+pub(crate) fn on_times_of(
     rows: &[PlanRow],
     limit: Option<OnTimeLimit>,
     before: Option<&OnTimes<CoilId>>,

@@ -8,6 +8,7 @@
 
 use crate::model::geometry::Pair;
 use crate::model::geometry::{rotation_angle, rotation_axis, CoilId, Orientation, UnitVec};
+use crate::planning::coilsets::coils_of;
 use crate::planning::commutation::{
     combinations, cumulative_from, holds, settled_states, step_measure, CommutationState, Motor,
 };
@@ -17,7 +18,7 @@ use crate::planning::plan::{
     PlanSettings,
 };
 use crate::planning::planner::{plan, plan_on_from};
-use crate::planning::search::over_on_time;
+use crate::planning::search::{on_times_of, over_on_time};
 use serde::Serialize;
 
 /// The default tolerance within which every waypoint must be reached, degrees: the prototype's
@@ -413,12 +414,8 @@ fn first_legs(motor: &Motor, leg: &PlanSettings, goal: &Orientation) -> Vec<Leg>
                 start: row0.q,
                 ..leg.clone()
             };
-            let state = CommutationState {
-                q: row0.q,
-                active: row0.active.clone(),
-                settle_time_s: row0.settle_time_s,
-            };
-            let again = plan_on_from(motor, &aimed, state, on_times(&p.rows[..1], leg));
+            let on = on_times_of(&p.rows[..1], leg.limits.on_time, None);
+            let again = plan_on_from(motor, &aimed, row0.state(), on);
             out.push(Leg {
                 release: None,
                 plan: again,
@@ -435,8 +432,11 @@ fn first_legs(motor: &Motor, leg: &PlanSettings, goal: &Orientation) -> Vec<Leg>
     out
 }
 
-/// A leg: a release step when the ball set out with too many coils on to switch any on, then
-/// the plan from there (its row 0 the state the leg starts from).
+/// A leg towards a waypoint: a release step when the leg starts with one (a row that switches
+/// some of the held pairs off and nothing on, see [`go_on`]), then the plan from there. The
+/// plan's row 0 is the state its steps start from (where the release leaves the ball, else the
+/// end of the plan so far, or the initial commutation for a first leg); [`append`] leaves it
+/// out when the plan so far has rows, as it repeats the row before.
 struct Leg {
     release: Option<PlanRow>,
     plan: Plan,
@@ -460,11 +460,13 @@ const ROOM_FOR_NEW_COILS: usize = 2;
 /// the shortest time first.
 const RELEASES_TRIED: usize = 3;
 
-/// A leg from `last` (the end of `out`), its coils still on: of the plans straight on (when
-/// `last` leaves room to switch coils on, [`ROOM_FOR_NEW_COILS`]) and after each of
-/// [`RELEASES_TRIED`] release steps that switch some of the held pairs off (see [`releases`]),
-/// the one with steps that ends nearest `goal`, with its release row. The last plan tried (its
-/// message) when none has steps.
+/// Every leg tried from `last` (the end of `out`, its coils still on, their on-times counted
+/// over `out`'s rows) towards `goal`, in the order tried, with or without steps: first the plan
+/// straight on from `last` (with `leg`'s turn), then a plan after each release step (a row that
+/// switches some of the held pairs off, see [`releases`]) for the first [`RELEASES_TRIED`]
+/// releases that keep every coil within the on-time limit through the release's own dwell,
+/// each aimed at `goal` from where its release leaves the ball. Choosing among them is left to
+/// [`candidate_legs`] (those with steps, nearest-ending first).
 fn go_on(
     motor: &Motor,
     leg: &PlanSettings,
@@ -472,15 +474,10 @@ fn go_on(
     last: &PlanRow,
     goal: &Orientation,
 ) -> Vec<Leg> {
-    let on = on_times(&out.rows, leg);
-    let held = CommutationState {
-        q: last.q,
-        active: last.active.clone(),
-        settle_time_s: last.settle_time_s,
-    };
+    let on = on_times_of(&out.rows, leg.limits.on_time, None);
     let mut tried = vec![Leg {
         release: None,
-        plan: plan_on_from(motor, leg, held, on.clone()),
+        plan: plan_on_from(motor, leg, last.state(), on.clone()),
     }];
     // a release whose coils would be on too long by the end of its own dwell is not tried
     let released = releases(motor, leg, last, goal, &on)
@@ -512,6 +509,12 @@ fn go_on(
             plan: plan_on_from(motor, &from, freed, on),
         });
     }
+    // Reached only when no release was tried and the plan straight on has no step and no
+    // message: a plan without steps says why unless its row 0 already counts as reached, so
+    // this is a turn to `goal` within the angle tolerance (`plan.angle_tolerance_deg`). That
+    // needs a waypoint tolerance below the angle tolerance ([`serve`] asks for legs only when
+    // the ball is further from the waypoint than the former, [`correct`] than the latter), and
+    // the message then does not give the reason; it is kept as it was (no behaviour change).
     if tried.len() == 1 && tried[0].plan.rows.len() < 2 && tried[0].plan.message.is_none() {
         tried[0].plan.message = Some(format!(
             "the coils on at step {} hold the ball, and no subset of them that leaves room to \
@@ -541,7 +544,7 @@ fn releases(
     let sets: Vec<Vec<Pair>> = (1..=keep.min(last.active.len().saturating_sub(1)))
         .flat_map(|k| combinations(last.active.len(), k))
         .map(|idx| idx.iter().map(|&i| last.active[i]).collect::<Vec<_>>())
-        .filter(|set| distinct_coils(set) <= keep)
+        .filter(|set| coils_of(set).len() <= keep)
         .collect();
     let capture = s.limits.capture_for(s.model, &motor.torques.well);
     let longest = |st: &CommutationState| {
@@ -565,14 +568,6 @@ fn releases(
     held
 }
 
-/// How many distinct coils `pairs` switch on.
-fn distinct_coils(pairs: &[Pair]) -> usize {
-    let mut coils: Vec<CoilId> = pairs.iter().map(|p| p.coil).collect();
-    coils.sort_unstable();
-    coils.dedup();
-    coils.len()
-}
-
 /// The row of a release step from `last` to `to`: no pivot, nothing switched on.
 fn release_row(last: &PlanRow, to: &CommutationState) -> PlanRow {
     PlanRow {
@@ -585,17 +580,6 @@ fn release_row(last: &PlanRow, to: &CommutationState) -> PlanRow {
         settled: true,
         ..last.clone()
     }
-}
-
-/// How long each coil on at the end of `rows` has been on, with the replay's dwells.
-fn on_times(rows: &[PlanRow], s: &PlanSettings) -> OnTimes<CoilId> {
-    let mut on = OnTimes::new();
-    if let Some(l) = s.limits.on_time {
-        for r in rows {
-            on_time::hold_row(&mut on, r, &l);
-        }
-    }
-    on
 }
 
 /// The orientation a waypoint's rows count from: the row before its first (`first`), or its
