@@ -815,12 +815,13 @@ fn land(src: &dyn StepSource, s: &PlanSettings, plans: Vec<Node>, budget: usize)
     (nodes.swap_remove(nearest).0, spent)
 }
 
-/// Each plan of `plans` with more than one step, without its last step (`before`: the on-times
-/// of row 0's coils, when the plans go on where another left off).
+/// Each plan of `plans` without its last step (a one-step plan's parent is its row 0 alone,
+/// from which the landing may take another first step; `before`: the on-times of row 0's
+/// coils, when the plans go on where another left off).
 fn parents_of(plans: &[Node], s: &PlanSettings, before: Option<&OnTimes<CoilId>>) -> Vec<Node> {
     plans
         .iter()
-        .filter(|p| p.rows.len() > 2)
+        .filter(|p| p.rows.len() >= 2)
         .map(|p| node_of(&p.rows[..p.rows.len() - 1], s.limits.on_time, before))
         .collect()
 }
