@@ -61,7 +61,8 @@ fn make_before_break_counts_the_overlap() {
 #[test]
 fn on_time_refused_before_any_byte() {
     let dir = tempfile::tempdir().unwrap();
-    // Coil 0 stays on through all three steps: 3 x max(0.1 s x 1.5, 2 s floor) = 6 s > 5 s.
+    // Coil 0 stays on through all three steps: 3 x (max(0.1 s x 1.5, 2 s floor) + 20 ms of
+    // frames) = 6.06 s > 5 s less the guard's 100 ms.
     let plan = plan(dir.path(), "p.csv", &["0:1;1:2", "0:1;2:3", "0:1;3:4"], 0.1);
     let sc = scenario(
         dir.path(),
@@ -75,7 +76,7 @@ fn on_time_refused_before_any_byte() {
     assert!(matches!(relay(&e), RelayError::OnTooLong { .. }), "{e}");
     let msg = flagged(&e);
     assert!(
-        msg.contains("coil 0 (channel 1) would stay on from step 0 through step 2 for 6.000 s"),
+        msg.contains("coil 0 (channel 1) would stay on from step 0 through step 2 for 6.060 s, over 4.900 s (relay.max_on_time_s 5.000 s less the guard's 100 ms; each step counts its dwell and 20 ms of frames)"),
         "{msg}"
     );
     // and says what to do about it

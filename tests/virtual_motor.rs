@@ -129,6 +129,26 @@ impl Running {
         }
     }
 
+    /// Waits for a stdout line containing `needle`; the lines up to it.
+    fn until_containing(&mut self, needle: &str) -> Vec<String> {
+        let mut seen = Vec::new();
+        loop {
+            match self.out.recv_timeout(GUARD) {
+                Ok(l) => {
+                    let done = l.contains(needle);
+                    seen.push(l);
+                    if done {
+                        return seen;
+                    }
+                }
+                Err(_) => {
+                    let _ = self.child.kill();
+                    panic!("no line with '{needle}' in time; got {seen:?}");
+                }
+            }
+        }
+    }
+
     /// Waits for the end (killing it past the guard): exit code, stdout, stderr.
     fn finish(mut self) -> (i32, String, String) {
         let deadline = std::time::Instant::now() + GUARD;
@@ -168,6 +188,37 @@ fn rehearse(
     extra: &[&str],
     replay_extra: &[&str],
 ) -> Rehearsal {
+    let files = Files {
+        plant,
+        plan,
+        scenario,
+    };
+    rehearse_at(dir, files, SPEED, extra, replay_extra, |_| {})
+}
+
+/// The files of a rehearsal.
+#[derive(Clone, Copy)]
+struct Files<'a> {
+    plant: &'a Path,
+    plan: &'a Path,
+    scenario: &'a Path,
+}
+
+/// [`rehearse`] with the virtual clock at `speed`; `during` is given the running replay
+/// before it is waited for (to signal it).
+fn rehearse_at(
+    dir: &Path,
+    files: Files,
+    speed: &str,
+    extra: &[&str],
+    replay_extra: &[&str],
+    during: impl FnOnce(&mut Running),
+) -> Rehearsal {
+    let Files {
+        plant,
+        plan,
+        scenario,
+    } = files;
     let links = dir.join("dev");
     let log = dir.join("virtual.csv");
     let (links_s, log_s) = (links.display().to_string(), log.display().to_string());
@@ -175,7 +226,7 @@ fn rehearse(
         "virtual",
         plant.to_str().unwrap(),
         "--speed",
-        SPEED,
+        speed,
         "--link-dir",
         &links_s,
         "--log",
@@ -199,7 +250,9 @@ fn rehearse(
     }
     r.extend(replay_extra.iter().map(|s| s.to_string()));
     let r: Vec<&str> = r.iter().map(String::as_str).collect();
-    let replay = spawn(&r).finish();
+    let mut running = spawn(&r);
+    during(&mut running);
+    let replay = running.finish();
     let (virtual_code, out, err) = v.finish();
     let json = out.find('{').map(|i| &out[i..]).unwrap_or("");
     let summary: serde_json::Value = serde_json::from_str(json)
@@ -250,6 +303,9 @@ fn main_job_on(board: &str) {
     let s = &r.summary;
     assert_eq!(s["violations_total"], 0, "{board}: {s:#}");
     assert_eq!(s["unknown_frames"], 0, "{board}: {s:#}");
+    // the port links are gone with the virtual motor
+    let left: Vec<_> = std::fs::read_dir(dir.path().join("dev")).unwrap().collect();
+    assert!(left.is_empty(), "{board}: links left behind: {left:?}");
     assert_eq!(r.virtual_code, 0, "{board}: {s:#}");
     assert!(s["relays_on_at_end"].as_array().unwrap().is_empty());
     assert_eq!(coils_on_at_end(&r.log), "");
@@ -336,8 +392,8 @@ fn a_port_that_vanishes_stops_the_replay_with_the_step_to_resume_from() {
 
 #[test]
 fn a_stuck_relay_is_found_by_the_read_back() {
-    // coil 12 (channel 13) goes on in step 0 of the plan about Y
-    let (_, said) = fault(&["--stuck-relay", "13"], None);
+    // coil 15 (channel 16) goes on in step 0 of the plan about Y
+    let (_, said) = fault(&["--stuck-relay", "16"], None);
     assert!(
         said.contains("all coils switched off; resume with --from-step 0"),
         "{said}"
@@ -399,6 +455,10 @@ fn bad_arguments_are_refused_before_any_port_is_made() {
         ),
         (vec!["--mount", "0,0,0,0"], "argument --mount"),
         (
+            vec!["--mount", "0,0,0,3"],
+            "argument --mount: expected a unit quaternion",
+        ),
+        (
             vec!["--drop-after-frames", "0"],
             "argument --drop-after-frames",
         ),
@@ -408,6 +468,42 @@ fn bad_arguments_are_refused_before_any_port_is_made() {
         assert!(err.contains(needle), "{args:?}: {err}");
         assert!(!out.contains("ready:"), "{args:?}: {out}");
     }
+    // the log is never written over a file the virtual motor reads
+    let before = std::fs::read(&plant).unwrap();
+    let (code, out, err) = common::run(&["virtual", p, "--log", p]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(
+        err.contains("argument --log: expected a file that is not one of the command's inputs"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(&plant).unwrap(), before);
+    let plan = write(dir.path(), "p.csv", "step,active\n");
+    let (code, _, err) = common::run(&[
+        "virtual",
+        p,
+        "--plan",
+        plan.to_str().unwrap(),
+        "--log",
+        plan.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("argument --log"), "{err}");
+    assert_eq!(std::fs::read_to_string(&plan).unwrap(), "step,active\n");
+    // a link that points at a port that exists is another virtual motor's: left alone
+    let links = dir.path().join("dev");
+    std::fs::create_dir_all(&links).unwrap();
+    std::os::unix::fs::symlink("/dev/null", links.join("board0")).unwrap();
+    let l = links.to_str().unwrap();
+    let (code, out, err) = common::run(&["virtual", p, "--link-dir", l, "--max-seconds", "5"]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(
+        err.contains("links to /dev/null, a port that exists") && !out.contains("ready:"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_link(links.join("board0")).unwrap(),
+        Path::new("/dev/null")
+    );
     let none = dir.path().join("none.toml");
     let (code, _, err) = common::run(&["virtual", none.to_str().unwrap()]);
     assert_eq!(code, 1);
@@ -464,4 +560,221 @@ fn a_coil_on_too_long_and_too_many_coils_on_are_reported() {
     );
     assert!(r.log.contains("\"violation\""), "{}", r.log);
     assert_eq!(coils_on_at_end(&r.log), "");
+}
+
+/// The longest any coil was on, seconds, from the virtual motor's own log (its clock; a coil
+/// still on at the last row counts until it), and which.
+fn longest_on_in_log(log: &str) -> (f64, String) {
+    let mut since: std::collections::BTreeMap<String, f64> = Default::default();
+    let mut longest = (0.0, String::new());
+    for line in log.lines().skip(1) {
+        // t_s,port,"frame","what",coils_on,qw,qx,qy,qz
+        let t: f64 = line.split(',').next().unwrap().parse().unwrap();
+        let fields: Vec<&str> = line.rsplitn(6, ',').collect();
+        let on: Vec<String> = (fields[4].split(';'))
+            .filter(|c| !c.is_empty())
+            .map(String::from)
+            .collect();
+        since.retain(|c, from| {
+            let kept = on.contains(c);
+            if !kept && t - *from > longest.0 {
+                longest = (t - *from, c.clone());
+            }
+            kept
+        });
+        for c in on {
+            since.entry(c).or_insert(t);
+        }
+        for (c, from) in &since {
+            if t - from > longest.0 {
+                longest = (t - from, c.clone());
+            }
+        }
+    }
+    longest
+}
+
+/// Two 8-channel numato boards (coils 0-7 on board 0, 8-15 on board 1), each with a reply
+/// timeout of `timeout_ms`, and coils allowed `max_on_time_s`.
+fn two_numato(max_on_time_s: f64, timeout_ms: u64) -> String {
+    let board =
+        format!("[[relay.boards]]\nboard = \"numato\"\nchannels = 8\ntimeout_ms = {timeout_ms}\n");
+    format!("[relay]\nmax_on_time_s = {max_on_time_s}\n{board}{board}")
+}
+
+/// A plan whose rows have these active sets (`coil:magnet;...`), settle times 0.1 s.
+fn plan_of(dir: &Path, rows: &[&str]) -> PathBuf {
+    let mut plan = String::from(
+        "step,pivot_coil,pivot_magnet,new_coil,new_magnet,active,qx,qy,qz,qw,step_angle_deg,step_axis_error_deg,cum_angle_deg,cum_axis_error_deg,settle_time_s\n",
+    );
+    for (k, active) in rows.iter().enumerate() {
+        plan.push_str(&format!("{k},,,,,{active},0,0,0,1,0,0,0,0,0.1\n"));
+    }
+    write(dir, "plan.csv", &plan)
+}
+
+/// Step 0 switches coil 0 on board 0, then coil 12 on board 1, which has stopped answering
+/// (it answered the first all-off only): the replay waits for board 1 with coil 0 on.
+fn silent_board_1(
+    max_on_time_s: f64,
+    timeout_ms: u64,
+    during: impl FnOnce(&mut Running),
+) -> Rehearsal {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = plan_of(dir.path(), &["0:10;12:11", "1:12", "1:12"]);
+    let relay = two_numato(max_on_time_s, timeout_ms);
+    let plant = write(dir.path(), "plant.toml", &relay);
+    let scenario = write(dir.path(), "replay.toml", &relay);
+    let files = Files {
+        plant: &plant,
+        plan: &plan,
+        scenario: &scenario,
+    };
+    let plan_s = plan.display().to_string();
+    let extra = [
+        "--plan",
+        &plan_s,
+        "--silent-after-frames",
+        "1",
+        "--fault-board",
+        "1",
+    ];
+    let r = rehearse_at(
+        dir.path(),
+        files,
+        "1",
+        &extra,
+        &["--dwell-ms", "200"],
+        during,
+    );
+    assert_ne!(r.replay.0, 0, "{:?}", r.replay);
+    assert!(r.log.contains("\"silent\""), "{}", r.log);
+    assert_eq!(r.summary["violations_total"], 0, "{:#}", r.summary);
+    assert_eq!(coils_on_at_end(&r.log), "", "{}", r.log);
+    r
+}
+
+#[test]
+fn a_silent_board_holds_no_coil_of_another_board_past_its_limit() {
+    // board 1 waits 5 s for an answer; coil 0 may stay on 1 s
+    let r = silent_board_1(1.0, 5000, |_| {});
+    let said = format!("{}\n{}", r.replay.1, r.replay.2);
+    let (on, coil) = longest_on_in_log(&r.log);
+    assert!(
+        on < 1.0,
+        "coil {coil} on for {on} s (the far end's clock)\n{said}"
+    );
+    assert!(
+        on > 0.8,
+        "coil {coil} only on for {on} s: went off early?\n{said}"
+    );
+    assert!(
+        said.contains("coil 0 (board 0, channel 1) had been on")
+            && said.contains("waiting for a reply from board 1 (")
+            && said.contains("which had not answered after")
+            && said.contains("this one after")
+            && said.contains("within the limit"),
+        "{said}"
+    );
+    // board 0 was switched off first, board 1 never answered its all-off either
+    assert!(said.contains("switching all coils off FAILED"), "{said}");
+    assert!(!said.contains("PAST the limit"), "{said}");
+}
+
+/// Signals `signal` to the replay once it waits for silent board 1 with coil 0 on, and
+/// checks every coil went off at once (on the far end's clock).
+fn signal_while_a_board_is_silent(signal: &str) {
+    let pause = Duration::from_millis(300);
+    let r = silent_board_1(10.0, 3000, |replay| {
+        let seen = replay.until_containing("\"relay on 0\\r\"");
+        assert!(!seen.is_empty());
+        std::thread::sleep(pause);
+        let pid = replay.child.id().to_string();
+        let killed = Command::new("kill").args([signal, &pid]).status().unwrap();
+        assert!(killed.success());
+    });
+    let said = format!("{}\n{}", r.replay.1, r.replay.2);
+    assert!(said.contains("interrupted by a signal"), "{said}");
+    // the wait for board 1 (3 s) was not waited out: coil 0 went off within a second of the
+    // signal
+    let (on, coil) = longest_on_in_log(&r.log);
+    assert!(
+        on < (pause + Duration::from_secs(1)).as_secs_f64(),
+        "coil {coil} on for {on} s after {signal}\n{said}"
+    );
+}
+
+#[test]
+fn sigint_while_a_board_is_silent_switches_every_coil_off_at_once() {
+    signal_while_a_board_is_silent("-INT");
+}
+
+#[test]
+fn sighup_while_a_board_is_silent_switches_every_coil_off_at_once() {
+    signal_while_a_board_is_silent("-HUP");
+}
+
+#[test]
+fn the_on_time_check_keeps_a_margin_for_frames_and_the_guard() {
+    let dir = tempfile::tempdir().unwrap();
+    // coil 0 on for four steps: 4 x 300 ms is the limit itself, refused before any byte goes
+    let plan = plan_of(dir.path(), &["0:10", "0:10", "0:10", "0:10", "1:11"]);
+    let scenario = write(
+        dir.path(),
+        "replay.toml",
+        "[relay]\nboard = \"numato\"\nmax_on_time_s = 1.2\n",
+    );
+    let (p, sc) = (plan.to_str().unwrap(), scenario.to_str().unwrap());
+    let (code, out, err) = common::run(&["replay", p, sc, "--dry-run", "--dwell-ms", "300"]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(
+        err.contains("coil 0 (channel 1) would stay on from step 0 through step 3 for 1.280 s")
+            && err.contains("1.100 s (relay.max_on_time_s 1.200 s less the guard's 100 ms"),
+        "{err}"
+    );
+    assert!(!out.contains("relay on"), "{out}");
+    // 4 x 250 ms fits: on the wire (the far end's clock) the coil stays within the limit
+    let plant = write(
+        dir.path(),
+        "plant.toml",
+        "[relay]\nboard = \"numato\"\nmax_on_time_s = 1.2\n",
+    );
+    let files = Files {
+        plant: &plant,
+        plan: &plan,
+        scenario: &scenario,
+    };
+    let plan_s = plan.display().to_string();
+    let r = rehearse_at(
+        dir.path(),
+        files,
+        "1",
+        &["--plan", &plan_s],
+        &["--dwell-ms", "250", "--verify"],
+        |_| {},
+    );
+    assert_eq!(r.replay.0, 0, "{:?}", r.replay);
+    assert_eq!(r.summary["violations_total"], 0, "{:#}", r.summary);
+    let (on, coil) = longest_on_in_log(&r.log);
+    assert!(on > 1.0 && on < 1.2, "coil {coil} on for {on} s");
+}
+
+#[test]
+fn a_silent_board_fault_names_a_board_of_the_plant() {
+    let dir = tempfile::tempdir().unwrap();
+    let plant = write(dir.path(), "plant.toml", &two_numato(1.0, 1000));
+    let p = plant.to_str().unwrap();
+    let (code, _, err) = common::run(&[
+        "virtual",
+        p,
+        "--silent-after-frames",
+        "1",
+        "--fault-board",
+        "2",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("argument --fault-board: expected a board of the plant, 0 to 1, got 2"),
+        "{err}"
+    );
 }

@@ -47,9 +47,16 @@ pub struct Args {
     /// interaction) and the ball starts at its row 0 (else at plan.start).
     #[arg(long)]
     pub plan: Option<PathBuf>,
-    /// Fault: board 0's port vanishes after this many frames (its relays lose power).
+    /// The board that --drop-after-frames and --silent-after-frames act on (default 0).
+    #[arg(long, default_value_t = 0)]
+    pub fault_board: usize,
+    /// Fault: the board's port vanishes after this many frames (its relays lose power).
     #[arg(long)]
     pub drop_after_frames: Option<usize>,
+    /// Fault: the board stops answering after this many frames, its port open (it drops what
+    /// it is sent; its relays hold).
+    #[arg(long)]
+    pub silent_after_frames: Option<usize>,
     /// Fault: the sensor goes silent after this many readings.
     #[arg(long)]
     pub sensor_stall_after: Option<usize>,
@@ -76,7 +83,9 @@ impl Args {
             link_dir: self.link_dir.clone(),
             log: self.log.clone(),
             plan: self.plan.clone(),
+            fault_board: self.fault_board,
             drop_after_frames: self.drop_after_frames,
+            silent_after_frames: self.silent_after_frames,
             sensor_stall_after: self.sensor_stall_after,
             sensor_garble: self.sensor_garble,
             stuck_relay: self.stuck_relay.clone(),

@@ -44,6 +44,16 @@ pub fn parse_orientation(text: &str, arg: &str) -> Result<Orientation> {
     })
 }
 
+/// A sensor's mounting `qx,qy,qz,qw` (given as `arg`): a unit quaternion, as `[sensor] mount`
+/// requires it.
+pub fn parse_mount(text: &str, arg: &str) -> Result<Orientation> {
+    let v = parse_numbers::<4>(text, arg, "qx,qy,qz,qw")?;
+    crate::io::sensor_section::quaternion(&v).map_err(|expected| Error::Arg {
+        arg: arg.into(),
+        expected,
+    })
+}
+
 fn parse_numbers<const N: usize>(text: &str, arg: &str, form: &str) -> Result<[f64; N]> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     let bad = || Error::Arg {

@@ -2,8 +2,9 @@
 //! and limits), checks the options, and runs the virtual motor of `crate::rehearse` on
 //! pseudo-terminals until the replaying side is done or a signal comes; then the summary.
 
-use crate::commands::args::parse_orientation;
-use crate::error::{Error, Result};
+use crate::commands::args::{as_flag, parse_mount};
+use crate::error::{Error, Input, Result};
+use crate::io::output::check_not_input;
 use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
 use crate::model::geometry::{CoilId, Degrees, Orientation, Pair};
@@ -37,7 +38,10 @@ pub struct VirtualOptions {
     /// A plan whose pairs say which magnet each coil pulls (pair interaction), and whose row
     /// 0 is where the ball starts.
     pub plan: Option<PathBuf>,
+    /// The board the board faults act on (default 0).
+    pub fault_board: usize,
     pub drop_after_frames: Option<usize>,
+    pub silent_after_frames: Option<usize>,
     pub sensor_stall_after: Option<usize>,
     pub sensor_garble: f64,
     /// `CH` (board 0) or `B:CH`.
@@ -60,7 +64,9 @@ impl VirtualOptions {
             link_dir: None,
             log: None,
             plan: None,
+            fault_board: 0,
             drop_after_frames: None,
+            silent_after_frames: None,
             sensor_stall_after: None,
             sensor_garble: 0.0,
             stuck_relay: None,
@@ -140,11 +146,27 @@ pub fn prepare(o: &VirtualOptions) -> Result<Options> {
     let max_seconds = check_numbers(o)?;
     let mount: Orientation = match &o.mount {
         None => Orientation::identity(),
-        Some(m) => parse_orientation(m, "--mount")?,
+        Some(m) => parse_mount(m, "--mount")?,
     };
     let sc = Scenario::load(&o.plant)?;
+    if let Some(log) = &o.log {
+        // the log is written from the start: never over a file the virtual motor reads
+        let mut read = sc.files.clone();
+        read.extend(o.plan.iter().cloned());
+        check_not_input(log, &read).map_err(|e| as_flag(e, Input::Output, "--log"))?;
+    }
     let boards = boards(&sc, o)?;
     let coil_of = coil_of(&sc, &boards);
+    if o.fault_board >= boards.len() {
+        return Err(arg(
+            "--fault-board",
+            format!(
+                "a board of the plant, 0 to {}, got {}",
+                boards.len() - 1,
+                o.fault_board
+            ),
+        ));
+    }
     let stuck = match &o.stuck_relay {
         None => None,
         Some(t) => Some(stuck_relay(t, &boards)?),
@@ -164,7 +186,9 @@ pub fn prepare(o: &VirtualOptions) -> Result<Options> {
         link_dir: o.link_dir.clone(),
         log: o.log.clone(),
         faults: Faults {
+            board: o.fault_board,
             drop_after_frames: o.drop_after_frames,
+            silent_after_frames: o.silent_after_frames,
             sensor_stall_after: o.sensor_stall_after,
             sensor_garble: o.sensor_garble,
             stuck_relay: stuck,
@@ -215,6 +239,12 @@ fn check_numbers(o: &VirtualOptions) -> Result<Option<Duration>> {
     }
     if o.drop_after_frames == Some(0) {
         return Err(arg("--drop-after-frames", "a number of frames >= 1, got 0"));
+    }
+    if o.drop_after_frames.is_some() && o.silent_after_frames.is_some() {
+        return Err(arg(
+            "--silent-after-frames",
+            "one board fault at a time: not with --drop-after-frames",
+        ));
     }
     match o.max_seconds {
         None => Ok(None),

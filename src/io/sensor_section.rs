@@ -106,8 +106,9 @@ pub fn check(raw: Option<RawSensor>, file: &Path) -> Result<SensorSettings> {
     Ok(SensorSettings { mount })
 }
 
-/// `[qx, qy, qz, qw]` as a unit quaternion, or what was expected.
-fn quaternion(q: &[f64]) -> std::result::Result<Orientation, String> {
+/// `[qx, qy, qz, qw]` as a unit quaternion, or what was expected (a sensor's mounting, in
+/// `[sensor] mount` or `virtual --mount`).
+pub fn quaternion(q: &[f64]) -> std::result::Result<Orientation, String> {
     let expected = format!(
         "a unit quaternion [qx, qy, qz, qw] (finite, norm within {MOUNT_NORM_TOLERANCE} of 1; it is normalised)"
     );

@@ -2,7 +2,11 @@
 //! (which refuse steps that would keep a coil on past the limit) and `replay`'s schedule check
 //! (which refuses a plan that does) share. A step's dwell is its predicted settle time times
 //! the dwell factor, at least the dwell floor; a coil's continuous on-time is the sum of the
-//! dwells of the consecutive steps it stays on in, counting the step that switched it on.
+//! dwells of the consecutive steps it stays on in, counting the step that switched it on, each
+//! with [`STEP_IO`] for the step's frames. A plan may keep a coil on for at most
+//! [`budget`]: the limit less the margin ([`guard_margin`]) at which replay's runtime guard
+//! switches every coil off, so that a plan within the limit on paper never meets the guard on
+//! the wire.
 
 use crate::model::geometry::CoilId;
 use crate::planning::plan::PlanRow;
@@ -27,6 +31,42 @@ pub const DEFAULT_MAX_ON_TIME_S: f64 = 10.0;
 pub const DEFAULT_DWELL_FACTOR: f64 = 1.5;
 /// ...but at least this long, ms (`relay.dwell_floor_ms`).
 pub const DEFAULT_DWELL_FLOOR_MS: f64 = 200.0;
+
+/// What every step adds to the on-time of the coils it keeps on, besides its dwell: the step's
+/// frames on every board (a USB relay frame and its reply take 1-5 ms, a Modbus frame and its
+/// reply at 9600 baud about 20 ms), a `--verify` read back, and in a closed loop the sensor's
+/// reading (a quat-csv line comes every 20 ms).
+pub const STEP_IO: Duration = Duration::from_millis(20);
+
+/// How far ahead of `relay.max_on_time_s` the runtime guard switches every coil off, at most
+/// (a quarter of the limit below 400 ms): room for the guard's poll (10 ms, 5 ms in a board's
+/// wait), a late wake-up of a loaded machine and the all-off frames of every board.
+pub const GUARD_MARGIN: Duration = Duration::from_millis(100);
+
+/// The guard's margin under a limit of `max_on`: [`GUARD_MARGIN`], at most a quarter of it.
+pub fn guard_margin(max_on: Duration) -> Duration {
+    GUARD_MARGIN.min(max_on / 4)
+}
+
+/// The longest on-time a plan may give a coil under a limit of `max_on` (its dwells and
+/// [`STEP_IO`] per step): the limit less the [`guard_margin`].
+pub fn budget(max_on: Duration) -> Duration {
+    max_on - guard_margin(max_on)
+}
+
+/// The on-time limit and what counts against it, in words for messages: "1.100 s
+/// (relay.max_on_time_s 1.200 s less the guard's 100 ms; each step counts its dwell and 20 ms
+/// of frames)".
+pub fn budget_text(max_on: Duration) -> String {
+    format!(
+        "{:.3} s (relay.max_on_time_s {:.3} s less the guard's {} ms; each step counts its dwell \
+         and {} ms of frames)",
+        budget(max_on).as_secs_f64(),
+        max_on.as_secs_f64(),
+        guard_margin(max_on).as_millis(),
+        STEP_IO.as_millis()
+    )
+}
 
 impl Default for OnTimeLimit {
     /// The replay's defaults (a scenario without `[relay]`).
@@ -70,7 +110,7 @@ pub type OnTimes<K> = BTreeMap<K, Held>;
 
 /// One step of a replay: `now_on` is what is on after step `step`, which dwells `dwell`.
 /// What is no longer on is forgotten (it went off: its next on-time starts from zero), what
-/// stays on adds the dwell, and what goes on starts with it.
+/// stays on adds the dwell and [`STEP_IO`], and what goes on starts with them.
 pub fn hold<K: Ord + Copy>(
     on: &mut OnTimes<K>,
     now_on: impl IntoIterator<Item = K>,
@@ -84,7 +124,7 @@ pub fn hold<K: Ord + Copy>(
             since_step: step,
             on: Duration::ZERO,
         });
-        h.on += dwell;
+        h.on += dwell + STEP_IO;
     }
 }
 
@@ -98,9 +138,13 @@ pub fn hold_row(on: &mut OnTimes<CoilId>, row: &PlanRow, limit: &OnTimeLimit) {
     );
 }
 
-/// The first relay (in key order) of `on` that has been on longer than `max`, if any.
+/// The first relay (in key order) of `on` that has been on longer than a plan may keep it
+/// under a limit of `max` (its [`budget`]), if any.
 pub fn over<K: Ord + Copy>(on: &OnTimes<K>, max: Duration) -> Option<(K, Held)> {
-    on.iter().find(|(_, h)| h.on > max).map(|(&k, &h)| (k, h))
+    let budget = budget(max);
+    on.iter()
+        .find(|(_, h)| h.on > budget)
+        .map(|(&k, &h)| (k, h))
 }
 
 #[cfg(test)]
@@ -110,11 +154,12 @@ mod tests {
     #[test]
     fn a_coil_adds_up_its_dwells_until_it_goes_off() {
         let ms = Duration::from_millis;
+        let io = STEP_IO.as_millis() as u64;
         let mut on = OnTimes::new();
         hold(&mut on, [1, 2], 0, ms(300));
         hold(&mut on, [1, 3], 1, ms(200));
-        assert_eq!(on[&1].on, ms(500));
-        assert_eq!(on[&3].on, ms(200));
+        assert_eq!(on[&1].on, ms(500 + 2 * io));
+        assert_eq!(on[&3].on, ms(200 + io));
         assert!(!on.contains_key(&2));
         hold(&mut on, [3], 2, ms(200));
         hold(&mut on, [1, 3], 3, ms(200));
@@ -122,20 +167,40 @@ mod tests {
             on[&1],
             Held {
                 since_step: 3,
-                on: ms(200)
+                on: ms(200 + io)
             }
         );
+        // coil 3: 600 ms of dwells and three steps' frames, against the limit less the margin
+        let held = ms(600 + 3 * io);
+        assert_eq!(on[&3].on, held);
+        let limit = held + guard_margin(held + GUARD_MARGIN);
+        assert_eq!(budget(limit), held);
+        assert_eq!(over(&on, limit), None);
         assert_eq!(
-            over(&on, ms(500)),
+            over(&on, limit - ms(1)),
             Some((
                 3,
                 Held {
                     since_step: 1,
-                    on: ms(600)
+                    on: held
                 }
             ))
         );
-        assert_eq!(over(&on, ms(600)), None);
+    }
+
+    #[test]
+    fn the_guard_keeps_its_margin_or_a_quarter_of_a_short_limit() {
+        let ms = Duration::from_millis;
+        assert_eq!(budget(ms(10_000)), ms(9_900));
+        assert_eq!(budget(ms(1_200)), ms(1_100));
+        assert_eq!(budget(ms(200)), ms(150));
+        // four 300 ms dwells do not fit a 1.2 s limit once frames and the margin count
+        let mut on = OnTimes::new();
+        for step in 0..4 {
+            hold(&mut on, [7], step, ms(300));
+        }
+        assert!(over(&on, ms(1_200)).is_some());
+        assert!(budget_text(ms(1_200)).starts_with("1.100 s (relay.max_on_time_s 1.200 s"));
     }
 
     #[test]

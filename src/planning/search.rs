@@ -94,11 +94,11 @@ struct OverTime {
 impl OverTime {
     fn describe(&self) -> String {
         format!(
-            "coil {} would stay on from step {} for {:.2} s, over relay.max_on_time_s ({:.2} s)",
+            "coil {} would stay on from step {} for {:.2} s, over {}",
             self.coil,
             self.since_step,
             self.on.as_secs_f64(),
-            self.max.as_secs_f64()
+            on_time::budget_text(self.max)
         )
     }
 }

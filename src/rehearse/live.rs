@@ -412,10 +412,37 @@ fn link(dir: &Path, name: &str, target: &str) -> Result<PathBuf, RehearseError> 
                 reason: "exists and is not a symbolic link (left alone)".into(),
             });
         }
+        // a link to a port that still exists may be another virtual motor's, in use
+        if std::fs::metadata(&at).is_ok() {
+            let to = std::fs::read_link(&at).unwrap_or_default();
+            return Err(RehearseError::LinkDir {
+                path: at.clone(),
+                reason: format!(
+                    "links to {}, a port that exists (another virtual motor's?): left alone; \
+                     give another --link-dir, or end what serves it",
+                    to.display()
+                ),
+            });
+        }
         std::fs::remove_file(&at).map_err(err)?;
     }
     std::os::unix::fs::symlink(target, &at).map_err(err)?;
     Ok(at)
+}
+
+/// The links a run made, removed when it ends, whichever way (each only while it still links
+/// to the port it was made for).
+#[derive(Default)]
+struct Links(Vec<(PathBuf, String)>);
+
+impl Drop for Links {
+    fn drop(&mut self) {
+        for (at, target) in &self.0 {
+            if std::fs::read_link(at).is_ok_and(|t| t == Path::new(target)) {
+                let _ = std::fs::remove_file(at);
+            }
+        }
+    }
 }
 
 /// The pseudo-terminals made: what each is, its path and its stable link.
@@ -442,16 +469,17 @@ pub fn run(
     let log = open_log(opts)?;
     let mut masters = Vec::new();
     let mut infos = Vec::new();
+    let mut links = Links::default();
     for (k, b) in opts.boards.iter().enumerate() {
         let what = format!("board {k} ({}, {} channels)", b.kind, b.channels);
-        let (m, info) = make_port(opts, &format!("board{k}"), what)?;
+        let (m, info) = make_port(opts, &format!("board{k}"), what, &mut links)?;
         infos.push(info);
         masters.push(m);
     }
     let sensor = match opts.sensor {
         None => None,
         Some(f) => {
-            let (m, info) = make_port(opts, "sensor", format!("sensor ({f})"))?;
+            let (m, info) = make_port(opts, "sensor", format!("sensor ({f})"), &mut links)?;
             infos.push(info);
             Some((f, m))
         }
@@ -492,10 +520,15 @@ fn make_port(
     opts: &Options,
     name: &str,
     what: String,
+    links: &mut Links,
 ) -> Result<(TTYPort, PortInfo), RehearseError> {
     let (m, path) = open_pty()?;
     let link = match &opts.link_dir {
-        Some(d) => Some(link(d, name, &path)?),
+        Some(d) => {
+            let at = link(d, name, &path)?;
+            links.0.push((at.clone(), path.clone()));
+            Some(at)
+        }
         None => None,
     };
     Ok((m, PortInfo { what, path, link }))
@@ -513,9 +546,13 @@ fn serve(
     let mut threads = Vec::new();
     for (k, m) in masters.into_iter().enumerate() {
         let (w, c, done) = (world.clone(), conns[k].clone(), done.clone());
-        let drop_after = opts.faults.drop_after_frames.filter(|_| k == 0);
+        let f = opts.faults;
+        let faults = BoardFaults {
+            drop_after: f.drop_after_frames.filter(|_| k == f.board),
+            silent_after: f.silent_after_frames.filter(|_| k == f.board),
+        };
         threads.push(std::thread::spawn(move || {
-            serve_board(k, m, &w, &c, &done, drop_after)
+            serve_board(k, m, &w, &c, &done, faults)
         }));
     }
     if let Some((f, m)) = sensor {
@@ -553,6 +590,13 @@ fn watch(opts: &Options, world: &Mutex<World>, conns: &[Arc<Conn>], stop: &Atomi
     }
 }
 
+/// The faults of one board: after how many frames its port vanishes, or it stops answering.
+#[derive(Debug, Clone, Copy)]
+struct BoardFaults {
+    drop_after: Option<usize>,
+    silent_after: Option<usize>,
+}
+
 /// Serves one board's pty until the end (or the fault that drops it).
 fn serve_board(
     k: usize,
@@ -560,10 +604,11 @@ fn serve_board(
     world: &Mutex<World>,
     conn: &Conn,
     done: &AtomicBool,
-    drop_after: Option<usize>,
+    faults: BoardFaults,
 ) {
     let fd = master.as_raw_fd();
     let port = format!("board{k}");
+    let mut hung = false;
     while !done.load(Ordering::SeqCst) {
         match look(fd, TICK) {
             Seen::Nothing => {
@@ -575,13 +620,24 @@ fn serve_board(
                 conn.seen(true);
                 let mut w = lock(world);
                 w.update();
+                if faults.silent_after.is_some_and(|n| w.frames[k] >= n) {
+                    // a hung board: what it is sent is lost, its relays hold
+                    if !std::mem::replace(&mut hung, true) {
+                        w.log_row(
+                            &port,
+                            "silent",
+                            "fault: the board stopped answering, its port open; its relays hold",
+                        );
+                    }
+                    continue;
+                }
                 let frames = w.boards[k].feed(&b);
                 for f in &frames {
                     w.frame(k, f);
                     if !f.reply.is_empty() {
                         send(fd, &f.reply);
                     }
-                    if drop_after.is_some_and(|n| w.frames[k] >= n) {
+                    if faults.drop_after.is_some_and(|n| w.frames[k] >= n) {
                         // the board is unplugged: its relays lose power, the port vanishes
                         for r in w.boards[k].relays.iter_mut() {
                             *r = false;

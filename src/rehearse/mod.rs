@@ -40,8 +40,13 @@ pub struct BoardSetup {
 /// The faults to inject.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Faults {
-    /// Board 0's port vanishes after this many frames (its relays lose power).
+    /// The board the board faults act on (`drop_after_frames`, `silent_after_frames`).
+    pub board: usize,
+    /// That board's port vanishes after this many frames (its relays lose power).
     pub drop_after_frames: Option<usize>,
+    /// That board stops answering after this many frames, its port open: it reads and drops
+    /// every later frame, its relays hold as they were (a hung board).
+    pub silent_after_frames: Option<usize>,
     /// The sensor goes silent after this many readings.
     pub sensor_stall_after: Option<usize>,
     /// This fraction of the sensor's readings are corrupted (seeded), 0 to 1.

@@ -10,10 +10,10 @@
 //!
 //! While the sensor is awaited and the controller decides (fitting the wells, replanning:
 //! seconds, with a large search), the coils of the step stay on. That phase runs on a worker
-//! thread; this thread watches the stop flag (a signal) and the on-time limit every
+//! thread; this thread watches the stop flag (a signal) and the runner's guard every
 //! [`POLL`](super::replay::POLL). When either fires it switches every coil off at once, before
-//! a coil reaches its limit ([`OFF_MARGIN`] ahead of it), then abandons the reading and the
-//! computation through the [`Cancel`] token they were given, and ends the replay.
+//! a coil reaches its limit ([`guard_margin`](crate::planning::on_time::guard_margin) ahead of it), then abandons the reading
+//! and the computation through the [`Cancel`] token they were given, and ends the replay.
 
 use super::replay::{
     check_on_time, entries_from, stdout_error, Drive, Entry, LogKind, Mode, Prepared, Resume,
@@ -33,11 +33,6 @@ use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::Duration;
-
-/// How far ahead of a coil's on-time limit the closed loop switches everything off while it
-/// waits for the sensor or decides: room for a poll of the watch and the all-off frames of
-/// every board at a low baud rate (at most a quarter of the limit itself).
-pub const OFF_MARGIN: Duration = Duration::from_millis(150);
 
 /// What the worker of a watched phase sends: the reading as soon as it is taken, then the
 /// orientation read and the decision made from it.
@@ -60,9 +55,9 @@ const DECIDING: u8 = 1;
 
 fn phase_name(phase: u8) -> &'static str {
     if phase == WAITING {
-        "waiting for the sensor"
+        "the closed loop was waiting for the sensor"
     } else {
-        "deciding (fitting the wells, replanning)"
+        "the closed loop was deciding (fitting the wells, replanning)"
     }
 }
 
@@ -248,7 +243,6 @@ impl Hardware<'_, '_, '_> {
         let cancel = self.cancel.clone();
         let phase = AtomicU8::new(WAITING);
         let r = &mut *self.r;
-        let margin = OFF_MARGIN.min(r.max_on_time / 4);
         let goal = self.goal;
         let last = &mut self.last;
         let sensor = &mut self.sensor;
@@ -280,10 +274,9 @@ impl Hardware<'_, '_, '_> {
                         break Err(internal(step, "the closed loop's decision failed"))
                     }
                 }
-                if let Some(e) = fired(r, margin, phase.load(Ordering::SeqCst)) {
+                if let Err(e) = fired(r, phase.load(Ordering::SeqCst)) {
                     // off first, then abandon what the worker does
                     let _ = r.all_off();
-                    r.on_since.clear();
                     cancel.cancel();
                     break Err(e);
                 }
@@ -396,23 +389,11 @@ fn read_and_decide(
     }
 }
 
-/// What the watch of a phase acts on now: a signal, or a coil within `margin` of its on-time
-/// limit (`None`: nothing).
-fn fired(r: &Runner, margin: Duration, phase: u8) -> Option<RelayError> {
-    if let Err(e) = r.check_stop() {
-        return Some(e);
-    }
-    let (slot, coil, _, on) = r
-        .longest_on()
-        .filter(|&(_, _, _, on)| on + margin >= r.max_on_time)?;
-    Some(RelayError::OnTimeReached {
-        coil,
-        board: r.listed.then_some(slot.board),
-        channel: slot.channel,
-        phase: phase_name(phase),
-        on,
-        max: r.max_on_time,
-    })
+/// What the watch of a phase acts on now: a signal, or a coil at its guard (its on-time limit
+/// less [`guard_margin`](crate::planning::on_time::guard_margin)).
+fn fired(r: &Runner, phase: u8) -> Result<(), RelayError> {
+    r.check_stop()?;
+    r.check_on_time(|| phase_name(phase).to_string())
 }
 
 /// Switches everything off and reports: the summary at the goal, else why it stopped.

@@ -15,6 +15,7 @@ pub mod link;
 pub mod modbus;
 pub mod numato;
 pub mod replay;
+pub mod watch;
 
 pub use boards::BoardConfig;
 pub use config::{CoilMap, RelayConfig, RelaySettings, SwitchOrder};
@@ -166,6 +167,16 @@ pub enum RelayError {
         got: usize,
         partial: Vec<u8>,
     },
+    /// A wait for a board (its reply, or a blocked write) ended before the board's timeout
+    /// because a coil reached its guard ([`watch`]); the runner turns it into
+    /// [`RelayError::OnTimeReached`] naming the board.
+    #[error("serial port {port}: {op} given up after {} ms (of its {} ms timeout) to keep every coil within its on-time limit", waited.as_millis(), timeout.as_millis())]
+    WaitCut {
+        port: String,
+        op: &'static str,
+        waited: Duration,
+        timeout: Duration,
+    },
     /// The board answered something the protocol does not allow.
     #[error("{board} board: unexpected reply {}: expected {expected}", hex(got))]
     BadReply {
@@ -233,18 +244,28 @@ pub enum RelayError {
         /// What to do about it.
         advice: OnTimeAdvice,
     },
-    /// A coil came within [`closed::OFF_MARGIN`] of its on-time limit while the closed loop
-    /// waited for the sensor or decided (fitting, replanning): everything was switched off
-    /// before the limit, and the computation abandoned.
+    /// A coil reached its guard (its on-time limit less [`on_time::guard_margin`]) while the
+    /// replay dwelt, waited for a board or the sensor, or decided (fitting, replanning):
+    /// every coil was switched off (the other boards first when one did not answer), and the
+    /// computation abandoned.
+    ///
+    /// [`on_time::guard_margin`]: crate::planning::on_time::guard_margin
     #[error("{}", self.worded(&Fields))]
     OnTimeReached {
         coil: CoilId,
         board: Option<usize>,
         channel: Channel,
-        /// "waiting for the sensor", "deciding (fitting the wells, replanning)".
-        phase: &'static str,
+        /// What the replay was doing: "dwelling in step 3", "waiting for the sensor",
+        /// "deciding (fitting the wells, replanning)", "waiting for board 1 (...) to answer".
+        phase: String,
+        /// Its on-time when the guard fired.
         on: Duration,
+        /// Its on-time when its board's all-off went out (`None`: that all-off failed).
+        off: Option<Duration>,
         max: Duration,
+        /// The wait was for a board that did not answer (not for a dwell, Enter, the sensor or
+        /// a decision that a shorter setting could shorten).
+        silent_board: bool,
     },
     /// Ctrl-C, SIGTERM or SIGHUP.
     #[error("interrupted by a signal")]
@@ -511,11 +532,10 @@ impl RelayError {
                     ),
                 };
                 format!(
-                    "coil {coil} ({}) {when} {:.3} s, over the limit of {:.3} s \
-                     (relay.max_on_time_s){advice}",
+                    "coil {coil} ({}) {when} {:.3} s, over {}{advice}",
                     where_on(*board, *channel),
                     on.as_secs_f64(),
-                    max.as_secs_f64()
+                    crate::planning::on_time::budget_text(*max)
                 )
             }
             RelayError::OnTimeReached {
@@ -524,18 +544,40 @@ impl RelayError {
                 channel,
                 phase,
                 on,
+                off,
                 max,
-            } => format!(
-                "coil {coil} ({}) had been on {:.3} s, near its limit of {:.3} s \
-                 (relay.max_on_time_s), while the closed loop was {phase}: every coil was \
-                 switched off before the limit (a shorter {} or {}, or a higher \
-                 relay.max_on_time_s, leaves it more time)",
-                where_on(*board, *channel),
-                on.as_secs_f64(),
-                max.as_secs_f64(),
-                w.name(Setting::Dwell),
-                w.name(Setting::SensorTimeout)
-            ),
+                silent_board,
+            } => {
+                let advice = match silent_board {
+                    true => "check that board's power and cable".to_string(),
+                    false => format!(
+                        "a shorter {} or {}, or a higher relay.max_on_time_s, leaves more time",
+                        w.name(Setting::Dwell),
+                        w.name(Setting::SensorTimeout)
+                    ),
+                };
+                let off = match off {
+                    Some(off) if off <= max => format!(
+                        "every coil was switched off, this one after {:.3} s, within the limit",
+                        off.as_secs_f64()
+                    ),
+                    Some(off) => format!(
+                        "every coil was switched off, this one only after {:.3} s, PAST the limit",
+                        off.as_secs_f64()
+                    ),
+                    None => "every coil was switched off but on its own board, which failed \
+                             (below)"
+                        .to_string(),
+                };
+                format!(
+                    "coil {coil} ({}) had been on {:.3} s, within the guard's {} ms of its limit \
+                     of {:.3} s (relay.max_on_time_s), while {phase}: {off} ({advice})",
+                    where_on(*board, *channel),
+                    on.as_secs_f64(),
+                    crate::planning::on_time::guard_margin(*max).as_millis(),
+                    max.as_secs_f64(),
+                )
+            }
             e => e.to_string(),
         }
     }

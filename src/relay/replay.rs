@@ -8,7 +8,15 @@
 //! on-time) are checked on the whole schedule, counting the coils of all boards, before any
 //! byte is sent. `--dry-run` runs the same code on links that only record, with a simulated
 //! clock. `--log` writes what was sent when (and, with several boards, to which board).
+//!
+//! The runner owns every coil deadline (the one mechanism for the on-time guarantee): a coil
+//! counts as on from the moment its frame is sent, and the runner's [`Watch`] holds the earliest
+//! time a coil reaches its guard (its limit less [`on_time::guard_margin`]). Every wait (a dwell,
+//! Enter in step mode, a board's reply or blocked write, and in a closed loop the sensor and the
+//! decision) ends there: every coil is switched off (a board that did not answer last) and the
+//! replay stops, saying how long the coil was on when its board's all-off went out.
 
+use super::watch::Watch;
 use super::{
     connect, hex, BoardKind, BoardSpec, Channel, CoilMap, Link, OnTimeAdvice, RelayBoard,
     RelayError, RelaySettings, Setting, Slot, SwitchOrder,
@@ -689,8 +697,11 @@ impl<'a> Runner<'a> {
         }
         let dry_run = links.iter().all(Link::is_dry_run);
         let listed = prep.listed();
+        let start = Instant::now();
+        let watch = Arc::new(Watch::new(stop.clone(), start));
         let mut boards = Vec::with_capacity(n);
-        for (i, (spec, link)) in prep.boards.iter().zip(links).enumerate() {
+        for (i, (spec, mut link)) in prep.boards.iter().zip(links).enumerate() {
+            link.set_watch(watch.clone());
             let port = if link.is_dry_run() {
                 configured_port(spec)
             } else {
@@ -708,6 +719,7 @@ impl<'a> Runner<'a> {
                 driver,
                 port,
                 verify: false,
+                failed: false,
             });
         }
         if prep.drive.verify {
@@ -723,7 +735,8 @@ impl<'a> Runner<'a> {
             listed,
             out,
             log,
-            start: Instant::now(),
+            start,
+            watch,
             virtual_t: Duration::ZERO,
             dry_run,
             stop,
@@ -731,6 +744,7 @@ impl<'a> Runner<'a> {
             mode: prep.drive.mode,
             max_on_time: prep.settings.max_on_time,
             on_since: BTreeMap::new(),
+            off_at: BTreeMap::new(),
             next_step: prep.drive.from_step,
             steps_done: 0,
         })
@@ -1088,6 +1102,8 @@ pub(super) struct Driven {
     driver: Box<dyn RelayBoard>,
     port: String,
     verify: bool,
+    /// An exchange with it failed (or was cut): its all-off goes last.
+    failed: bool,
 }
 
 /// A replay in progress: the boards' drivers, the output, the log, the clock and what is on.
@@ -1099,14 +1115,20 @@ pub(super) struct Runner<'a> {
     pub(super) out: &'a mut dyn Write,
     pub(super) log: Option<Log>,
     pub(super) start: Instant,
+    /// The stop flag and the earliest coil deadline, watched by every link's waits.
+    watch: Arc<Watch>,
     pub(super) virtual_t: Duration,
     pub(super) dry_run: bool,
     pub(super) stop: Arc<AtomicBool>,
     pub(super) input: Option<Receiver<String>>,
     pub(super) mode: Mode,
     pub(super) max_on_time: Duration,
-    /// Relays on, with their coil, since when and since which step.
-    pub(super) on_since: BTreeMap<Slot, (CoilId, Duration, usize)>,
+    /// Relays on, with their coil, since when (the moment their frame went out) and since
+    /// which step. Changed only through `switched_on`/`switched_off`/`all_off`, which keep
+    /// the watch's deadline.
+    on_since: BTreeMap<Slot, (CoilId, Duration, usize)>,
+    /// The on-time each relay had when its board's all-off went out (the first all-off).
+    off_at: BTreeMap<Slot, Duration>,
     pub(super) next_step: usize,
     pub(super) steps_done: usize,
 }
@@ -1212,24 +1234,107 @@ impl Runner<'_> {
         Ok(())
     }
 
-    /// Fails when a coil has been on longer than allowed (the runtime guard).
-    pub(super) fn check_on_time(&self) -> Result<(), RelayError> {
+    /// Records a relay on from `at` (kept if it was on already) and moves the deadline.
+    fn switched_on(&mut self, slot: Slot, coil: CoilId, at: Duration, step: usize) {
+        self.on_since.entry(slot).or_insert((coil, at, step));
+        self.rearm();
+    }
+
+    /// Records a relay off and moves the deadline.
+    fn switched_off(&mut self, slot: Slot) {
+        self.on_since.remove(&slot);
+        self.rearm();
+    }
+
+    /// The time (on the runner's clock) a relay that went on at `since` reaches its guard.
+    fn guard_at(&self, since: Duration) -> Duration {
+        since + self.max_on_time - on_time::guard_margin(self.max_on_time)
+    }
+
+    /// Gives the watch the earliest guard of the relays on (none in a dry run: its links
+    /// never wait).
+    fn rearm(&self) {
+        let earliest = (self.on_since.values())
+            .map(|&(_, since, _)| self.guard_at(since))
+            .min();
+        self.watch.set_deadline(earliest.filter(|_| !self.dry_run));
+    }
+
+    /// The runtime guard: `Err` ([`RelayError::OnTimeReached`], while `phase`) when a coil has
+    /// reached its limit less the guard's margin.
+    pub(super) fn check_on_time(&self, phase: impl FnOnce() -> String) -> Result<(), RelayError> {
         let now = self.now();
-        for (&slot, &(coil, since, step)) in &self.on_since {
-            let on = now.saturating_sub(since);
-            if on > self.max_on_time {
-                return Err(RelayError::OnTooLong {
-                    coil,
-                    board: self.listed.then_some(slot.board),
-                    channel: slot.channel,
-                    when: format!("has been on since step {step} for"),
-                    on,
-                    max: self.max_on_time,
-                    advice: OnTimeAdvice::None,
-                });
+        let hit = (self.on_since.iter())
+            .filter(|(_, &(_, since, _))| now >= self.guard_at(since))
+            .min_by_key(|(_, &(_, since, _))| since);
+        match hit {
+            None => Ok(()),
+            Some((&slot, &(coil, since, _))) => {
+                Err(self.reached(slot, coil, now - since, phase(), false))
             }
         }
-        Ok(())
+    }
+
+    /// The guard's error for `coil` on `slot`, on for `on` while `phase` (a wait for a board
+    /// that did not answer: `silent_board`).
+    fn reached(
+        &self,
+        slot: Slot,
+        coil: CoilId,
+        on: Duration,
+        phase: String,
+        silent_board: bool,
+    ) -> RelayError {
+        RelayError::OnTimeReached {
+            coil,
+            board: self.listed.then_some(slot.board),
+            channel: slot.channel,
+            phase,
+            on,
+            off: None,
+            max: self.max_on_time,
+            silent_board,
+        }
+    }
+
+    /// `e` from an exchange with board `board`: the board goes last in the all-off; a wait
+    /// the watch cut becomes the guard's error naming the board (the coil on longest reached
+    /// its guard), anything else names the board with several.
+    fn board_failed(&mut self, board: usize, e: RelayError) -> RelayError {
+        self.boards[board].failed = true;
+        let RelayError::WaitCut {
+            op,
+            waited,
+            timeout,
+            ..
+        } = e
+        else {
+            return self.on(board, e);
+        };
+        let port = &self.boards[board].port;
+        let which = match self.listed {
+            true => format!("board {board} ({port})"),
+            false => format!("the board ({port})"),
+        };
+        let to = if op == "writing" { "to" } else { "from" };
+        let phase = format!(
+            "the replay was {op} {to} {which}, which had not answered after {} ms of its {} ms timeout \
+             (the other boards were switched off first)",
+            waited.as_millis(),
+            timeout.as_millis()
+        );
+        match self.longest_on() {
+            Some((slot, coil, _, on)) => self.reached(slot, coil, on, phase, true),
+            None => self.on(
+                board,
+                RelayError::WaitCut {
+                    port: port.clone(),
+                    op,
+                    waited,
+                    timeout,
+                },
+            ),
+        }
     }
 
     /// Every relay on at `now`: its coil, the step since which it is on, and for how long.
@@ -1248,7 +1353,7 @@ impl Runner<'_> {
     }
 
     /// Waits `d` (simulated in a dry run), watching the stop flag and the on-time limit.
-    pub(super) fn wait(&mut self, d: Duration) -> Result<(), RelayError> {
+    pub(super) fn wait(&mut self, d: Duration, step: usize) -> Result<(), RelayError> {
         if self.dry_run {
             self.virtual_t += d;
             return Ok(());
@@ -1257,7 +1362,7 @@ impl Runner<'_> {
         let begun = Instant::now();
         loop {
             self.check_stop()?;
-            self.check_on_time()?;
+            self.check_on_time(|| format!("the replay dwelt in step {step}"))?;
             let waited = begun.elapsed();
             if waited >= d {
                 return Ok(());
@@ -1276,7 +1381,7 @@ impl Runner<'_> {
         }
         loop {
             self.check_stop()?;
-            self.check_on_time()?;
+            self.check_on_time(|| "the replay waited for Enter".to_string())?;
             let Some(rx) = self.input.as_ref() else {
                 return Err(RelayError::InputClosed);
             };
@@ -1289,16 +1394,19 @@ impl Runner<'_> {
     }
 
     /// Sends an entry's switching in order, each on its board, recording what went out even
-    /// when the board then failed to answer.
+    /// when the board then failed to answer. A coil counts as on from the moment its frame
+    /// goes out.
     pub(super) fn switch(&mut self, e: &Entry) -> Result<(), RelayError> {
         for sw in &e.switches {
             self.check_stop()?;
-            let r = self.boards[sw.board].driver.set(sw.channel, sw.on);
+            self.check_on_time(|| format!("the replay switched step {}", e.step))?;
             if sw.on {
                 let t = self.now();
-                self.on_since.insert(sw.slot(), (sw.coil, t, e.step));
-            } else {
-                self.on_since.remove(&sw.slot());
+                self.switched_on(sw.slot(), sw.coil, t, e.step);
+            }
+            let r = self.boards[sw.board].driver.set(sw.channel, sw.on);
+            if !sw.on {
+                self.switched_off(sw.slot());
             }
             let action = match (e.hold, sw.on) {
                 (true, _) => "hold",
@@ -1312,7 +1420,7 @@ impl Runner<'_> {
                 Some(sw.coil),
                 Some(sw.channel),
             )?;
-            r.map_err(|err| self.on(sw.board, err))?;
+            r.map_err(|err| self.board_failed(sw.board, err))?;
         }
         Ok(())
     }
@@ -1326,7 +1434,7 @@ impl Runner<'_> {
             }
             let states = self.boards[i].driver.read_states();
             self.emit(i, Some(e.step), "read", None, None)?;
-            let Some(states) = states.map_err(|err| self.on(i, err))? else {
+            let Some(states) = states.map_err(|err| self.board_failed(i, err))? else {
                 continue;
             };
             let got: Vec<Channel> = states
@@ -1356,23 +1464,82 @@ impl Runner<'_> {
         Ok(())
     }
 
-    /// Switches every board all off, each tried whatever the others did, and records what
-    /// went out (even of an all-off that failed half way). Returns the boards that failed,
-    /// and the first failure to print or log.
+    /// Switches every board all off, each tried whatever the others did (the boards that
+    /// failed before go last: one that does not answer holds up no other), with no wait cut
+    /// short, and records what went out (even of an all-off that failed half way) and each
+    /// relay's on-time when its board's all-off went out. Returns the boards that failed, and
+    /// the first failure to print or log.
     pub(super) fn all_off(&mut self) -> (Vec<(usize, RelayError)>, Result<(), RelayError>) {
         let mut failed = Vec::new();
         let mut shown = Ok(());
-        for i in 0..self.boards.len() {
+        let mut order: Vec<usize> = (0..self.boards.len()).collect();
+        order.sort_by_key(|&i| self.boards[i].failed);
+        self.watch.set_closing(true);
+        for i in order {
             let r = self.boards[i].driver.all_off();
+            let now = self.now();
             let s = self.emit(i, None, "all-off", None, None);
             if shown.is_ok() {
                 shown = s;
             }
-            if let Err(e) = r {
-                failed.push((i, e));
+            match r {
+                Err(e) => {
+                    self.boards[i].failed = true;
+                    failed.push((i, e));
+                }
+                Ok(()) => {
+                    let on: Vec<Slot> = self
+                        .on_since
+                        .keys()
+                        .filter(|s| s.board == i)
+                        .copied()
+                        .collect();
+                    for slot in on {
+                        if let Some((_, since, _)) = self.on_since.remove(&slot) {
+                            self.off_at.entry(slot).or_insert(now.saturating_sub(since));
+                        }
+                    }
+                }
             }
         }
+        self.on_since.clear();
+        self.rearm();
+        self.watch.set_closing(false);
+        failed.sort_by_key(|&(i, _)| i);
         (failed, shown)
+    }
+
+    /// The guard's error `e` (if it is one) with the on-time its coil had when its board's
+    /// all-off went out.
+    fn with_off_time(&self, e: RelayError) -> RelayError {
+        match e {
+            RelayError::OnTimeReached {
+                coil,
+                board,
+                channel,
+                phase,
+                on,
+                off: None,
+                max,
+                silent_board,
+            } => {
+                let slot = Slot {
+                    board: board.unwrap_or(0),
+                    channel,
+                };
+                RelayError::OnTimeReached {
+                    coil,
+                    board,
+                    channel,
+                    phase,
+                    on,
+                    off: self.off_at.get(&slot).copied(),
+                    max,
+                    silent_board,
+                }
+            }
+            e => e,
+        }
     }
 
     /// The error of a replay that ended (with `cause`, or finished) with an all-off that
@@ -1449,7 +1616,7 @@ impl Runner<'_> {
             false => "",
         };
         self.say(&format!("{t:>9} {:>5} dwell {ms} ms{why}", e.step))?;
-        self.wait(e.dwell)
+        self.wait(e.dwell, e.step)
     }
 
     /// Logs a marker row (`done`, ...) for `step` now, and flushes the log.
@@ -1470,7 +1637,7 @@ impl Runner<'_> {
         result: Result<T, RelayError>,
     ) -> Result<Result<T, RelayError>, RelayError> {
         let (failed, shown) = self.all_off();
-        self.on_since.clear();
+        let result = result.map_err(|e| self.with_off_time(e));
         let flushed = self.flush_log();
         if !failed.is_empty() {
             return Err(self.off_failed(result.err(), failed));
