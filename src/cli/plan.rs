@@ -6,6 +6,7 @@ use anyhow::Result;
 use spherestep::commands::args::check_out;
 use spherestep::commands::{self as app, waypoints};
 use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::Degrees;
 use spherestep::planning::waypoints::DEFAULT_WAYPOINT_TOLERANCE_DEG;
 use std::io::Write;
 use std::path::PathBuf;
@@ -69,8 +70,10 @@ pub struct Args {
     /// which waypoint each step serves.
     #[arg(long, conflicts_with_all = ["axis", "angle", "to"])]
     pub waypoints: Option<PathBuf>,
-    /// With --waypoints: every waypoint must be reached within this many degrees (default 3).
-    #[arg(long, requires = "waypoints")]
+    /// The plan is reached when it ends within this many degrees of the target orientation
+    /// (default: the scenario's plan.tolerance_deg, 1); with --waypoints, when it passes every
+    /// waypoint within this many degrees (default 3).
+    #[arg(long)]
     pub tolerance_deg: Option<f64>,
     #[command(flatten)]
     pub output: CsvOutput,
@@ -94,15 +97,16 @@ impl Args {
             check_out(o, &read)?;
         }
         let o = what.overrides();
-        let settings = app::plan_settings(&sc, &o)?;
+        let mut settings = app::plan_settings(&sc, &o)?;
+        let tolerance_deg = tolerance_deg.map(waypoints::check_tolerance).transpose()?;
+        if let (Some(t), None) = (tolerance_deg, &waypoints) {
+            settings.tolerance = Degrees(t).to_radians();
+        }
         let (file, json) = (out_file.as_deref(), json);
         let mut note = std::io::stderr();
         let (reached, message) = match &waypoints {
             Some(waypoints_file) => {
-                let tolerance_deg = match tolerance_deg {
-                    Some(t) => waypoints::check_tolerance(t)?,
-                    None => DEFAULT_WAYPOINT_TOLERANCE_DEG,
-                };
+                let tolerance_deg = tolerance_deg.unwrap_or(DEFAULT_WAYPOINT_TOLERANCE_DEG);
                 let job = waypoints::WaypointJob {
                     file: waypoints_file,
                     tolerance_deg,

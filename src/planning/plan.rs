@@ -154,16 +154,23 @@ pub struct PlanSettings {
     pub settle_budget: usize,
     /// The search settles this many of each state's best-ranked proposals (dynamic model).
     pub settles_per_state: usize,
-    /// The target counts as reached within this angle of it.
+    /// The search counts the target angle as turned within this angle of it.
     pub angle_tolerance: Radians,
+    /// The plan is reached when it ends within this angle of the target orientation
+    /// ([`goal_of`]; `plan.tolerance_deg`, `--tolerance-deg`; [`DEFAULT_TOLERANCE_DEG`]).
+    pub tolerance: Radians,
 }
+
+/// The default of [`PlanSettings::tolerance`], degrees.
+pub const DEFAULT_TOLERANCE_DEG: f64 = 1.0;
 
 /// A plan and how it ended.
 #[derive(Debug, Clone)]
 pub struct Plan {
     /// The steps, row 0 the initial commutation.
     pub rows: Vec<PlanRow>,
-    /// Whether the plan reaches the target within the angle tolerance.
+    /// Whether the plan ends within its tolerance ([`PlanSettings::tolerance`]) of the target
+    /// orientation ([`goal_of`]).
     pub reached: bool,
     /// Why the plan stopped short, when it did.
     pub message: Option<String>,
@@ -187,6 +194,8 @@ pub struct PlanSummary {
     pub final_orientation_error_deg: f64,
     /// See [`Plan::reached`].
     pub reached: bool,
+    /// The tolerance `reached` is judged with, degrees ([`PlanSettings::tolerance`]).
+    pub tolerance_deg: f64,
     /// The steps' predicted settle times added up, s.
     pub total_settle_time_s: f64,
     /// The scheme's name, as a scenario writes it.
@@ -212,6 +221,7 @@ impl Plan {
             max_axis_error_deg: max_axis_error_deg(&self.rows),
             final_orientation_error_deg: final_orientation_error_deg(s, &self.rows),
             reached: self.reached,
+            tolerance_deg: s.tolerance.0.to_degrees(),
             total_settle_time_s: total_settle_time(&self.rows),
             scheme: s.scheme.name().to_string(),
             model: s.model.name().into(),
@@ -235,6 +245,26 @@ pub fn final_orientation_error_deg(s: &PlanSettings, rows: &[PlanRow]) -> f64 {
         (Some(goal), Some(last)) => last.q.angle_to(&goal).to_degrees(),
         _ => 0.0,
     }
+}
+
+/// `p` (a plan made for `s`) judged at its end: reached only when its search completed the
+/// turn and it ends within `s.tolerance` of the target orientation; otherwise its message
+/// says how far it ended.
+pub fn judged(mut p: Plan, s: &PlanSettings) -> Plan {
+    if !p.reached || p.rows.is_empty() {
+        return p;
+    }
+    let off = final_orientation_error_deg(s, &p.rows);
+    let tolerance = s.tolerance.0.to_degrees();
+    if off > tolerance {
+        p.reached = false;
+        let before = p.message.take().map(|m| format!("; {m}")).unwrap_or_default();
+        p.message = Some(format!(
+            "target not reached: the plan ends {off:.2} deg from the target orientation, over \
+             its tolerance of {tolerance:.2} deg (plan.tolerance_deg){before}"
+        ));
+    }
+    p
 }
 
 /// The steps of a plan that do not settle within t_max.

@@ -76,7 +76,7 @@ fn plan_with(
         ),
         None => search::run(src, s),
     };
-    match s.model {
+    let p = match s.model {
         StepModel::Coils => run(&CoilSets::new(motor, s)),
         StepModel::Dynamic => run(&PairSteps { motor, s }),
         StepModel::Pivot => {
@@ -93,7 +93,8 @@ fn plan_with(
             }
             p
         }
-    }
+    };
+    crate::planning::plan::judged(p, s)
 }
 
 /// A step source that starts from one given state (its coils on for `held`, when given).
@@ -222,7 +223,7 @@ impl StepSource for PairSteps<'_> {
         let proposals = landing_proposals(self.motor, s, at.state, goal, avoid);
         let sets: Vec<Vec<Pair>> = proposals
             .iter()
-            .map(|(pivot, new)| pivot.iter().chain(new).copied().collect())
+            .map(|(kept, new)| kept.iter().chain(new).copied().collect())
             .collect();
         let spent = sets.len();
         let outcomes = settled_states(self.motor, sets, &at.state.q);
@@ -236,7 +237,7 @@ impl StepSource for PairSteps<'_> {
         let steps = proposals
             .into_iter()
             .zip(outcomes)
-            .filter_map(|((pivot, new), to)| {
+            .filter_map(|((kept, new), to)| {
                 let (to, angle, axis_error) = admissible(
                     &self.motor.torques,
                     &at.state.q,
@@ -246,7 +247,7 @@ impl StepSource for PairSteps<'_> {
                     capture,
                 )?;
                 Some(Step {
-                    pivot,
+                    pivot: kept.first().copied(),
                     new,
                     to,
                     angle,
@@ -263,16 +264,18 @@ impl StepSource for PairSteps<'_> {
 /// hold there.
 const LANDING_MARGIN: Radians = Radians(3.0 * std::f64::consts::PI / 180.0);
 
-/// A landing step's set: the held pair it keeps, if any, and the pairs it switches on.
-type LandingSet = (Option<Pair>, Vec<Pair>);
+/// A landing step's set: the pairs it keeps on of those on before it, and the pairs it
+/// switches on.
+type LandingSet = (Vec<Pair>, Vec<Pair>);
 
-/// The sets a landing weighs from `state` towards `goal`, as (the held pair kept, if any; the
-/// pairs switched on): pairs whose magnets lie within the capture distance of their coils at
-/// the goal (and [`LANDING_MARGIN`]), `pairs` of them in all, either with a held pair kept (the
-/// pivot) or without one, within the supply (the held coils and the new ones together, make
-/// before break: [`fits_supply`]) and none of `avoid`'s coils; ranked by how near the goal
-/// their cheap prediction ([`predicted_orientation`]) leaves the ball, the `settles_per_state`
-/// nearest.
+/// The sets a landing weighs from `state` towards `goal`, as (the pairs kept on, the pairs
+/// switched on): any of the pairs on now kept (none, some or all), with pairs whose magnets
+/// lie within the capture distance of their coils at the goal (and [`LANDING_MARGIN`]) switched
+/// on, or none (a release: some of the pairs on switched off, which lets a full supply take a
+/// new coil at the next step); between `pairs.min` and `pairs.max` pairs in all, within the
+/// supply (the coils on and the new ones together, make before break: [`fits_supply`]) and none
+/// of `avoid`'s coils kept or switched on; ranked by how near the goal their cheap prediction
+/// ([`predicted_orientation`]) leaves the ball, the `settles_per_state` nearest.
 fn landing_proposals(
     motor: &Motor,
     s: &PlanSettings,
@@ -291,37 +294,46 @@ fn landing_proposals(
         })
         .filter(|p| !avoid.contains(&p.coil) && pair_gap(t, &r, *p).0 <= capture.0)
         .collect();
-    let pivots = std::iter::once(None).chain(
-        state
-            .active
-            .iter()
-            .filter(|p| !avoid.contains(&p.coil))
-            .map(|p| Some(*p)),
-    );
+    let on = &state.active;
     let mut ranked: Vec<(f64, LandingSet)> = Vec::new();
-    for pivot in pivots {
-        let kept = usize::from(pivot.is_some());
+    let mut set: Vec<Pair> = Vec::new();
+    let mut weigh = |kept: &[Pair], new: &[Pair], ranked: &mut Vec<(f64, LandingSet)>| {
+        set.clear();
+        set.extend(kept.iter().chain(new).copied());
+        let qp = predicted_orientation(t, &state.q, &set);
+        ranked.push((qp.angle_to(goal), (kept.to_vec(), new.to_vec())));
+    };
+    // every subset of the pairs on, as a bit mask, in a fixed order
+    for mask in 0..(1usize << on.len()) {
+        let kept: Vec<Pair> = (on.iter().enumerate())
+            .filter(|(i, _)| mask >> i & 1 == 1)
+            .map(|(_, p)| *p)
+            .collect();
+        if kept.len() > s.pairs.max || kept.iter().any(|p| avoid.contains(&p.coil)) {
+            continue;
+        }
+        if kept.len() >= s.pairs.min && kept.len() < on.len() {
+            weigh(&kept, &[], &mut ranked);
+        }
+        if kept.len() == s.pairs.max {
+            continue;
+        }
         let others: Vec<Pair> = near_goal
             .iter()
             .copied()
-            .filter(|p| pivot.is_none_or(|v| p.coil != v.coil))
+            .filter(|p| kept.iter().all(|k| k.coil != p.coil))
             .collect();
-        let least = s.pairs.min.saturating_sub(kept).max(1);
-        let mut set: Vec<Pair> = Vec::new();
+        let least = s.pairs.min.saturating_sub(kept.len()).max(1);
         each_combination(
             &others,
             least,
-            s.pairs.max - kept,
+            s.pairs.max - kept.len(),
             &mut Vec::new(),
             0,
             &mut |new| {
-                if !fits_supply(&state.active, new, s.limits.max_coils_on) {
-                    return;
+                if fits_supply(on, new, s.limits.max_coils_on) {
+                    weigh(&kept, new, &mut ranked);
                 }
-                set.clear();
-                set.extend(pivot.iter().chain(new).copied());
-                let qp = predicted_orientation(t, &state.q, &set);
-                ranked.push((qp.angle_to(goal), (pivot, new.to_vec())));
             },
         );
     }

@@ -701,7 +701,9 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
 }
 
 /// The search's best plan carried on by the landing (with the other complete plans it found,
-/// `solutions`), and the settles the landing spent.
+/// `solutions`), and the settles the landing spent. A landing that ends further than the plan's
+/// tolerance from the target orientation is tried again wider ([`WIDE`]: a worse path allowed
+/// for an end within reach), and the nearer-ending of the two is kept.
 fn land_best(
     src: &dyn StepSource,
     s: &PlanSettings,
@@ -713,20 +715,44 @@ fn land_best(
     };
     let mut plans = vec![b];
     plans.extend(solutions);
-    let (landed, settles) = land(src, s, plans, s.settle_budget / LANDING_SHARE);
-    (Some(landed), settles)
+    let budget = s.settle_budget / LANDING_SHARE;
+    let (landed, settles) = land(src, s, plans.clone(), budget, NARROW);
+    let off = |n: &Node| n.state.q.angle_to(&goal_of_node(n, s));
+    if off(&landed) <= s.tolerance.0 {
+        return (Some(landed), settles);
+    }
+    let (wide, more) = land(src, s, plans, budget, WIDE);
+    let kept = match off(&wide) < off(&landed) - 1e-12 {
+        true => wide,
+        false => landed,
+    };
+    (Some(kept), settles + more)
 }
 
-/// The landing may spend this fraction of the search's settle budget (a fifth) on top of it.
+/// The landing may spend this fraction of the search's settle budget (a fifth) on top of it,
+/// twice when it lands wide.
 const LANDING_SHARE: usize = 5;
 
-/// A landing may pass through states this much further from the goal than the plan's end
-/// (rad, 2 degrees): a step away that opens the way to a nearer one.
-const LANDING_DETOUR: f64 = 2.0 * std::f64::consts::PI / 180.0;
+/// How far a landing may stray: past the plan's end (`detour`, rad: a step away that opens the
+/// way to a nearer one) and past the search's best plan's [`score`] (`slack`, rad: a plan that
+/// ends nearer its goal may be this much worse on the way).
+#[derive(Debug, Clone, Copy)]
+struct Leeway {
+    detour: f64,
+    slack: f64,
+}
 
-/// A landing keeps a plan's [`score`] within this of the search's best (rad, 1 degree): a plan
-/// that ends nearer its goal may be this much worse on the way.
-const LANDING_SLACK: f64 = std::f64::consts::PI / 180.0;
+/// The landing's leeway: 2 degrees of detour, 1 degree of slack.
+const NARROW: Leeway = Leeway {
+    detour: 2.0 * std::f64::consts::PI / 180.0,
+    slack: std::f64::consts::PI / 180.0,
+};
+
+/// The leeway of a landing tried again: 5 degrees of detour, 3 degrees of slack.
+const WIDE: Leeway = Leeway {
+    detour: 5.0 * std::f64::consts::PI / 180.0,
+    slack: 3.0 * std::f64::consts::PI / 180.0,
+};
 
 /// Where a complete plan was sent: the target rotation applied to its row 0.
 fn goal_of_node(p: &Node, s: &PlanSettings) -> Orientation {
@@ -743,8 +769,14 @@ fn goal_of_node(p: &Node, s: &PlanSettings) -> Orientation {
 /// every coil within the on-time limit. The plan that ends nearest its goal (complete, or within
 /// the tolerance), and the settles spent. The cumulative rotation's figures stay those about
 /// the plan's axis. `plans` is best first; the first is the search's best.
-fn land(src: &dyn StepSource, s: &PlanSettings, plans: Vec<Node>, budget: usize) -> (Node, usize) {
-    let bound = plans.first().map_or(0.0, |b| path_score(b, s)) + LANDING_SLACK + 1e-9;
+fn land(
+    src: &dyn StepSource,
+    s: &PlanSettings,
+    plans: Vec<Node>,
+    budget: usize,
+    leeway: Leeway,
+) -> (Node, usize) {
+    let bound = plans.first().map_or(0.0, |b| path_score(b, s)) + leeway.slack + 1e-9;
     // each node: the plan, its goal, the farthest from it a landing may go
     let mut nodes: Vec<(Node, Orientation, f64)> = Vec::new();
     let mut open = std::collections::BinaryHeap::new();
@@ -762,7 +794,7 @@ fn land(src: &dyn StepSource, s: &PlanSettings, plans: Vec<Node>, budget: usize)
             rank: d,
             node: nodes.len(),
         });
-        nodes.push((p, goal, d + LANDING_DETOUR));
+        nodes.push((p, goal, d + leeway.detour));
     }
     let dist = |n: &(Node, Orientation, f64)| n.0.state.q.angle_to(&n.1);
     let mut nearest = 0usize;
@@ -840,9 +872,9 @@ fn tired_coils(p: &Node, limit: Option<OnTimeLimit>) -> Vec<CoilId> {
     let (Some(l), Some(last)) = (limit, p.rows.last()) else {
         return Vec::new();
     };
-    let next = l.dwell(last.settle_time_s);
+    let next = l.dwell(last.settle_time_s) + on_time::STEP_IO;
     p.on.iter()
-        .filter(|(_, h)| h.on + next > l.max_on)
+        .filter(|(_, h)| h.on + next > on_time::budget(l.max_on))
         .map(|(c, _)| *c)
         .collect()
 }

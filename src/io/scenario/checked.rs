@@ -629,6 +629,11 @@ impl Checker<'_> {
                 raw.angle_tolerance_deg,
                 Degrees(0.5).to_radians(),
             )?,
+            tolerance: angle_field(
+                "plan.tolerance_deg",
+                raw.tolerance_deg,
+                Degrees(crate::planning::plan::DEFAULT_TOLERANCE_DEG).to_radians(),
+            )?,
         })
     }
 

@@ -75,6 +75,7 @@ pub(super) struct RawPlan {
     pub(super) max_coils_on: Option<usize>,
     pub(super) max_candidates: Option<usize>,
     pub(super) angle_tolerance_deg: Option<f64>,
+    pub(super) tolerance_deg: Option<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
