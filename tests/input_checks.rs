@@ -1,7 +1,7 @@
 //! Input that would silently give a wrong answer is refused, naming the file (or argument), the
 //! field or line, and what was expected: coordinate files without a header, coincident magnets
 //! or coils, stray separators in pairs, a zero baud rate, plan files without row 0 or with a
-//! negative settle time.
+//! negative settle time, a device (`/dev/zero`) where a file is meant.
 
 mod common;
 
@@ -299,4 +299,66 @@ fn messages_name_the_cause() {
         &["overflowed double precision", "energy: -4.178940e299 J"],
     );
     assert!(!out.contains("collapsed") && out.len() < 600, "{out}{err}");
+}
+
+/// Runs the binary with `args`, waiting at most a minute: a run still going then (reading a
+/// device without end) is killed and the test fails instead of hanging. Exit code and stderr.
+fn run_bounded(args: &[&str]) -> (Option<i32>, String) {
+    use std::io::Read;
+    let mut child = std::process::Command::new(common::bin())
+        .args(args)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stderr.read_to_string(&mut s);
+        s
+    });
+    for _ in 0..600 {
+        if let Some(status) = child.try_wait().unwrap() {
+            return (status.code(), reader.join().unwrap());
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    panic!(
+        "`spherestep {}` still running after a minute: killed",
+        args.join(" ")
+    );
+}
+
+/// Where a file is meant, a device is refused before a byte of it is read (it used to be read
+/// without end: 4.8 GB of `/dev/zero` after 3 s), naming the file and what was expected.
+#[test]
+fn devices_are_refused_where_a_file_is_meant() {
+    let t = tempfile::tempdir().unwrap();
+    let z = t.path().join("zero-rotor.toml");
+    std::fs::write(&z, "[rotor]\nfile = \"/dev/zero\"\n").unwrap();
+    let sc = "scenarios/prototype.toml";
+    let cases: [&[&str]; 5] = [
+        &["plan", z.to_str().unwrap()],
+        &["simulate", "/dev/zero", sc],
+        &["plan", sc, "--waypoints", "/dev/zero"],
+        &["settle", sc, "--sets", "/dev/zero"],
+        &["replay", "/dev/zero", sc, "--dry-run"],
+    ];
+    for args in cases {
+        let (code, err) = run_bounded(args);
+        assert_eq!(code, Some(1), "{args:?}: {err}");
+        assert_has(
+            &err,
+            &[
+                "/dev/zero",
+                "expected a regular file, got a character device",
+            ],
+        );
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    let (_, err) = run_bounded(&["plan", z.to_str().unwrap()]);
+    assert_has(&err, &["zero-rotor.toml", "rotor.file"]);
 }

@@ -237,7 +237,7 @@ pub const SETS_HEADER: [&str; 14] = [
 
 /// Reads a sets file: one active set per non-empty line (`#` starts a comment), each checked.
 pub fn read_sets(sc: &Scenario, path: &Path) -> Result<Vec<Vec<Pair>>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::io::input::text(path)?;
     let mut sets = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let line = line.split('#').next().unwrap_or("").trim();

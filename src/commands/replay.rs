@@ -142,7 +142,7 @@ pub fn inputs(opts: &ReplayOptions) -> Result<(Vec<PlanRow>, Scenario, RelaySett
     };
     let settings = match &opts.map {
         Some(p) => {
-            let text = std::fs::read_to_string(p).map_err(|e| Error::io(p, e))?;
+            let text = crate::io::input::text(p)?;
             RelaySettings::from_map_toml(&text, p)?
         }
         None => scenario.relay.clone(),
@@ -178,7 +178,7 @@ pub fn run(
 /// Reads a replay log and returns the step to resume from: the one after the last step whose
 /// dwell completed (0 when none did).
 pub fn resume_step(log: &Path) -> Result<usize> {
-    let text = std::fs::read_to_string(log).map_err(|e| RelayError::Log {
+    let text = crate::io::input::read_text(log).map_err(|e| RelayError::Log {
         path: log.to_path_buf(),
         cause: e,
     })?;

@@ -40,7 +40,7 @@ pub fn plot_csv_with_coils(
     title: Option<&str>,
     coils: &[[f64; 3]],
 ) -> Result<Vec<PathBuf>> {
-    let text = std::fs::read_to_string(csv_path).map_err(|e| Error::io(csv_path, e))?;
+    let text = crate::io::input::text(csv_path)?;
     let header = csv_header(&text);
     let kind = csv_kind(&header, csv_path)?;
     let csv = ResultCsv {

@@ -15,7 +15,7 @@
 //! that `simulate` can say where the ball ends against each; readers that do not need them
 //! ignore them.
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::io::table::{write_csv, Row, Table};
 use crate::model::geometry::{orientation_from_xyzw, parse_pairs, xyzw, Orientation, Pair};
 use crate::planning::plan::PlanRow;
@@ -147,7 +147,7 @@ pub fn waypoint_ends(serves: &[Serves]) -> Vec<usize> {
 
 /// [`parse_plan_waypoints`] of the plan file at `path`.
 pub fn read_plan_waypoints(path: &Path) -> Result<Option<Vec<Serves>>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::io::input::text(path)?;
     parse_plan_waypoints(&text, path)
 }
 
@@ -176,7 +176,7 @@ fn plan_record(r: &PlanRow) -> Vec<String> {
 
 /// Reads a plan CSV; any malformed row gives an error naming the file, line and column.
 pub fn read_plan(path: &Path) -> Result<Vec<PlanRow>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::io::input::text(path)?;
     parse_plan(&text, path)
 }
 

@@ -53,7 +53,7 @@ pub fn write_sim(rows: &[SimRow], out: &mut dyn Write) -> Result<()> {
 /// Reads `simulate` results: a CSV whose header includes `step,qx,qy,qz,qw` (other columns are
 /// ignored; an optional `deviation_deg` is kept). Errors name the file, line and column.
 pub fn read_sim(path: &Path) -> Result<Vec<SimRecord>> {
-    let text = std::fs::read_to_string(path).map_err(|e| crate::error::Error::io(path, e))?;
+    let text = crate::io::input::text(path)?;
     parse_sim(&text, path)
 }
 

@@ -26,7 +26,7 @@ pub fn row_error(path: &Path, line: usize, message: String) -> Error {
 impl Table {
     /// Reads the file at `path`.
     pub fn read(path: &Path) -> Result<Table> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::io::input::text(path)?;
         Table::parse(&text, path)
     }
 

@@ -22,7 +22,7 @@ pub const TURN_COLUMNS: [&str; 4] = ["axis_x", "axis_y", "axis_z", "angle_deg"];
 /// something else than a non-zero quaternion or a non-zero axis and a finite angle: the error
 /// names the file, the line and the column.
 pub fn read_waypoints(path: &Path, start: &Orientation) -> Result<Vec<Orientation>> {
-    let text = std::fs::read_to_string(path).map_err(|e| crate::error::Error::io(path, e))?;
+    let text = crate::io::input::text(path)?;
     parse_waypoints(&text, path, start)
 }
 

@@ -6,6 +6,7 @@ use super::progress::progress_path;
 use super::{Job, Shard, SWEEP_HEADER};
 use crate::error::{Error, Result};
 use crate::figures::batch_pictures;
+use crate::io::input::{read_bytes, read_text};
 use crate::io::output::write_atomic;
 use crate::io::planfile::{parse_plan, write_plan};
 use crate::io::scenario::Scenario;
@@ -59,14 +60,14 @@ pub(super) enum Stored {
 /// what is wrong with its text, if anything.
 pub(super) fn stored(csv: &Path, hash: &str, whole: impl FnOnce(&str) -> Option<String>) -> Stored {
     let hash_file = hash_path(csv);
-    let Ok(recorded) = std::fs::read_to_string(&hash_file) else {
+    let Ok(recorded) = read_text(&hash_file) else {
         return Stored::Absent;
     };
     let mut lines = recorded.lines().map(str::trim);
     if lines.next() != Some(hash) || !csv.is_file() {
         return Stored::Absent;
     }
-    let bytes = match std::fs::read(csv) {
+    let bytes = match read_bytes(csv) {
         Ok(b) => b,
         Err(e) => return Stored::Damaged(format!("unreadable ({e})")),
     };
@@ -191,7 +192,7 @@ pub(super) fn pictures_path(csv: &Path) -> PathBuf {
 
 /// Whether every picture of the result `csv` (of this `hash`) is in `out`.
 pub(super) fn pictures_ok(csv: &Path, hash: &str, out: &Path) -> bool {
-    let Ok(text) = std::fs::read_to_string(pictures_path(csv)) else {
+    let Ok(text) = read_text(&pictures_path(csv)) else {
         return false;
     };
     let mut lines = text.lines();

@@ -285,7 +285,7 @@ fn load_scenarios(
     let mut loaded = Vec::new();
     for file in inputs {
         let fail = |e: String| (file.display().to_string(), e);
-        let text = match std::fs::read_to_string(file) {
+        let text = match crate::io::input::read_text(file) {
             Ok(t) => t,
             Err(e) => {
                 report.failed.push(fail(Error::io(file, e).to_string()));

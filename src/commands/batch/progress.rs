@@ -33,7 +33,7 @@ pub(super) fn read_progress(
 ) -> (BTreeMap<usize, Vec<String>>, Option<String>) {
     let mut done = BTreeMap::new();
     let path = progress_path(csv);
-    let Ok(bytes) = std::fs::read(&path) else {
+    let Ok(bytes) = crate::io::input::read_bytes(&path) else {
         return (done, None);
     };
     let Some(k) = bytes.iter().position(|&b| b == b'\n') else {

@@ -27,7 +27,7 @@ pub(super) fn summary_csv(inputs: &[PathBuf], out: &Path, report: &BatchReport) 
             continue;
         };
         let csv = out.join(format!("{}.csv", sc.name));
-        let Ok(text) = std::fs::read_to_string(&csv) else {
+        let Ok(text) = crate::io::input::read_text(&csv) else {
             continue;
         };
         records.push(match &sc.sweep {

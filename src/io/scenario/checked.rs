@@ -181,7 +181,7 @@ impl Checker<'_> {
             Packing { points: pts }
         } else if let Some(file) = raw.file {
             let path = self.relative(&file);
-            let text = std::fs::read_to_string(&path).map_err(|e| {
+            let text = crate::io::input::read_text(&path).map_err(|e| {
                 self.err(
                     &format!("{section}.file"),
                     format!(
@@ -847,7 +847,8 @@ impl Checker<'_> {
 
 /// Reads a torque table CSV: header `angle_deg,torque_nm` (required), then rows.
 pub(super) fn read_table(path: &Path) -> std::result::Result<TorqueTable, String> {
-    let mut rdr = csv::Reader::from_path(path).map_err(|e| e.to_string())?;
+    let bytes = crate::io::input::read_bytes(path).map_err(|e| e.to_string())?;
+    let mut rdr = csv::Reader::from_reader(bytes.as_slice());
     let headers = rdr.headers().map_err(|e| format!("line 1: {e}"))?.clone();
     packing::check_header(&headers, &["angle_deg", "torque_nm"], "row")?;
     let mut rows = Vec::new();

@@ -168,7 +168,7 @@ impl Scenario {
     /// assert!(sc.motor().plan(&sc.plan).reached);
     /// ```
     pub fn load(path: &Path) -> Result<Scenario> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::io::input::text(path)?;
         let mut sc = Scenario::from_toml(&text, path)?;
         sc.files.insert(0, path.to_path_buf());
         Ok(sc)
