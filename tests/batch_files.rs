@@ -138,11 +138,29 @@ fn mark(rows: &str, case: usize, value: &str) -> String {
         .collect()
 }
 
+/// The sweep row of a progress file's line (its checksum, the last field, left out).
+fn row_of(line: &str) -> &str {
+    line.rsplit_once(',').unwrap().0
+}
+
+/// The kept plans in a folder, by name.
+fn kept_plans(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
 #[test]
 fn resume_continues_a_sweep_from_its_saved_cases() {
     let t = tempfile::tempdir().unwrap();
     let s = t.path().join("sw.toml");
-    std::fs::write(&s, SWEEP).unwrap();
+    // kept plans show which cases were computed: a case taken from the progress file has none
+    std::fs::write(&s, format!("{SWEEP}keep_plans = true\n")).unwrap();
     let full = t.path().join("full");
     let r = batch(&[s.to_str().unwrap(), "--out", full.to_str().unwrap()]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
@@ -172,21 +190,21 @@ fn resume_continues_a_sweep_from_its_saved_cases() {
     );
     let mut sorted: Vec<&str> = saved_rows.lines().collect();
     sorted.sort_by_key(|l| l.split(',').next().unwrap().parse::<usize>().unwrap());
+    let unchecked: Vec<&str> = sorted.iter().map(|l| row_of(l)).collect();
     assert_eq!(
-        sorted.join("\n") + "\n",
+        unchecked.join("\n") + "\n",
         rows,
-        "every case saved, the same rows"
+        "every case saved, the same rows (each followed by its checksum)"
     );
+    assert!(sorted
+        .iter()
+        .all(|l| l.rsplit_once(',').unwrap().1.len() == 64));
 
-    // Killed half way: cases 0-5 saved (case 3 marked, to see it is not recomputed), a torn
-    // row after them.
+    // Killed half way: cases 0-5 saved, a torn row after them.
     std::fs::remove_dir_all(out.join("sw.csv")).unwrap();
-    let half: String = rows.lines().take(6).map(|l| format!("{l}\n")).collect();
-    std::fs::write(
-        &progress,
-        format!("{first}\n{}7,weigh", mark(&half, 3, "123.5")),
-    )
-    .unwrap();
+    std::fs::remove_dir_all(out.join("sw")).unwrap();
+    let half: String = sorted.iter().take(6).map(|l| format!("{l}\n")).collect();
+    std::fs::write(&progress, format!("{first}\n{half}7,weigh")).unwrap();
     let r = batch(&[
         s.to_str().unwrap(),
         "--out",
@@ -194,10 +212,19 @@ fn resume_continues_a_sweep_from_its_saved_cases() {
         "--resume",
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_eq!(
-        text(&out.join("sw.csv")),
-        format!("{header}\n{}", mark(rows, 3, "123.5")),
-        "saved cases taken, the others computed"
+    assert!(
+        r.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    assert_eq!(text(&out.join("sw.csv")), format!("{header}\n{rows}"));
+    let computed = kept_plans(&out.join("sw"));
+    assert_eq!(computed.len(), 6, "{computed:?}");
+    assert!(
+        computed
+            .iter()
+            .all(|n| (6..12).any(|k| n.starts_with(&format!("case-{k}-")))),
+        "saved cases taken, the others computed: {computed:?}"
     );
     assert!(!progress.exists());
 
@@ -345,6 +372,71 @@ fn damaged_progress_rows_are_computed_again_with_a_warning() {
         "{warning}"
     );
     assert!(warning.contains("computed again"), "{warning}");
+    assert!(!progress.exists());
+}
+
+/// A saved row with one number changed by hand still reads as a row of this sweep, but its
+/// checksum no longer verifies: `--resume` computes the case again, with a warning naming the
+/// progress file, and the result has the bytes of an uninterrupted run (the edited number
+/// used to land in `sw.csv`, its `.hash` matching). A row whose checksum was removed is
+/// computed again too.
+#[test]
+fn an_edited_progress_row_is_computed_again() {
+    let t = tempfile::tempdir().unwrap();
+    let s = t.path().join("sw.toml");
+    std::fs::write(&s, SWEEP).unwrap();
+    let full = t.path().join("full");
+    let r = batch(&[s.to_str().unwrap(), "--out", full.to_str().unwrap()]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let expected = std::fs::read(full.join("sw.csv")).unwrap();
+    // every case saved by a run that could not write its result
+    let out = t.path().join("out");
+    std::fs::create_dir_all(out.join("sw.csv").join("blocker")).unwrap();
+    let r = batch(&[s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(r.status.code(), Some(1));
+    std::fs::remove_dir_all(out.join("sw.csv")).unwrap();
+    let progress = out.join("sw.csv.progress");
+    let saved = text(&progress);
+    let (first, rows) = saved.split_once('\n').unwrap();
+    let case3 = rows.lines().find(|l| l.starts_with("3,")).unwrap();
+    assert!(!case3.contains(",0.125,"), "{case3}");
+    // case 3's max_axis_error_deg edited, its checksum kept; case 5's checksum dropped
+    let edited: String = mark(rows, 3, "0.125")
+        .lines()
+        .map(|l| match l.starts_with("5,") {
+            true => format!("{}\n", row_of(l)),
+            false => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(&progress, format!("{first}\n{edited}")).unwrap();
+    let r = batch(&[
+        s.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--resume",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{err}");
+    let got = std::fs::read(out.join("sw.csv")).unwrap();
+    assert!(
+        got == expected,
+        "the bytes of an uninterrupted run:\n{}",
+        String::from_utf8_lossy(&got)
+    );
+    assert_eq!(
+        text(&out.join("sw.csv.hash")),
+        text(&full.join("sw.csv.hash"))
+    );
+    let warning = err
+        .lines()
+        .find(|l| l.contains(&progress.display().to_string()))
+        .unwrap_or_else(|| panic!("no warning naming the progress file: {err}"));
+    assert!(warning.contains("2 damaged row(s)"), "{warning}");
+    assert!(
+        warning.contains("case 3: expected the row's checksum after it"),
+        "{warning}"
+    );
+    assert!(warning.contains("case 5: expected the row's checksum after it, got none"));
     assert!(!progress.exists());
 }
 

@@ -255,7 +255,7 @@ pub(super) fn run_cases(
                 o.error = write_kept_plan(job, case, &o.rows, &opts.out).err();
             }
             if let (Some(f), None) = (&progress, &o.error) {
-                append_progress(f, &o.record);
+                append_progress(f, &job.hash, &o.record);
             }
             bar.inc(1);
             o

@@ -1,17 +1,19 @@
 //! The progress file of a sweep being computed: each finished case's row appended as the case
-//! ends, so that a killed sweep is continued by `--resume` instead of starting over.
+//! ends, with a checksum, so that a killed sweep is continued by `--resume` instead of starting
+//! over, and a row that is not what was written is computed again instead of kept.
 
 use super::cases::{sweep_row_problem, Case};
-use super::Job;
+use super::{Job, SWEEP_HEADER};
 use crate::error::{printable, Error, Result};
 use crate::io::output::write_atomic;
+use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The progress file of a sweep result being computed (`NAME.csv.progress`): a first line
-/// `hash HASH`, then the CSV row of each finished case, appended (one write per row) as the
-/// case ends, so that a killed sweep is continued by `--resume`. Removed once the result is
-/// written.
+/// `hash HASH`, then the CSV row of each finished case followed by its [`row_check`],
+/// appended (one write per row) as the case ends, so that a killed sweep is continued by
+/// `--resume`. Removed once the result is written.
 pub(super) fn progress_path(csv: &Path) -> PathBuf {
     let mut s = csv.as_os_str().to_owned();
     s.push(".progress");
@@ -21,11 +23,65 @@ pub(super) fn progress_path(csv: &Path) -> PathBuf {
 /// The most damaged rows a warning lists.
 const LISTED: usize = 5;
 
+/// The checksum saved after a case's sweep row in the progress file: the SHA-256 of the job's
+/// content hash (the scenario as loaded, the program's version, the shard: the case's inputs)
+/// and of the row's fields, so that a row edited, moved to another sweep or written by another
+/// version does not verify and its case is computed again.
+pub(super) fn row_check(hash: &str, record: &[String]) -> String {
+    let mut h = Sha256::new();
+    h.update(hash.as_bytes());
+    for f in record {
+        h.update((f.len() as u64).to_le_bytes());
+        h.update(f.as_bytes());
+    }
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A progress file's line for `record`: its fields, then its [`row_check`].
+fn progress_line(hash: &str, record: &[String]) -> Result<Vec<u8>> {
+    let mut fields = record.to_vec();
+    fields.push(row_check(hash, record));
+    csv_line(&fields)
+}
+
+/// The case and sweep row of a whole progress line's `fields` (the row, then its checksum),
+/// or what is wrong with them.
+fn saved_row(
+    mut fields: Vec<String>,
+    by_index: &BTreeMap<usize, &Case>,
+    hash: &str,
+) -> std::result::Result<(usize, Vec<String>), String> {
+    let case = fields.first().and_then(|f| f.parse::<usize>().ok());
+    let Some(c) = case.and_then(|i| by_index.get(&i)) else {
+        return Err(format!(
+            "column `case`: expected a case of this sweep, got \"{}\"",
+            printable(fields.first().map_or("", |f| f.as_str()))
+        ));
+    };
+    let check = match fields.len() == SWEEP_HEADER.len() + 1 {
+        true => fields.pop(),
+        false => None,
+    };
+    if let Some(p) = sweep_row_problem(c, &fields) {
+        return Err(format!("case {}: {p}", c.index));
+    }
+    if check.as_deref() != Some(row_check(hash, &fields).as_str()) {
+        return Err(format!(
+            "case {}: expected the row's checksum after it, got {} (the row was edited, or \
+             saved by another version)",
+            c.index,
+            check.map_or("none".to_string(), |k| format!("\"{}\"", printable(&k)))
+        ));
+    }
+    Ok((c.index, fields))
+}
+
 /// The finished cases in `csv`'s progress file (case index -> row) among `cases`, when the file
 /// belongs to this `hash` (else none, silently: it is of other content). The last row cut short
 /// by a kill (no line end) counts for nothing; every whole row is checked as this sweep writes
-/// it (`sweep_row_problem`), and those that are not (edited, of no case here, unreadable) are
-/// left out, their cases computed again, and named in the warning returned.
+/// it (`sweep_row_problem`) and against its checksum ([`row_check`]), and those that are not
+/// (edited, of no case here, unreadable) are left out, their cases computed again, and named
+/// in the warning returned.
 pub(super) fn read_progress(
     csv: &Path,
     hash: &str,
@@ -66,22 +122,12 @@ pub(super) fn read_progress(
                     damaged.push((line, "not UTF-8 text".to_string()));
                     continue;
                 };
-                let case = fields.first().and_then(|f| f.parse::<usize>().ok());
-                match case.and_then(|i| by_index.get(&i)) {
-                    None => (
-                        line,
-                        format!(
-                            "column `case`: expected a case of this sweep, got \"{}\"",
-                            printable(fields.first().map_or("", |f| f.as_str()))
-                        ),
-                    ),
-                    Some(c) => match sweep_row_problem(c, &fields) {
-                        Some(p) => (line, format!("case {}: {p}", c.index)),
-                        None => {
-                            done.insert(c.index, fields);
-                            continue;
-                        }
-                    },
+                match saved_row(fields, &by_index, hash) {
+                    Err(problem) => (line, problem),
+                    Ok((index, row)) => {
+                        done.insert(index, row);
+                        continue;
+                    }
                 }
             }
         };
@@ -125,18 +171,23 @@ pub(super) fn start_progress(
     let path = progress_path(&job.csv);
     let mut bytes = format!("hash {}\n", job.hash).into_bytes();
     for r in done.values() {
-        bytes.extend(csv_line(r).ok()?);
+        bytes.extend(progress_line(&job.hash, r).ok()?);
     }
     write_atomic(&path, &bytes).ok()?;
     let f = std::fs::OpenOptions::new().append(true).open(&path).ok()?;
     Some(std::sync::Mutex::new(f))
 }
 
-/// Appends a finished case's row to the progress file (one write, so a kill leaves whole rows
-/// and at most one torn last row, which is ignored on reading).
-pub(super) fn append_progress(file: &std::sync::Mutex<std::fs::File>, record: &[String]) {
+/// Appends a finished case's row, with its checksum for the job's content `hash`, to the
+/// progress file (one write, so a kill leaves whole rows and at most one torn last row, which
+/// is ignored on reading).
+pub(super) fn append_progress(
+    file: &std::sync::Mutex<std::fs::File>,
+    hash: &str,
+    record: &[String],
+) {
     use std::io::Write;
-    if let (Ok(line), Ok(mut f)) = (csv_line(record), file.lock()) {
+    if let (Ok(line), Ok(mut f)) = (progress_line(hash, record), file.lock()) {
         let _ = f.write_all(&line);
     }
 }
