@@ -29,7 +29,10 @@
 //! let sc = Scenario::prototype();
 //! let motor = sc.motor();
 //! let p = motor.plan(&sc.plan);
-//! assert!(p.reached && max_axis_error_deg(&p.rows) < 15.0);
+//! let s = p.summary(&sc.plan);
+//! assert!(max_axis_error_deg(&p.rows) < 15.0 && s.final_orientation_error_deg < 2.0);
+//! // reached: it ends within plan.tolerance_deg (1 degree) of the target orientation
+//! assert_eq!(p.reached, s.final_orientation_error_deg <= 1.0);
 //! let sim = motor.simulate(&p.rows);
 //! assert!(sim.iter().all(|s| s.deviation_deg < 1e-6));
 //! ```

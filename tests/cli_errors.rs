@@ -325,6 +325,8 @@ fn relay_durations_beyond_their_bounds_are_refused_not_panicked_on() {
     let (code, _, err) = run(&[
         "plan",
         "scenarios/prototype.toml",
+        "--tolerance-deg",
+        "2",
         "--out",
         plan.to_str().unwrap(),
     ]);

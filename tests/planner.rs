@@ -151,7 +151,13 @@ fn the_paper_targets_are_met_by_both_models() {
         ("scenarios/paper-fig8-y-dynamic3.toml", 15.0),
     ] {
         let sc = load(file);
-        let p = plan(&sc.motor(), &sc.plan);
+        // the paper's targets are axis errors: where its plans end is none of them (its pivot
+        // plans end up to 9 degrees from the target orientation)
+        let s = PlanSettings {
+            tolerance: Radians(std::f64::consts::PI),
+            ..sc.plan.clone()
+        };
+        let p = plan(&sc.motor(), &s);
         assert!(p.reached, "{file}: {:?}", p.message);
         let worst = max_axis_error_deg(&p.rows);
         assert!(worst <= bound, "{file}: worst axis error {worst} > {bound}");
@@ -297,6 +303,8 @@ fn the_cumulative_angle_does_not_wrap_near_180_degrees() {
         "weighted",
         "--angle",
         "179",
+        "--tolerance-deg",
+        "90",
         "--json",
         "--out",
         "/dev/null",
@@ -307,8 +315,10 @@ fn the_cumulative_angle_does_not_wrap_near_180_degrees() {
     assert!((178.5..209.0).contains(&last), "{j}");
     assert!(j["max_axis_error_deg"].as_f64().unwrap() < 1e-9, "{j}");
     let sc = load("scenarios/prototype.toml");
+    // the pivot plans end up to 6 degrees from the target orientation: not what this checks
     let with_angle = |axis: &str, scheme: &str, angle: f64| PlanSettings {
         angle: Radians(angle.to_radians()),
+        tolerance: Radians(std::f64::consts::PI),
         ..settings(&sc, axis, scheme, "pivot", "2")
     };
     for (axis, scheme, angle, worst_bound) in [
@@ -429,6 +439,8 @@ fn a_step_that_never_settles_is_flagged_in_the_plan() {
         "pivot",
         "--scheme",
         "weighted",
+        "--tolerance-deg",
+        "90",
         "--out",
         out,
     ];
@@ -508,7 +520,8 @@ fn a_target_orientation_plans_the_shortest_turn_to_it_from_the_start() {
     let last = p.rows.last().unwrap().q;
     let e = last.angle_to(&goal).to_degrees();
     assert!((a.final_orientation_error_deg - e).abs() < 1e-12, "{a:?}");
-    assert!(p.reached && a.final_orientation_error_deg < 15.0, "{a:?}");
+    assert!(a.final_orientation_error_deg < 1.5, "{a:?}");
+    assert_eq!(p.reached, a.final_orientation_error_deg <= 1.0, "{a:?}");
     // refused: the start itself, and a target beside an axis
     let same = PlanOverrides {
         from: Some(xyzw_text(&from)),
@@ -547,8 +560,10 @@ fn random_motions_land_near_their_target_orientation_and_replay_in_their_own_dyn
         };
         let p = plan(&motor, &s);
         let what = format!("{:.1} deg about {:?}", m.angle.0.to_degrees(), m.axis);
-        assert!(p.reached, "{what}: {:?}", p.message);
-        errors.push(final_orientation_error_deg(&s, &p.rows));
+        let e = final_orientation_error_deg(&s, &p.rows);
+        // reached: within the tolerance (1 degree) of the target orientation, and only then
+        assert_eq!(p.reached, e <= 1.0, "{what}: {e} {:?}", p.message);
+        errors.push(e);
         // every step, the landing's among them, is what the dynamics does from the step before
         let sim = spherestep::planning::simulate::simulate(&motor, &p.rows);
         assert!(sim.iter().all(|r| r.deviation_deg < 1e-4), "{what}");

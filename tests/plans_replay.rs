@@ -24,7 +24,8 @@ fn the_default_plans_pass_replays_schedule_check() {
         assert_eq!(s.limits.on_time, Some(sc.relay.on_time_limit()));
         assert_eq!(s.limits.max_coils_on, sc.relay.max_coils_on);
         let p = sc.motor().plan(&s);
-        assert!(p.reached, "about {axis}: {:?}", p.message);
+        let off = p.summary(&s).final_orientation_error_deg;
+        assert!(off < 2.0, "about {axis}: {:?}", p.message);
         let checked = schedule(
             &p.rows,
             &sc.relay,

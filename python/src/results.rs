@@ -328,7 +328,8 @@ impl Plan {
     fn settled<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
         column(py, self.plan.rows.iter().map(|r| r.settled).collect())
     }
-    /// Whether the plan reaches the target within the angle tolerance.
+    /// Whether the plan ends within its tolerance (`plan.tolerance_deg`, 1 degree) of the target
+    /// orientation.
     #[getter]
     fn reached(&self) -> bool {
         self.plan.reached

@@ -77,7 +77,10 @@ impl Motor {
     ///
     /// let sc = Scenario::prototype();
     /// let p = sc.motor().plan(&sc.plan);
-    /// assert!(p.reached && p.rows.len() > 1);
+    /// assert!(p.rows.len() > 1);
+    /// // reached: within the settings' tolerance (1 degree) of the target orientation
+    /// let off = p.summary(&sc.plan).final_orientation_error_deg;
+    /// assert_eq!(p.reached, off <= 1.0, "{:?}", p.message);
     /// ```
     pub fn plan(&self, settings: &PlanSettings) -> Plan {
         planner::plan(self, settings)

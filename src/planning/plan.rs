@@ -258,7 +258,11 @@ pub fn judged(mut p: Plan, s: &PlanSettings) -> Plan {
     let tolerance = s.tolerance.0.to_degrees();
     if off > tolerance {
         p.reached = false;
-        let before = p.message.take().map(|m| format!("; {m}")).unwrap_or_default();
+        let before = p
+            .message
+            .take()
+            .map(|m| format!("; {m}"))
+            .unwrap_or_default();
         p.message = Some(format!(
             "target not reached: the plan ends {off:.2} deg from the target orientation, over \
              its tolerance of {tolerance:.2} deg (plan.tolerance_deg){before}"

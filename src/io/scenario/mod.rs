@@ -165,7 +165,7 @@ impl Scenario {
     /// let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/prototype.toml");
     /// let sc = Scenario::load(&path).unwrap();
     /// assert_eq!(sc.path, path);
-    /// assert!(sc.motor().plan(&sc.plan).reached);
+    /// assert!(sc.motor().plan(&sc.plan).rows.len() > 1);
     /// ```
     pub fn load(path: &Path) -> Result<Scenario> {
         let text = crate::io::input::text(path)?;
