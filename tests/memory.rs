@@ -3,7 +3,8 @@
 //! about 700 MB of partial plans; 11.6 GB with 20,000 magnets); expanded in chunks it stays
 //! under 50 MB. The packing report of a rotor of 12,000 magnets counts its pairwise distances
 //! in bins instead of keeping them (576 MB before). The peak is read from the running process
-//! (Linux: `VmHWM` in /proc).
+//! (Linux: `VmHWM` in /proc). A path through 1,000 waypoints keeps no copy of the plan per
+//! waypoint (61 MB before, growing with the square of the count).
 
 mod common;
 
@@ -86,4 +87,29 @@ fn the_packing_report_of_a_rotor_of_12000_magnets_stays_small() {
     let scenario = big_scenario(dir.path(), 12_000);
     let peak = peak_of(&["packing", &scenario.to_string_lossy()]);
     assert!(peak < 60_000, "peak resident memory {peak} kB");
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_path_through_1000_waypoints_stays_small() {
+    // every waypoint served kept a copy of the whole plan so far (and of every waypoint) to go
+    // back to, and every leg tried another: memory grew with the square of the waypoints (61
+    // MB here, 5.4 GB and growing for 10,000); now the plan's length and the leg's own rows
+    let dir = tempfile::tempdir().unwrap();
+    let mut turns = String::from("axis_x,axis_y,axis_z,angle_deg\n");
+    for k in 0..1000 {
+        turns.push_str(["1,0,0,2\n", "0,1,0,2\n", "-1,0,0,2\n", "0,-1,0,2\n"][k % 4]);
+    }
+    let file = dir.path().join("turns.csv");
+    std::fs::write(&file, turns).unwrap();
+    let out = dir.path().join("plan.csv");
+    let peak = peak_of(&[
+        "plan",
+        "scenarios/prototype.toml",
+        "--waypoints",
+        &file.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+    ]);
+    assert!(peak < 25_000, "peak resident memory {peak} kB");
 }

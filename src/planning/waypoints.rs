@@ -182,12 +182,13 @@ pub fn plan_waypoints(
     };
     let tolerance = tolerance_deg.to_radians();
     let mut spent = 0usize;
-    // the waypoints served so far, each with the plan before it and its untried legs
+    // the waypoints served so far, each with where the plan stood before it (its length: rows
+    // are only ever appended after it) and its untried legs
     let mut pending: Vec<Pending> = Vec::new();
     let mut failure: Option<(usize, WaypointPlan, String)> = None;
     let (mut k, mut legs, mut backtracks) = (0usize, None, 0usize);
     while let Some(goal) = waypoints.get(k) {
-        let before = out.clone();
+        let before = out.rows.len();
         match serve(
             motor,
             s,
@@ -216,7 +217,8 @@ pub fn plan_waypoints(
                 match pending.pop().filter(|_| backtracks < MAX_BACKTRACKS) {
                     Some(p) => {
                         backtracks += 1;
-                        out = p.before;
+                        out.rows.truncate(p.before);
+                        out.serves.truncate(p.before);
                         k = p.index;
                         legs = Some(p.legs);
                     }
@@ -266,22 +268,26 @@ fn serve(
         }
         None => candidate_legs(motor, s, out, goal, number, spent)?,
     };
-    let mut best: Option<WaypointPlan> = None;
+    // each leg is tried on the end of `out` and taken back off; the best one's rows are kept
+    // aside (no copy of the whole plan: memory stays linear in the waypoints)
+    let mut best: Option<(f64, Vec<PlanRow>, Vec<usize>)> = None;
     let mut legs = legs.into_iter().take(CANDIDATE_LEGS);
     for leg in legs.by_ref() {
-        let mut trial = out.clone();
-        append(&mut trial, leg, number);
-        correct(motor, s, &mut trial, number, goal, spent);
-        if best.as_ref().is_none_or(|b| end(&trial) < end(b)) {
-            let done = end(&trial) <= tolerance;
-            best = Some(trial);
-            if done {
+        append(out, leg, number);
+        correct(motor, s, out, number, goal, spent);
+        let e = end(out);
+        let rows = out.rows.split_off(first);
+        let serves = out.serves.split_off(first);
+        if best.as_ref().is_none_or(|b| e < b.0) {
+            best = Some((e, rows, serves));
+            if e <= tolerance {
                 break;
             }
         }
     }
-    if let Some(b) = best {
-        *out = b;
+    if let Some((_, rows, serves)) = best {
+        out.rows.extend(rows);
+        out.serves.extend(serves);
     }
     if let Some(base) = first_base(&out.rows, first) {
         recount(&mut out.rows[first..], base, goal);
@@ -298,9 +304,10 @@ fn serve(
     Ok(legs.collect())
 }
 
-/// A waypoint served: the plan before it and the candidate legs towards it not tried yet.
+/// A waypoint served: how many rows the plan had before it and the candidate legs towards it
+/// not tried yet.
 struct Pending {
-    before: WaypointPlan,
+    before: usize,
     index: usize,
     legs: Vec<Leg>,
 }
