@@ -533,3 +533,33 @@ fn the_step_budget_does_not_hang_on_the_plan_alone() {
     assert_eq!(default_max_steps(4), 18);
     assert_eq!(default_max_steps(0), 6);
 }
+
+#[test]
+fn a_loop_that_stops_by_its_estimate_beyond_the_tolerance_is_not_reached() {
+    // the loop decides on its estimate; here it stopped with the ball (and, without noise, the
+    // measurement) 1.58 degrees from the goal, over its 1.5: it once said "reached"
+    let (code, stdout, stderr) = common::run(&[
+        "run",
+        "scenarios/prototype.toml",
+        "--plant",
+        WORN,
+        "--axis",
+        "0,1,0",
+        "--angle",
+        "90",
+        "--closed-loop",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap_or("")).unwrap();
+    let measured = j["final_measured_error_deg"].as_f64().unwrap();
+    assert!(measured > 1.5, "{j}");
+    assert_eq!(j["reached"], false, "{j}");
+    assert!(
+        j["message"]
+            .as_str()
+            .unwrap()
+            .contains("stopped at the goal by its estimate, but the last measurement is"),
+        "{j}"
+    );
+    assert_eq!(code, 1, "{stderr}");
+}

@@ -133,8 +133,11 @@ pub struct LoopSummary {
     /// [`MIN_AXIS_ANGLE_DEG`], degrees.
     pub max_axis_error_deg: f64,
     pub replans: usize,
-    /// Within the goal tolerance by the measurement at the end.
+    /// The loop ended at the goal by its estimate (as the hardware loop decides) and its last
+    /// measurement is within the goal tolerance too.
     pub reached: bool,
+    /// The last measurement's angle from the goal, degrees.
+    pub final_measured_error_deg: f64,
     pub message: Option<String>,
     /// The fitted wells that steered the loop at the end (`None`: the model's own) ...
     pub fitted: Option<String>,
@@ -302,6 +305,11 @@ impl<'a> Controller<'a> {
     /// The most steps after the initial state the loop plays.
     pub fn max_steps(&self) -> usize {
         self.cl.max_steps
+    }
+
+    /// The goal tolerance, degrees.
+    pub fn goal_tolerance_deg(&self) -> f64 {
+        self.cl.goal_tolerance.0.to_degrees()
     }
 
     /// Whether `measured` is within the goal tolerance.
@@ -733,8 +741,21 @@ pub fn run_closed_loop(
         Ending::MaxSteps => Some(format!("stopped after {} steps", cl.max_steps)),
     };
     let lp = sim.rows;
-    let reached = ctl.arrived();
+    // the loop decides on its estimate (the measurement's equilibrium); reached is said on the
+    // last measurement, as the hardware loop says it
+    let measured = lp
+        .rows
+        .last()
+        .map(|r| r.measured.angle_to(&goal).to_degrees());
+    let measured = measured.unwrap_or(f64::INFINITY);
+    let tolerance = cl.goal_tolerance.0.to_degrees();
+    let reached = ctl.arrived() && measured <= tolerance;
+    let message = match (message, ctl.arrived() && !reached) {
+        (None, true) => Some(not_at_goal(measured, tolerance)),
+        (m, _) => m,
+    };
     let mut run = lp.finish(message, reached, ctl.replans());
+    run.summary.final_measured_error_deg = measured;
     if let Some((name, step)) = ctl.fitted() {
         run.summary.fitted = Some(name);
         run.summary.fitted_after_step = Some(step);
@@ -743,6 +764,15 @@ pub fn run_closed_loop(
     (run.summary.replan_ms_median, run.summary.replan_ms_max) = median_max(ctl.replan_ms());
     run.replan_ms = ctl.replan_ms().to_vec();
     run
+}
+
+/// Why a loop that stopped at the goal by its estimate is not at it: the last measurement
+/// (`measured`, degrees) lies beyond the goal tolerance (degrees).
+pub fn not_at_goal(measured: f64, tolerance: f64) -> String {
+    format!(
+        "the loop stopped at the goal by its estimate, but the last measurement is \
+         {measured:.2} deg from it, over the goal tolerance of {tolerance:.2} deg"
+    )
 }
 
 /// The median (the upper of the middle two) and the largest of `ms` (0 and 0 for none).
@@ -780,6 +810,7 @@ fn no_run(message: &str) -> LoopRun {
             max_axis_error_deg: 0.0,
             replans: 0,
             reached: false,
+            final_measured_error_deg: f64::NAN,
             message: Some(message.into()),
             fitted: None,
             fitted_after_step: None,
@@ -851,6 +882,7 @@ impl Loop<'_> {
             max_axis_error_deg: worst_axis_error_deg(&self.rows),
             replans,
             reached,
+            final_measured_error_deg: f64::NAN,
             message,
             fitted: None,
             fitted_after_step: None,

@@ -221,7 +221,14 @@ impl Hardware<'_, '_, '_> {
         self.r.start_off()?;
         let (ending, step) = drive(ctl, self)?;
         match ending {
-            Ending::Done => self.r.mark(step, "goal"),
+            Ending::Done => match self.last {
+                // the loop decided on its estimate: the measurement must agree
+                Some(d) if d > ctl.goal_tolerance_deg() => Err(RelayError::Stuck {
+                    step,
+                    message: crate::planning::closed_loop::not_at_goal(d, ctl.goal_tolerance_deg()),
+                }),
+                _ => self.r.mark(step, "goal"),
+            },
             Ending::Stuck(message) => Err(RelayError::Stuck { step, message }),
             Ending::MaxSteps => Err(RelayError::MaxSteps {
                 steps: step,
