@@ -1531,35 +1531,21 @@ impl Runner<'_> {
 
     /// The guard's error `e` (if it is one) with the on-time its coil had when its board's
     /// all-off went out.
-    fn with_off_time(&self, e: RelayError) -> RelayError {
-        match e {
-            RelayError::OnTimeReached {
-                coil,
-                board,
-                channel,
-                phase,
-                on,
-                off: None,
-                max,
-                silent_board,
-            } => {
-                let slot = Slot {
-                    board: board.unwrap_or(0),
-                    channel,
-                };
-                RelayError::OnTimeReached {
-                    coil,
-                    board,
-                    channel,
-                    phase,
-                    on,
-                    off: self.off_at.get(&slot).copied(),
-                    max,
-                    silent_board,
-                }
-            }
-            e => e,
+    fn with_off_time(&self, mut e: RelayError) -> RelayError {
+        if let RelayError::OnTimeReached {
+            board,
+            channel,
+            off: off @ None,
+            ..
+        } = &mut e
+        {
+            let slot = Slot {
+                board: board.unwrap_or(0),
+                channel: *channel,
+            };
+            *off = self.off_at.get(&slot).copied();
         }
+        e
     }
 
     /// The error of a replay that ended (with `cause`, or finished) with an all-off that
