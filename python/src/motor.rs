@@ -12,12 +12,11 @@ use spherestep::io::planfile::read_plan;
 use spherestep::io::scenario::{
     check_pairs_per_step, check_supply, default_pairs_per_step, parse_pairs_per_step,
 };
-use spherestep::model::geometry::{rotation_angle, rotation_axis};
-use spherestep::planning::plan::target_angle;
+use spherestep::planning::plan::{target_angle, turn_to};
 use spherestep::Cancel;
 use spherestep::{
     goal_of, LoopSettings, Orientation, PairsPerStep, PlanRow, PlanSettings, Radians, Scheme,
-    StepModel, UnitVec,
+    StepModel,
 };
 use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
@@ -185,7 +184,8 @@ fn plan_settings(
             ));
         }
         let to = convert::orientation(t, "to")?;
-        (s.axis, s.angle) = turn_to(&s.start, &to)?;
+        (s.axis, s.angle) = turn_to(&s.start, &to, "start").map_err(|e| arg_err("to", e))?;
+        s.target = Some(to);
     }
     Ok(s)
 }
@@ -208,26 +208,6 @@ fn pairs_per_step(k: &Bound<'_, PyAny>) -> PyResult<PairsPerStep> {
             ),
         )
     })
-}
-
-/// The axis and angle of the shortest rotation (world frame) from `start` to `to` (what
-/// `plan --to` does).
-fn turn_to(start: &Orientation, to: &Orientation) -> PyResult<(UnitVec, Radians)> {
-    let turn = to * start.inverse();
-    let shown = |q: &Orientation| format!("{},{},{},{}", q.i, q.j, q.k, q.w);
-    let Some(axis) = rotation_axis(&turn) else {
-        return Err(arg_err(
-            "to",
-            format!(
-                "an orientation other than the start, got {} (the start is {})",
-                shown(to),
-                shown(start)
-            ),
-        ));
-    };
-    let angle = target_angle(rotation_angle(&turn).0.to_degrees(), "start")
-        .map_err(|e| arg_err("to", e))?;
-    Ok((axis, angle))
 }
 
 /// How many sets `settle_many` settles between two looks for Ctrl-C.

@@ -171,6 +171,7 @@ pub fn plan_file_loop(
         axis,
         angle,
         start: rows[0].q,
+        target: None,
         ..settings.clone()
     };
     let goal = rows[rows.len() - 1].q;

@@ -355,6 +355,7 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
         }
         let to = parse_orientation(t, "--to")?;
         (s.axis, s.angle) = turn_to(&s.start, &to, "--from").map_err(arg("--to"))?;
+        s.target = Some(to);
     }
     Ok(s)
 }

@@ -3,7 +3,9 @@
 //! orientation each step is predicted to settle to; written and read by `io::planfile`) and its
 //! summary.
 
-use crate::model::geometry::{Degrees, Orientation, Pair, Radians, UnitVec};
+use crate::model::geometry::{
+    rotation_angle, rotation_axis, Degrees, Orientation, Pair, Radians, UnitVec,
+};
 use crate::planning::commutation::{CommutationState, PairsPerStep, StepLimits, StepModel};
 use serde::{Deserialize, Serialize};
 
@@ -129,6 +131,26 @@ pub fn target_angle(deg: f64, start: &str) -> std::result::Result<Radians, Strin
     }
 }
 
+/// The axis and angle of the shortest rotation (world frame) from `start` to `to`, or what was
+/// expected instead (`start` is named in the message as `start_name`).
+pub fn turn_to(
+    start: &Orientation,
+    to: &Orientation,
+    start_name: &str,
+) -> Result<(UnitVec, Radians), String> {
+    let turn = to * start.inverse();
+    let shown = |q: &Orientation| format!("{},{},{},{}", q.i, q.j, q.k, q.w);
+    let Some(axis) = rotation_axis(&turn) else {
+        return Err(format!(
+            "an orientation other than the start, got {} (the start is {})",
+            shown(to),
+            shown(start)
+        ));
+    };
+    let angle = target_angle(rotation_angle(&turn).0.to_degrees(), start_name)?;
+    Ok((axis, angle))
+}
+
 /// What to plan.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlanSettings {
@@ -159,6 +181,11 @@ pub struct PlanSettings {
     /// The plan is reached when it ends within this angle of the target orientation
     /// ([`goal_of`]; `plan.tolerance_deg`, `--tolerance-deg`; [`DEFAULT_TOLERANCE_DEG`]).
     pub tolerance: Radians,
+    /// The orientation the ball is sent to, when it was given as one (`plan --to`): `axis` and
+    /// `angle` are then the shortest turn from `start` to it, the plan's final error is measured
+    /// against it, and the planner plans again from where the initial commutation leaves the
+    /// ball, aimed at it. `None`: the goal is the turn applied to row 0 (see [`goal_of`]).
+    pub target: Option<Orientation>,
 }
 
 /// The default of [`PlanSettings::tolerance`], degrees.
@@ -189,8 +216,8 @@ pub struct PlanSummary {
     /// The worst cumulative axis error along the plan, degrees.
     pub max_axis_error_deg: f64,
     /// Where the ball ends against where it was sent: the angle (degrees) from the last row's
-    /// orientation to the target rotation applied to row 0's (the goal the closed loop aims
-    /// at).
+    /// orientation to the plan's goal ([`goal_of`]: the target orientation when one was given,
+    /// else the target rotation applied to row 0's; the goal the closed loop aims at).
     pub final_orientation_error_deg: f64,
     /// See [`Plan::reached`].
     pub reached: bool,
@@ -233,10 +260,13 @@ impl Plan {
     }
 }
 
-/// The goal of a plan made for `settings`: ROT[axis, angle] applied to its start (row 0).
+/// The goal of a plan made for `settings`: its target orientation when it has one, else
+/// ROT[axis, angle] applied to its start (row 0; `None` without rows).
 pub fn goal_of(settings: &PlanSettings, rows: &[PlanRow]) -> Option<Orientation> {
-    rows.first()
-        .map(|r| crate::model::geometry::rot_q(&settings.axis, settings.angle) * r.q)
+    settings.target.or_else(|| {
+        rows.first()
+            .map(|r| crate::model::geometry::rot_q(&settings.axis, settings.angle) * r.q)
+    })
 }
 
 /// The angle (degrees) from a plan's last row to its goal ([`goal_of`]; 0 for no rows).

@@ -24,9 +24,50 @@ pub use crate::planning::plan::{
     DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET, MAX_TARGET_DEG,
 };
 
-/// Plans a motion, with the settings' step model.
+/// Plans a motion, with the settings' step model. With a target orientation
+/// ([`PlanSettings::target`]) the motion is planned twice: as asked (the turn from the start),
+/// and again from where the first plan's initial commutation leaves the ball, aimed at the
+/// target from there ([`replanned_from_row0`]); the plan kept is the one that reaches its
+/// angle, nearer the target (the first on a tie), with the settles of both.
 pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
-    plan_with(motor, s, None)
+    let p = plan_with(motor, s, None);
+    let Some(goal) = s.target else {
+        return p;
+    };
+    let Some(again) = replanned_from_row0(motor, s, &p, &goal) else {
+        return p;
+    };
+    let settles = p.settles + again.settles;
+    let end = |p: &Plan| p.rows.last().map_or(f64::INFINITY, |r| r.q.angle_to(&goal));
+    let better = match (again.reached, p.reached) {
+        (a, b) if a != b => a,
+        _ => end(&again) < end(&p) - 1e-12,
+    };
+    let mut kept = if better { again } else { p };
+    kept.settles = settles;
+    kept
+}
+
+/// `p` (a plan made for `s` from `s.start`) planned again from its row 0 (the initial
+/// commutation's state, its coils on for row 0's dwell), aimed at `goal` from there: the
+/// initial commutation moves the ball before the first step, so the turn from `s.start`
+/// misses `goal` by as much. `None` when `p` has no rows or row 0 is at `goal` already.
+pub(crate) fn replanned_from_row0(
+    motor: &Motor,
+    s: &PlanSettings,
+    p: &Plan,
+    goal: &Orientation,
+) -> Option<Plan> {
+    let row0 = p.rows.first()?;
+    let (axis, angle) = crate::planning::plan::turn_to(&row0.q, goal, "row 0").ok()?;
+    let aimed = PlanSettings {
+        axis,
+        angle,
+        start: row0.q,
+        ..s.clone()
+    };
+    let on = search::on_times_of(&p.rows[..1], s.limits.on_time, None);
+    Some(plan_on_from(motor, &aimed, row0.state(), on))
 }
 
 /// Plans the motion from a given commutation state (the ball where it is, held by what is on:

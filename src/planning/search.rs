@@ -754,9 +754,11 @@ const WIDE: Leeway = Leeway {
     slack: 3.0 * std::f64::consts::PI / 180.0,
 };
 
-/// Where a complete plan was sent: the target rotation applied to its row 0.
+/// Where a complete plan was sent: the target orientation when the settings give one, else
+/// the target rotation applied to its row 0.
 fn goal_of_node(p: &Node, s: &PlanSettings) -> Orientation {
-    rot_q(&s.axis, s.angle) * p.rows[0].q
+    s.target
+        .unwrap_or_else(|| rot_q(&s.axis, s.angle) * p.rows[0].q)
 }
 
 /// The landing: the complete plans a search found that end further than the angle tolerance

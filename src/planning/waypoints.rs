@@ -7,17 +7,17 @@
 //! nothing itself.
 
 use crate::model::geometry::Pair;
-use crate::model::geometry::{rotation_angle, rotation_axis, CoilId, Orientation, UnitVec};
+use crate::model::geometry::{rotation_axis, CoilId, Orientation};
 use crate::planning::coilsets::coils_of;
 use crate::planning::commutation::{
     combinations, cumulative_from, holds, settled_states, step_measure, CommutationState, Motor,
 };
 use crate::planning::on_time::{self, OnTimes};
+pub use crate::planning::plan::turn_to;
 use crate::planning::plan::{
-    max_axis_error_deg, target_angle, total_settle_time, unsettled_steps, Plan, PlanRow,
-    PlanSettings,
+    max_axis_error_deg, total_settle_time, unsettled_steps, Plan, PlanRow, PlanSettings,
 };
-use crate::planning::planner::{plan, plan_on_from};
+use crate::planning::planner::{plan, plan_on_from, replanned_from_row0};
 use crate::planning::search::{on_times_of, over_on_time};
 use serde::Serialize;
 
@@ -29,26 +29,6 @@ pub const DEFAULT_WAYPOINT_TOLERANCE_DEG: f64 = 3.0;
 /// How many legs may serve one waypoint: the first, then corrections from where the last ended
 /// while it ends further than the tolerance from the waypoint and nearer than before.
 pub const LEGS_PER_WAYPOINT: usize = 3;
-
-/// The axis and angle of the shortest rotation (world frame) from `start` to `to`, or what was
-/// expected instead (`start` is named in the message as `start_name`).
-pub fn turn_to(
-    start: &Orientation,
-    to: &Orientation,
-    start_name: &str,
-) -> Result<(UnitVec, crate::model::geometry::Radians), String> {
-    let turn = to * start.inverse();
-    let shown = |q: &Orientation| format!("{},{},{},{}", q.i, q.j, q.k, q.w);
-    let Some(axis) = rotation_axis(&turn) else {
-        return Err(format!(
-            "an orientation other than the start, got {} (the start is {})",
-            shown(to),
-            shown(start)
-        ));
-    };
-    let angle = target_angle(rotation_angle(&turn).0.to_degrees(), start_name)?;
-    Ok((axis, angle))
-}
 
 /// A plan through waypoints.
 #[derive(Debug, Clone, PartialEq)]
@@ -385,6 +365,7 @@ fn candidate_legs(
         axis,
         angle,
         start: here,
+        target: None,
         ..s.clone()
     };
     let tried = match out.rows.last() {
@@ -412,31 +393,14 @@ fn candidate_legs(
 /// is planned both as asked and again from where row 0 leaves the ball, aimed at `goal`.
 fn first_legs(motor: &Motor, leg: &PlanSettings, goal: &Orientation) -> Vec<Leg> {
     let p = plan(motor, leg);
-    let mut out = Vec::new();
-    if let Some(row0) = p.rows.first() {
-        if let Ok((axis, angle)) = turn_to(&row0.q, goal, "row 0") {
-            let aimed = PlanSettings {
-                axis,
-                angle,
-                start: row0.q,
-                ..leg.clone()
-            };
-            let on = on_times_of(&p.rows[..1], leg.limits.on_time, None);
-            let again = plan_on_from(motor, &aimed, row0.state(), on);
-            out.push(Leg {
-                release: None,
-                plan: again,
-            });
-        }
-    }
-    out.insert(
-        0,
-        Leg {
+    let again = replanned_from_row0(motor, leg, &p, goal);
+    std::iter::once(p)
+        .chain(again)
+        .map(|plan| Leg {
             release: None,
-            plan: p,
-        },
-    );
-    out
+            plan,
+        })
+        .collect()
 }
 
 /// A leg towards a waypoint: a release step when the leg starts with one (a row that switches

@@ -634,6 +634,7 @@ impl Checker<'_> {
                 raw.tolerance_deg,
                 Degrees(crate::planning::plan::DEFAULT_TOLERANCE_DEG).to_radians(),
             )?,
+            target: None,
         })
     }
 
