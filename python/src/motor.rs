@@ -15,8 +15,7 @@ use spherestep::io::scenario::{
 use spherestep::planning::plan::{target_angle, turn_to};
 use spherestep::Cancel;
 use spherestep::{
-    goal_of, LoopSettings, Orientation, PairsPerStep, PlanRow, PlanSettings, Radians, Scheme,
-    StepModel,
+    goal_of, LoopSettings, PairsPerStep, PlanRow, PlanSettings, Radians, Scheme, StepModel,
 };
 use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
