@@ -319,6 +319,23 @@ fn set(rows: &str, case: usize, col: usize, value: &str) -> String {
         .collect()
 }
 
+/// The sweep `SWEEP` written into `dir` and run twice: uninterrupted into `full`, and into
+/// `out` by a run that saved every case in its progress file but could not write its result
+/// (a folder stood where `sw.csv` goes; removed after). The scenario, `full` and `out`.
+fn saved_sweep(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let s = dir.join("sw.toml");
+    std::fs::write(&s, SWEEP).unwrap();
+    let full = dir.join("full");
+    let r = batch(&[s.to_str().unwrap(), "--out", full.to_str().unwrap()]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let out = dir.join("out");
+    std::fs::create_dir_all(out.join("sw.csv").join("blocker")).unwrap();
+    let r = batch(&[s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(r.status.code(), Some(1));
+    std::fs::remove_dir_all(out.join("sw.csv")).unwrap();
+    (s, full, out)
+}
+
 /// Progress rows that are not what this sweep writes (a hand-edited
 /// `reached`, a number that is not one, another case's settings, a case the sweep does not
 /// have, a short row) are not copied into the result: those cases are computed again, with a
@@ -326,18 +343,8 @@ fn set(rows: &str, case: usize, col: usize, value: &str) -> String {
 #[test]
 fn damaged_progress_rows_are_computed_again_with_a_warning() {
     let t = tempfile::tempdir().unwrap();
-    let s = t.path().join("sw.toml");
-    std::fs::write(&s, SWEEP).unwrap();
-    let full = t.path().join("full");
-    let r = batch(&[s.to_str().unwrap(), "--out", full.to_str().unwrap()]);
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let (s, full, out) = saved_sweep(t.path());
     let expected = text(&full.join("sw.csv"));
-    // every case saved by a run that could not write its result
-    let out = t.path().join("out");
-    std::fs::create_dir_all(out.join("sw.csv").join("blocker")).unwrap();
-    let r = batch(&[s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert_eq!(r.status.code(), Some(1));
-    std::fs::remove_dir_all(out.join("sw.csv")).unwrap();
     let progress = out.join("sw.csv.progress");
     let saved = text(&progress);
     let (first, rows) = saved.split_once('\n').unwrap();
@@ -383,18 +390,8 @@ fn damaged_progress_rows_are_computed_again_with_a_warning() {
 #[test]
 fn an_edited_progress_row_is_computed_again() {
     let t = tempfile::tempdir().unwrap();
-    let s = t.path().join("sw.toml");
-    std::fs::write(&s, SWEEP).unwrap();
-    let full = t.path().join("full");
-    let r = batch(&[s.to_str().unwrap(), "--out", full.to_str().unwrap()]);
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let (s, full, out) = saved_sweep(t.path());
     let expected = std::fs::read(full.join("sw.csv")).unwrap();
-    // every case saved by a run that could not write its result
-    let out = t.path().join("out");
-    std::fs::create_dir_all(out.join("sw.csv").join("blocker")).unwrap();
-    let r = batch(&[s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert_eq!(r.status.code(), Some(1));
-    std::fs::remove_dir_all(out.join("sw.csv")).unwrap();
     let progress = out.join("sw.csv.progress");
     let saved = text(&progress);
     let (first, rows) = saved.split_once('\n').unwrap();

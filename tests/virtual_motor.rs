@@ -111,39 +111,30 @@ fn spawn(args: &[&str]) -> Running {
 impl Running {
     /// Waits for a stdout line starting with `prefix`; the lines up to it.
     fn until(&mut self, prefix: &str) -> Vec<String> {
-        let mut seen = Vec::new();
-        loop {
-            match self.out.recv_timeout(GUARD) {
-                Ok(l) => {
-                    let done = l.starts_with(prefix);
-                    seen.push(l);
-                    if done {
-                        return seen;
-                    }
-                }
-                Err(_) => {
-                    let _ = self.child.kill();
-                    panic!("no line '{prefix}...' in time; got {seen:?}");
-                }
-            }
-        }
+        self.until_line(&format!("'{prefix}...'"), |l| l.starts_with(prefix))
     }
 
     /// Waits for a stdout line containing `needle`; the lines up to it.
     fn until_containing(&mut self, needle: &str) -> Vec<String> {
+        self.until_line(&format!("with '{needle}'"), |l| l.contains(needle))
+    }
+
+    /// Waits for a stdout line that is `done` (killing the child past the guard, the panic
+    /// saying which line, `what`, did not come); the lines up to it.
+    fn until_line(&mut self, what: &str, done: impl Fn(&str) -> bool) -> Vec<String> {
         let mut seen = Vec::new();
         loop {
             match self.out.recv_timeout(GUARD) {
                 Ok(l) => {
-                    let done = l.contains(needle);
+                    let found = done(&l);
                     seen.push(l);
-                    if done {
+                    if found {
                         return seen;
                     }
                 }
                 Err(_) => {
                     let _ = self.child.kill();
-                    panic!("no line with '{needle}' in time; got {seen:?}");
+                    panic!("no line {what} in time; got {seen:?}");
                 }
             }
         }

@@ -4,7 +4,7 @@
 //! greedy seeds. They are generic over a [`StepSource`]: a step model says where a plan starts,
 //! which steps lead on from a state and which states are one; the searches decide the rest.
 
-use crate::model::geometry::{rot_q, CoilId, Orientation, Pair, Radians};
+use crate::model::geometry::{CoilId, Orientation, Pair, Radians};
 use crate::planning::commutation::{
     cumulative, cumulative_from, step_measure, CommutationState, Step, StepLimits,
 };
@@ -757,8 +757,8 @@ const WIDE: Leeway = Leeway {
 /// Where a complete plan was sent: the target orientation when the settings give one, else
 /// the target rotation applied to its row 0.
 fn goal_of_node(p: &Node, s: &PlanSettings) -> Orientation {
-    s.target
-        .unwrap_or_else(|| rot_q(&s.axis, s.angle) * p.rows[0].q)
+    // a node always has its row 0
+    crate::planning::plan::goal_of(s, &p.rows).unwrap_or(p.state.q)
 }
 
 /// The landing: the complete plans a search found that end further than the angle tolerance

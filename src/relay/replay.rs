@@ -1318,16 +1318,19 @@ impl Runner<'_> {
     }
 
     /// `e` from an exchange with board `board`: the board goes last in the all-off; a wait
-    /// the watch cut becomes the guard's error naming the board (the coil on longest reached
-    /// its guard), anything else names the board with several.
+    /// the watch cut while a coil is on becomes the guard's error naming the board (the coil on
+    /// longest reached its guard), anything else names the board with several.
     fn board_failed(&mut self, board: usize, e: RelayError) -> RelayError {
         self.boards[board].failed = true;
-        let RelayError::WaitCut {
-            op,
-            waited,
-            timeout,
-            ..
-        } = e
+        let (
+            RelayError::WaitCut {
+                op,
+                waited,
+                timeout,
+                ..
+            },
+            Some((slot, coil, _, on)),
+        ) = (&e, self.longest_on())
         else {
             return self.on(board, e);
         };
@@ -1336,25 +1339,14 @@ impl Runner<'_> {
             true => format!("board {board} ({port})"),
             false => format!("the board ({port})"),
         };
-        let to = if op == "writing" { "to" } else { "from" };
+        let to = if *op == "writing" { "to" } else { "from" };
         let phase = format!(
             "the replay was {op} {to} {which}, which had not answered after {} ms of its {} ms timeout \
              (the other boards were switched off first)",
             waited.as_millis(),
             timeout.as_millis()
         );
-        match self.longest_on() {
-            Some((slot, coil, _, on)) => self.reached(slot, coil, on, phase, true),
-            None => self.on(
-                board,
-                RelayError::WaitCut {
-                    port: port.clone(),
-                    op,
-                    waited,
-                    timeout,
-                },
-            ),
-        }
+        self.reached(slot, coil, on, phase, true)
     }
 
     /// Every relay on at `now`: its coil, the step since which it is on, and for how long.
@@ -1508,17 +1500,14 @@ impl Runner<'_> {
                     failed.push((i, e));
                 }
                 Ok(()) => {
-                    let on: Vec<Slot> = self
-                        .on_since
-                        .keys()
-                        .filter(|s| s.board == i)
-                        .copied()
-                        .collect();
-                    for slot in on {
-                        if let Some((_, since, _)) = self.on_since.remove(&slot) {
-                            self.off_at.entry(slot).or_insert(now.saturating_sub(since));
+                    let off_at = &mut self.off_at;
+                    self.on_since.retain(|slot, &mut (_, since, _)| {
+                        if slot.board != i {
+                            return true;
                         }
-                    }
+                        off_at.entry(*slot).or_insert(now.saturating_sub(since));
+                        false
+                    });
                 }
             }
         }

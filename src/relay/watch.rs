@@ -76,12 +76,6 @@ impl Watch {
             _ => None,
         }
     }
-
-    /// How long a wait may still last before the deadline (`None`: no coil on).
-    pub fn left(&self) -> Option<Duration> {
-        self.deadline()
-            .map(|d| d.saturating_sub(self.origin.elapsed()))
-    }
 }
 
 #[cfg(test)]
@@ -95,14 +89,14 @@ mod tests {
         assert_eq!(w.cut(), None);
         w.set_deadline(Some(Duration::from_secs(3600)));
         assert_eq!(w.cut(), None);
-        assert!(w.left().unwrap() > Duration::from_secs(3500));
+        assert_eq!(w.deadline(), Some(Duration::from_secs(3600)));
         w.set_deadline(Some(Duration::ZERO));
         assert_eq!(w.cut(), Some(Cut::Deadline));
         w.set_closing(true);
         assert_eq!(w.cut(), None);
         w.set_closing(false);
         w.set_deadline(None);
-        assert_eq!(w.left(), None);
+        assert_eq!(w.deadline(), None);
         stop.store(true, Ordering::SeqCst);
         assert_eq!(w.cut(), Some(Cut::Stop));
     }
