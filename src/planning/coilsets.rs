@@ -7,13 +7,13 @@
 //! the searches of `search`, which it shares with the pair models.
 
 use crate::model::geometry::{
-    angular_distance, CoilId, MagnetId, Orientation, Pair, Radians, UnitVec,
+    angular_distance, rotation_axis, CoilId, MagnetId, Orientation, Pair, Radians, UnitVec,
 };
 use crate::physics::dynamics::{settle, SettleParams, SettleResult, Stop};
 use crate::physics::torque::{Interaction, MagnetTorques};
 use crate::planning::commutation::{
     admissible, bottom_coil, combinations, holds, nearest_magnet, pivot_error,
-    predicted_orientation, CommutationState, Motor, PairsPerStep, Step,
+    predicted_orientation, CommutationState, Motor, PairsPerStep, Step, StepLimits,
 };
 use crate::planning::plan::PlanSettings;
 use crate::planning::search::{predicted_rank, weighed, Frontier, StepSource};
@@ -60,18 +60,27 @@ impl<'a> CoilSets<'a> {
         sets: &[Vec<CoilId>],
         at: Option<&Frontier>,
     ) -> (usize, Vec<Option<CommutationState>>) {
+        match at {
+            Some(at) => self.settle_ranked(q, sets, FOLLOWED_PER_STATE, |r| self.rank_at(at, r)),
+            None => self.settle_ranked(q, sets, usize::MAX, |_| 0.0),
+        }
+    }
+
+    /// [`Self::settle_sets`] with the sets left unheld that are followed again chosen by
+    /// `rank` (lowest first), `follow` of them.
+    fn settle_ranked(
+        &self,
+        q: &Orientation,
+        sets: &[Vec<CoilId>],
+        follow: usize,
+        rank: impl Fn(&Orientation) -> f64 + Sync,
+    ) -> (usize, Vec<Option<CommutationState>>) {
         if self.motor.cancel.is_cancelled() {
             return (0, vec![None; sets.len()]);
         }
         let torques = &self.motor.torques;
         let labels = Labels::at(torques, q);
         let pairs: Vec<Vec<Pair>> = sets.iter().map(|c| labels.label(c)).collect();
-        let follow = if at.is_some() {
-            FOLLOWED_PER_STATE
-        } else {
-            usize::MAX
-        };
-        let rank = |r: &Orientation| at.map_or(0.0, |at| self.rank_at(at, r));
         let (results, spent) = settle_following(torques, &pairs, q, self.motor, follow, rank);
         let states = results
             .into_iter()
@@ -104,15 +113,27 @@ impl<'a> CoilSets<'a> {
     /// Settles candidate sets from `at` and keeps the admissible steps; with the settles spent.
     fn weigh(&self, at: &Frontier, sets: &[Vec<CoilId>]) -> (usize, Vec<Step>) {
         let from = at.state;
-        let on = coils_of(&from.active);
-        let (torques, limits) = (&self.motor.torques, &self.s.limits);
         let (spent, states) = self.settle_sets(&from.q, sets, Some(at));
-        let steps = states
+        (spent, self.steps_to(from, states, &self.s.axis, &self.s.limits))
+    }
+
+    /// The admissible steps from `from` to the settled `states` (`limits`' angle and axis
+    /// error about `axis`), each with the coils it switches on.
+    fn steps_to(
+        &self,
+        from: &CommutationState,
+        states: Vec<Option<CommutationState>>,
+        axis: &UnitVec,
+        limits: &StepLimits,
+    ) -> Vec<Step> {
+        let on = coils_of(&from.active);
+        let torques = &self.motor.torques;
+        states
             .into_iter()
             .flatten()
             .filter_map(|to| {
-                let (to, angle, err) =
-                    admissible(torques, &from.q, to, &self.s.axis, limits, self.capture)?;
+                let (to, angle, axis_error) =
+                    admissible(torques, &from.q, to, axis, limits, self.capture)?;
                 let new = to
                     .active
                     .iter()
@@ -124,11 +145,10 @@ impl<'a> CoilSets<'a> {
                     new,
                     to,
                     angle,
-                    axis_error: err,
+                    axis_error,
                 })
             })
-            .collect();
-        (spent, steps)
+            .collect()
     }
 
     /// The candidate sets from a partial plan's state that are settled: every set of the
@@ -180,6 +200,35 @@ impl<'a> CoilSets<'a> {
     }
 }
 
+impl CoilSets<'_> {
+    /// The sets a landing weighs from `state` towards `goal`: every switch [`coil_sets`] allows
+    /// from the coils on (some of them kept, coils in reach switched on, or a release), none of
+    /// `avoid` kept or switched on; every set of the smallest size and of each larger size the
+    /// `settles_per_state` whose cheap prediction ([`predicted_orientation`]) leaves the ball
+    /// nearest `goal`.
+    fn landing_sets(
+        &self,
+        state: &CommutationState,
+        goal: &Orientation,
+        avoid: &[CoilId],
+    ) -> Vec<Vec<CoilId>> {
+        let (torques, s) = (&self.motor.torques, self.s);
+        let reach = coils_in_reach(torques, &state.q);
+        let held = coils_of(&state.active);
+        let labels = Labels::at(torques, &state.q);
+        let ranked: Vec<(f64, Vec<CoilId>)> =
+            coil_sets(&held, &reach, s.pairs, s.limits.max_coils_on)
+                .into_iter()
+                .filter(|set| set.iter().all(|c| !avoid.contains(c)))
+                .map(|set| {
+                    let qp = predicted_orientation(torques, &state.q, &labels.label(&set));
+                    (qp.angle_to(goal), set)
+                })
+                .collect();
+        weighed(ranked, Vec::len, s.pairs.min, s.settles_per_state)
+    }
+}
+
 impl StepSource for CoilSets<'_> {
     fn initial_states(&self) -> Vec<CommutationState> {
         self.settle_sets(&self.s.start, &self.initial_sets(), None)
@@ -210,6 +259,28 @@ impl StepSource for CoilSets<'_> {
 
     fn expand(&self, at: &Frontier) -> (usize, Vec<Step>) {
         self.weigh(at, &self.ranked_sets(at))
+    }
+
+    fn expand_towards(
+        &self,
+        at: &Frontier,
+        goal: &Orientation,
+        avoid: &[CoilId],
+    ) -> (usize, Vec<Step>) {
+        let from = at.state;
+        let Some(towards) = rotation_axis(&(goal * from.q.inverse())) else {
+            return (0, Vec::new());
+        };
+        let sets = self.landing_sets(from, goal, avoid);
+        let follow = FOLLOWED_PER_STATE;
+        let (spent, states) = self.settle_ranked(&from.q, &sets, follow, |r| r.angle_to(goal));
+        // a landing step may turn any way towards the goal
+        let landing = StepLimits {
+            max_axis_error: Radians(std::f64::consts::PI),
+            min_angle: Radians(0.0),
+            ..self.s.limits
+        };
+        (spent, self.steps_to(from, states, &towards, &landing))
     }
 }
 

@@ -811,8 +811,7 @@ fn land(
             break;
         };
         let (at, goal, limit) = nodes[node].clone();
-        let avoid = tired_coils(&at, s.limits.on_time);
-        let (settles, steps) = src.expand_towards(&at.frontier(), &goal, &avoid);
+        let (settles, steps) = expand_rested(src, &at, &goal, s, budget.saturating_sub(spent));
         spent += settles;
         let q0 = at.rows[0].q;
         for st in steps {
@@ -868,13 +867,50 @@ fn path_score(p: &Node, s: &PlanSettings) -> f64 {
     p.worst.max(over)
 }
 
-/// The coils on at the end of `p` that could not stay on for another step of the same dwell
-/// as its last within the on-time limit (none without a limit).
-fn tired_coils(p: &Node, limit: Option<OnTimeLimit>) -> Vec<CoilId> {
-    let (Some(l), Some(last)) = (limit, p.rows.last()) else {
+/// The landing's expansion of `at` towards `goal`, the coils kept off that could not stay on
+/// for another step ([`tired_coils`], a step as long as the last); when some of the steps
+/// found would still keep a coil on too long (their settles are longer), expanded again (within
+/// `budget` settles) with the coils kept off that could not stay on for the shortest of those:
+/// the settles spent and every step found.
+fn expand_rested(
+    src: &dyn StepSource,
+    at: &Node,
+    goal: &Orientation,
+    s: &PlanSettings,
+    budget: usize,
+) -> (usize, Vec<Step>) {
+    let last = at.rows.last().map_or(0.0, |r| r.settle_time_s);
+    let mut avoid = tired_coils(at, s.limits.on_time, last);
+    let q0 = at.rows[0].q;
+    let (mut spent, mut steps) = (0usize, Vec::new());
+    loop {
+        let (settles, found) = src.expand_towards(&at.frontier(), goal, &avoid);
+        spent += settles;
+        let shortest_over = found
+            .iter()
+            .filter(|st| at.extend(st, &q0, s).is_err())
+            .map(|st| st.to.settle_time_s)
+            .min_by(f64::total_cmp);
+        steps.extend(found);
+        let Some(t) = shortest_over else {
+            break;
+        };
+        let more = tired_coils(at, s.limits.on_time, t);
+        if more.len() <= avoid.len() || spent >= budget {
+            break;
+        }
+        avoid = more;
+    }
+    (spent, steps)
+}
+
+/// The coils on at the end of `p` that could not stay on for another step that settles in
+/// `settle_time_s` within the on-time limit (none without a limit).
+fn tired_coils(p: &Node, limit: Option<OnTimeLimit>, settle_time_s: f64) -> Vec<CoilId> {
+    let Some(l) = limit else {
         return Vec::new();
     };
-    let next = l.dwell(last.settle_time_s) + on_time::STEP_IO;
+    let next = l.dwell(settle_time_s) + on_time::STEP_IO;
     p.on.iter()
         .filter(|(_, h)| h.on + next > on_time::budget(l.max_on))
         .map(|(c, _)| *c)
