@@ -10,12 +10,13 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 scenarios=("$@")
 [ ${#scenarios[@]} -gt 0 ] || scenarios=(scenarios/broad-wells.toml scenarios/soft-wells.toml)
-echo "| scenario | about | steps | final angle | worst cumulative axis error | settles | wall | replay |"
-echo "|---|---|---|---|---|---|---|---|"
+echo "| scenario | about | steps | final angle | from the target | worst cumulative axis error | settles | wall | replay |"
+echo "|---|---|---|---|---|---|---|---|---|"
 for sc in "${scenarios[@]}"; do
   for axis in 0,0,1 0,1,0 1,0,0 -1,2,-1; do
     start=$(date +%s.%N)
-    "$bin" plan "$sc" --axis "$axis" --angle 90 --json --out "$out/p.csv" > "$out/plan.json"
+    # a plan that ends past its tolerance exits 1: its row says how far it ended
+    "$bin" plan "$sc" --axis "$axis" --angle 90 --json --out "$out/p.csv" > "$out/plan.json" || true
     end=$(date +%s.%N)
     "$bin" simulate "$out/p.csv" "$sc" --json > "$out/sim.json"
     python3 - "$sc" "$axis" "$start" "$end" "$out/plan.json" "$out/sim.json" <<'EOF'
@@ -24,7 +25,7 @@ sc, axis, start, end, plan, sim = sys.argv[1:]
 p, s = json.load(open(plan)), json.load(open(sim))
 name = {"0,0,1": "Z", "0,1,0": "Y", "1,0,0": "X"}.get(axis, axis)
 print(f"| {os.path.basename(sc)[:-5]} | {name} | {p['steps']} | {p['final_angle_deg']:.2f} "
-      f"| **{p['max_axis_error_deg']:.2f}** | {p['settles']} | {float(end) - float(start):.1f} s "
+      f"| {p['final_orientation_error_deg']:.2f} | **{p['max_axis_error_deg']:.2f}** | {p['settles']} | {float(end) - float(start):.1f} s "
       f"| {s['max_deviation_deg']:.1e} |")
 EOF
   done

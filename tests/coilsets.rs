@@ -147,7 +147,11 @@ fn coil_set_plans_land_on_the_target_orientation_in_broad_wells() {
         assert!(off <= 1.0, "{file} {axis}: ends {off} deg from the target");
         // and the plan is what its own dynamics does, step by step
         for r in simulate(&sc.motor(), &p.rows) {
-            assert!(r.settled && r.deviation_deg < 1.0, "{file} {axis} step {}", r.step);
+            assert!(
+                r.settled && r.deviation_deg < 1.0,
+                "{file} {axis} step {}",
+                r.step
+            );
         }
     }
 }

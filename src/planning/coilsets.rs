@@ -114,7 +114,10 @@ impl<'a> CoilSets<'a> {
     fn weigh(&self, at: &Frontier, sets: &[Vec<CoilId>]) -> (usize, Vec<Step>) {
         let from = at.state;
         let (spent, states) = self.settle_sets(&from.q, sets, Some(at));
-        (spent, self.steps_to(from, states, &self.s.axis, &self.s.limits))
+        (
+            spent,
+            self.steps_to(from, states, &self.s.axis, &self.s.limits),
+        )
     }
 
     /// The admissible steps from `from` to the settled `states` (`limits`' angle and axis
