@@ -137,7 +137,9 @@ pub use planning::closed_loop::{
     Noise, Plant,
 };
 pub use planning::commutation::{CommutationState, Motor, PairsPerStep, StepLimits, StepModel};
-pub use planning::plan::{Plan, PlanRow, PlanSettings, PlanSummary, Scheme};
+pub use planning::plan::{
+    max_path_deviation_deg, Plan, PlanRow, PlanSettings, PlanSummary, Scheme,
+};
 pub use planning::planner::max_axis_error_deg;
 pub use planning::simulate::SimRow;
 pub use planning::waypoints::{

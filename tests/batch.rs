@@ -281,7 +281,7 @@ fn bad_shard_and_jobs_arguments_are_refused() {
 fn a_random_motion_sweep_plans_each_motion_from_its_own_start_and_reports_where_it_ends() {
     use spherestep::io::scenario::{random_motions, Scenario};
     use spherestep::model::geometry::Radians;
-    use spherestep::planning::plan::final_orientation_error_deg;
+    use spherestep::planning::plan::{final_orientation_error_deg, max_path_deviation_deg};
     use spherestep::planning::planner::{plan, PlanSettings};
     let dir = tempfile::tempdir().unwrap();
     let s = dir.path().join("scen");
@@ -323,7 +323,30 @@ fn a_random_motion_sweep_plans_each_motion_from_its_own_start_and_reports_where_
         let p = plan(&sc.motor(), &settings);
         let e = final_orientation_error_deg(&settings, &p.rows);
         assert_eq!(row[col("final_orientation_error_deg")], e.to_string());
+        // and its path deviation, beside its worst axis error
+        let d = max_path_deviation_deg(&settings, &p.rows);
+        assert_eq!(row[col("max_path_deviation_deg")], d.to_string());
+        assert!(d > 0.0 && d < 30.0, "{d}");
     }
+    assert_eq!(col("max_path_deviation_deg"), col("max_axis_error_deg") + 1);
+    // summary.csv has the sweep's worst path deviation
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let mut lines = summary.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = head
+        .iter()
+        .position(|h| *h == "max_path_deviation_deg")
+        .unwrap();
+    let worst = rows
+        .iter()
+        .map(|r| r[col("max_path_deviation_deg")].parse::<f64>().unwrap())
+        .fold(0.0, f64::max);
+    let m_row: Vec<&str> = lines
+        .find(|l| l.starts_with("m,"))
+        .unwrap()
+        .split(',')
+        .collect();
+    assert_eq!(m_row[at], worst.to_string());
     // the starts differ: each motion has its own
     assert_ne!(rows[0][col("start_qw")], rows[1][col("start_qw")]);
     // motions beside axes or angles are refused, naming the field

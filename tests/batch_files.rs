@@ -348,7 +348,7 @@ fn damaged_progress_rows_are_computed_again_with_a_warning() {
     let progress = out.join("sw.csv.progress");
     let saved = text(&progress);
     let (first, rows) = saved.split_once('\n').unwrap();
-    let mut damaged = set(rows, 3, 11, "maybe");
+    let mut damaged = set(rows, 3, 12, "maybe"); // `reached`
     damaged = set(&damaged, 5, 8, "x");
     damaged = set(&damaged, 7, 1, "nonsense");
     damaged = set(&damaged, 9, 0, "99");

@@ -563,3 +563,32 @@ fn a_loop_that_stops_by_its_estimate_beyond_the_tolerance_is_not_reached() {
     );
     assert_eq!(code, 1, "{stderr}");
 }
+
+/// A run's path deviation is that of its measured orientations: against the slerp from the
+/// plan's row 0 (the loop CSV's first planned orientation) to the goal, 90 degrees about the
+/// axis applied to it, recomputed here by sampling that slerp.
+#[test]
+fn a_runs_path_deviation_is_its_measured_rows_distance_from_the_slerp() {
+    use spherestep::model::geometry::{orientation_from_xyzw, rot_q, unit, Radians};
+    let (csv, summary) = play(WORN, "0,0,1", true, 1.0, 1);
+    let text = String::from_utf8(csv).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    let quat = |f: &[&str], prefix: &str| {
+        let c = |x: &str| f[at(&format!("{prefix}{x}"))].parse::<f64>().unwrap();
+        orientation_from_xyzw(c("x"), c("y"), c("z"), c("w")).unwrap()
+    };
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let start = quat(&rows[0], "planned_q");
+    let measured: Vec<_> = rows.iter().map(|f| quat(f, "measured_q")).collect();
+    let z = unit(nalgebra::Vector3::z()).unwrap();
+    let goal = rot_q(&z, Radians(90f64.to_radians())) * start;
+    let sampled = common::sampled_path_deviation_deg(&measured, &start, &goal, 2000);
+    let reported = summary.run.max_path_deviation_deg;
+    assert!(
+        (reported - sampled).abs() < 0.01,
+        "reported {reported}, sampled {sampled}"
+    );
+    assert!(reported > 0.0 && reported < 30.0, "{reported}");
+}

@@ -46,7 +46,31 @@ fn check_path(sc: &Scenario, p: &WaypointPlan, tolerance_deg: f64, name: &str) {
         let measured = q.angle_to(&p.waypoints[w.waypoint - 1]).to_degrees();
         assert!((measured - w.error_deg).abs() < 1e-9, "{name}: {w:?}");
         assert!(w.error_deg <= tolerance_deg, "{name}: {w:?}");
+        // its rows' path deviation: against the slerp from the waypoint before (the first:
+        // from row 0) to it, recomputed by sampling that slerp
+        let from = match w.waypoint {
+            1 => p.rows[0].q,
+            k => p.waypoints[k - 2],
+        };
+        let leg: Vec<_> = (p.rows.iter().zip(&p.serves))
+            .filter(|&(_, &v)| v == w.waypoint)
+            .map(|(r, _)| r.q)
+            .collect();
+        let to = p.waypoints[w.waypoint - 1];
+        let sampled = common::sampled_path_deviation_deg(&leg, &from, &to, 2000);
+        assert!(
+            (w.max_path_deviation_deg - sampled).abs() < 0.01,
+            "{name}: {w:?}, sampled {sampled}"
+        );
+        assert!(w.max_path_deviation_deg < 30.0, "{name}: {w:?}");
     }
+    let summary = p.summary(&sc.plan, tolerance_deg);
+    let worst = at
+        .iter()
+        .map(|w| w.max_path_deviation_deg)
+        .fold(0.0, f64::max);
+    assert_eq!(summary.max_path_deviation_deg, worst, "{name}");
+    assert!(worst > 0.0, "{name}");
     // the plan is what its own dynamics does, step by step
     let sim = sc.motor().simulate(&p.rows);
     let worst = sim.iter().map(|s| s.deviation_deg).fold(0.0, f64::max);

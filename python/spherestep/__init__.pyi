@@ -209,7 +209,7 @@ class Plan:
     def message(self) -> Optional[str]: ...
     @property
     def summary(self) -> dict[str, Any]:
-        """The keys of `spherestep plan --json`."""
+        """The keys of `spherestep plan --json` (`max_path_deviation_deg` among them)."""
     @property
     def settings(self) -> dict[str, Any]: ...
     def csv(self) -> str:

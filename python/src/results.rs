@@ -377,10 +377,12 @@ impl Plan {
     fn __repr__(&self) -> String {
         let s = self.plan.summary(&self.settings);
         format!(
-            "Plan({} steps, final angle {:.2} deg, worst axis error {:.2} deg, {})",
+            "Plan({} steps, final angle {:.2} deg, worst axis error {:.2} deg, path deviation \
+             {:.2} deg, {})",
             s.steps,
             s.final_angle_deg,
             s.max_axis_error_deg,
+            s.max_path_deviation_deg,
             if s.reached { "reached" } else { "NOT reached" }
         )
     }

@@ -151,11 +151,30 @@ def test_plan_columns_and_summary(motor, tmp_path):
     assert plan.reached == (s["final_orientation_error_deg"] <= s["tolerance_deg"] == 1.0)
     assert s["max_axis_error_deg"] == plan.cum_axis_error_deg.max()
     assert list(s)[:3] == ["steps", "final_angle_deg", "max_axis_error_deg"]
+    # the path deviation: the worst row's angle from the slerp from row 0 to the goal (90
+    # degrees about Z applied to row 0), here recomputed by sampling that slerp
+    assert 0 < s["max_path_deviation_deg"] < 30
+    assert abs(s["max_path_deviation_deg"] - _path_deviation_deg(plan.q)) < 0.01
     assert plan.settings["axis"] == [0.0, 0.0, 1.0] and plan.settings["pairs"] == "2-4"
     out = tmp_path / "plan.csv"
     plan.to_csv(out)
     assert out.read_text() == plan.csv()
     assert plan.csv().splitlines()[0].startswith("step,pivot_coil,pivot_magnet,new_coil")
+
+
+def _path_deviation_deg(q):
+    """The worst angle, degrees, from the rows `q` ([qx, qy, qz, qw]) to 2001 points of the
+    slerp from row 0 to the turn of 90 degrees about Z applied to it."""
+    h = np.sqrt(0.5)
+    x0, y0, z0, w0 = q[0]
+    # (0, 0, h, h) * q[0], Hamilton product in [x, y, z, w]
+    goal = h * np.array([x0 - y0, y0 + x0, z0 + w0, w0 - z0])
+    a, b = q[0], goal if np.dot(q[0], goal) >= 0 else -goal
+    theta = np.arccos(min(1.0, np.dot(a, b)))
+    t = np.linspace(0.0, 1.0, 2001)[:, None]
+    path = (np.sin((1 - t) * theta) * a + np.sin(t * theta) * b) / np.sin(theta)
+    dots = np.clip(np.abs(q @ path.T).max(axis=1), 0.0, 1.0)
+    return float(np.degrees(2 * np.arccos(dots)).max())
 
 
 def test_plan_defaults_are_the_scenarios():

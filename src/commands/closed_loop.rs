@@ -233,7 +233,8 @@ fn play(
         writeln!(
             out,
             "{} loop on {}: {} steps ({} planned), {} replans{}: {:.2} deg from the goal, \
-             turned {:.2} deg, worst axis error {:.2} deg, {}{}",
+             turned {:.2} deg, worst axis error {:.2} deg, path deviation {:.2} deg (measured), \
+             {}{}",
             summary.mode,
             printable(&plant.name),
             r.steps,
@@ -246,6 +247,7 @@ fn play(
             r.final_error_deg,
             r.final_angle_deg,
             r.max_axis_error_deg,
+            r.max_path_deviation_deg,
             if r.reached { "reached" } else { "NOT reached" },
             r.message
                 .as_deref()

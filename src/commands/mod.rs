@@ -388,8 +388,8 @@ pub fn plan_command(
         let ax = settings.axis;
         let mut text = format!(
             "{}: {} steps about [{:.4}, {:.4}, {:.4}] by {:.2} deg ({} model, {} {}, {}): \
-             final angle {:.2} deg, worst axis error {:.2} deg, {:.2} deg from the target \
-             orientation, {}",
+             final angle {:.2} deg, worst axis error {:.2} deg, path deviation {:.2} deg, {:.2} \
+             deg from the target orientation, {}",
             printable(&sc.name),
             s.steps,
             ax.x,
@@ -402,6 +402,7 @@ pub fn plan_command(
             s.scheme,
             s.final_angle_deg,
             s.max_axis_error_deg,
+            s.max_path_deviation_deg,
             s.final_orientation_error_deg,
             if s.reached { "reached" } else { "NOT reached" }
         );

@@ -71,7 +71,7 @@ pub fn plan_waypoints_command(
     }
     let mut text = format!(
         "{}: {} waypoints in {} steps ({} model, {} {}, {}): worst waypoint {:.2} deg from its \
-         orientation (tolerance {:.2}), worst axis error {:.2} deg, {}",
+         orientation (tolerance {:.2}), worst axis error {:.2} deg, path deviation {:.2} deg, {}",
         printable(&sc.name),
         waypoints.len(),
         s.steps,
@@ -82,6 +82,7 @@ pub fn plan_waypoints_command(
         s.worst_waypoint_error_deg,
         job.tolerance_deg,
         s.max_axis_error_deg,
+        s.max_path_deviation_deg,
         if s.reached { "reached" } else { "NOT reached" }
     );
     if let Some(m) = &p.message {
@@ -91,8 +92,8 @@ pub fn plan_waypoints_command(
     for r in &s.waypoints {
         writeln!(
             out,
-            "  waypoint {}: step {}, {:.2} deg from it",
-            r.waypoint, r.step, r.error_deg
+            "  waypoint {}: step {}, {:.2} deg from it, path deviation {:.2} deg",
+            r.waypoint, r.step, r.error_deg, r.max_path_deviation_deg
         )
         .map_err(w)?;
     }

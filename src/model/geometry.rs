@@ -238,6 +238,50 @@ pub fn xyzw(q: &Orientation) -> [f64; 4] {
     [s * q.i, s * q.j, s * q.k, s * q.w]
 }
 
+/// The angle (rotation angle, like `Orientation::angle_to`) from `q` to the nearest point of
+/// the geodesic (the slerp) from `a` to `b`: 0 on the path, the distance to the nearer end
+/// beyond it. `q` and `-q` (the same orientation) give the same answer, and so do `a`, `b` and
+/// their negatives; for `a` == `b` it is the distance from `q` to `a`.
+///
+/// With `b` signed so that <a, b> >= 0 and `c` the unit component of `b` orthogonal to `a`
+/// (in R^4), the path is p(phi) = cos(phi) a + sin(phi) c for phi in [0, theta], theta the
+/// angle between `a` and `b`; the nearest point maximises |<q, p(phi)>| = |A cos(phi) +
+/// B sin(phi)| (A = <q, a>, B = <q, c>), found among the ends and the stationary points
+/// atan2(B, A) and atan2(-B, -A) inside [0, theta].
+pub fn distance_to_geodesic(q: &Orientation, a: &Orientation, b: &Orientation) -> Radians {
+    let (qv, av) = (q.quaternion().coords, a.quaternion().coords);
+    let mut bv = b.quaternion().coords;
+    if av.dot(&bv) < 0.0 {
+        bv = -bv;
+    }
+    let along = av.dot(&bv);
+    let ortho = bv - av * along;
+    let nearest = match ortho.norm() {
+        // a == b (to rounding): the path is a point
+        n if n < 1e-12 => av,
+        n => {
+            let c = ortho / n;
+            let theta = n.atan2(along);
+            let (ca, cb) = (qv.dot(&av), qv.dot(&c));
+            let at = |phi: f64| av * phi.cos() + c * phi.sin();
+            let best = [0.0, theta, cb.atan2(ca), (-cb).atan2(-ca)]
+                .into_iter()
+                .filter(|phi| (0.0..=theta).contains(phi))
+                .map(|phi| (phi, (ca * phi.cos() + cb * phi.sin()).abs()))
+                .fold(
+                    (0.0, f64::NEG_INFINITY),
+                    |m, x| if x.1 > m.1 { x } else { m },
+                );
+            at(best.0)
+        }
+    };
+    // the angle between q and the nearest point in R^4, doubled (a rotation angle), from
+    // atan2 so that it is accurate near 0
+    let m = qv.dot(&nearest);
+    let off = (qv - nearest * m).norm();
+    Radians(2.0 * off.atan2(m.abs()))
+}
+
 /// Unit vector from spherical coordinates: azimuth phi, polar angle theta (paper 3.1).
 pub fn from_spherical(phi: Radians, theta: Radians) -> UnitVec {
     Unit::new_normalize(Vector3::new(
@@ -300,5 +344,68 @@ mod tests {
         assert!(unit(Vector3::new(f64::NAN, 0.0, 1.0)).is_none());
         assert!(orientation_from_xyzw(0.0, 0.0, 0.0, 0.0).is_none());
         assert!(orientation_from_xyzw(0.0, f64::INFINITY, 0.0, 1.0).is_none());
+    }
+
+    fn z() -> UnitVec {
+        v(0.0, 0.0, 1.0)
+    }
+
+    #[test]
+    fn a_point_on_the_path_is_at_no_distance_from_it() {
+        let a = rot_q(&v(1.0, 0.2, -0.3), Radians(0.4));
+        let b = rot_q(&z(), Radians(1.5)) * a;
+        for t in [0.0, 0.1, 0.5, 0.9, 1.0] {
+            let q = a.slerp(&b, t);
+            assert!(distance_to_geodesic(&q, &a, &b).0 < 1e-7, "{t}");
+        }
+    }
+
+    #[test]
+    fn a_point_beyond_the_target_is_at_its_distance_from_the_target() {
+        let a = Orientation::identity();
+        let b = rot_q(&z(), Radians(1.0));
+        // 30 degrees on past the target about the same axis
+        let past = rot_q(&z(), Radians(1.0 + 30f64.to_radians()));
+        let d = distance_to_geodesic(&past, &a, &b).to_degrees().0;
+        assert!((d - 30.0).abs() < 1e-9, "{d}");
+        // and before the start: its distance to the start
+        let before = rot_q(&z(), Radians(-20f64.to_radians()));
+        let d = distance_to_geodesic(&before, &a, &b).to_degrees().0;
+        assert!((d - 20.0).abs() < 1e-9, "{d}");
+        // off to the side beyond the end
+        let q = rot_q(&v(1.0, 0.0, 0.0), Radians(10f64.to_radians())) * past;
+        let d = distance_to_geodesic(&q, &a, &b).0;
+        assert!((d - q.angle_to(&b)).abs() < 1e-9, "{d}");
+    }
+
+    #[test]
+    fn a_turn_off_the_middle_of_the_path_is_its_angle_away() {
+        let a = rot_q(&v(0.3, -1.0, 0.5), Radians(0.8));
+        let b = rot_q(&z(), Radians(PI / 2.0)) * a;
+        let mid = a.slerp(&b, 0.5);
+        // 10 degrees about x, perpendicular to the path's axis (z), at its midpoint
+        let q = rot_q(&v(1.0, 0.0, 0.0), Radians(10f64.to_radians())) * mid;
+        let d = distance_to_geodesic(&q, &a, &b).to_degrees().0;
+        assert!((d - 10.0).abs() < 1e-9, "{d}");
+    }
+
+    #[test]
+    fn either_sign_of_a_quaternion_gives_the_same_distance() {
+        let a = rot_q(&v(0.1, 0.7, 0.2), Radians(0.3));
+        let b = rot_q(&v(1.0, 1.0, 0.0), Radians(2.0)) * a;
+        let q = rot_q(&v(-0.4, 0.2, 1.0), Radians(0.9)) * a;
+        let neg = |x: &Orientation| Orientation::new_unchecked(-x.into_inner());
+        let d = distance_to_geodesic(&q, &a, &b).0;
+        assert!(d > 0.1);
+        for (q2, a2, b2) in [(neg(&q), a, b), (q, neg(&a), b), (q, a, neg(&b))] {
+            assert!((distance_to_geodesic(&q2, &a2, &b2).0 - d).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_path_of_one_point_is_measured_to_that_point() {
+        let a = rot_q(&v(0.0, 1.0, 0.0), Radians(0.5));
+        let q = rot_q(&z(), Radians(0.25)) * a;
+        assert!((distance_to_geodesic(&q, &a, &a).0 - 0.25).abs() < 1e-12);
     }
 }

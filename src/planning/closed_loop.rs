@@ -14,7 +14,7 @@ use crate::planning::coilsets::{coils_of, label};
 use crate::planning::commutation::{cumulative, cumulative_from, CommutationState, Motor, Step};
 use crate::planning::identify::{Identifier, Observation};
 use crate::planning::on_time::{self, OnTimes};
-use crate::planning::plan::{Plan, PlanRow, PlanSettings};
+use crate::planning::plan::{path_deviation_deg, Plan, PlanRow, PlanSettings};
 use crate::planning::search::{first_row, step_row};
 use crate::planning::seek::{Path, Seek};
 use serde::Serialize;
@@ -132,6 +132,10 @@ pub struct LoopSummary {
     /// Worst true cumulative axis error over the steps that turned the ball at least
     /// [`MIN_AXIS_ANGLE_DEG`], degrees.
     pub max_axis_error_deg: f64,
+    /// How far the measured orientations stray from the direct way: the worst angle (degrees)
+    /// from one of them to the nearest point of the geodesic (the slerp) from the run's start
+    /// (the plan's row 0) to its goal; what the loop saw, sensor noise included.
+    pub max_path_deviation_deg: f64,
     pub replans: usize,
     /// The loop ended at the goal by its estimate (as the hardware loop decides) and its last
     /// measurement is within the goal tolerance too.
@@ -808,6 +812,7 @@ fn no_run(message: &str) -> LoopRun {
             final_error_deg: f64::NAN,
             final_angle_deg: 0.0,
             max_axis_error_deg: 0.0,
+            max_path_deviation_deg: 0.0,
             replans: 0,
             reached: false,
             final_measured_error_deg: f64::NAN,
@@ -880,6 +885,11 @@ impl Loop<'_> {
             final_error_deg: last.map(|r| r.error_to_goal_deg).unwrap_or(f64::NAN),
             final_angle_deg: last.map(|r| r.cum_angle_deg).unwrap_or(0.0),
             max_axis_error_deg: worst_axis_error_deg(&self.rows),
+            max_path_deviation_deg: path_deviation_deg(
+                self.rows.iter().map(|r| &r.measured),
+                &self.q0,
+                &self.goal,
+            ),
             replans,
             reached,
             final_measured_error_deg: f64::NAN,

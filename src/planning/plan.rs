@@ -4,7 +4,8 @@
 //! summary.
 
 use crate::model::geometry::{
-    rotation_angle, rotation_axis, Degrees, Orientation, Pair, Radians, UnitVec,
+    distance_to_geodesic, rotation_angle, rotation_axis, Degrees, Orientation, Pair, Radians,
+    UnitVec,
 };
 use crate::planning::commutation::{CommutationState, PairsPerStep, StepLimits, StepModel};
 use serde::{Deserialize, Serialize};
@@ -219,6 +220,10 @@ pub struct PlanSummary {
     /// orientation to the plan's goal ([`goal_of`]: the target orientation when one was given,
     /// else the target rotation applied to row 0's; the goal the closed loop aims at).
     pub final_orientation_error_deg: f64,
+    /// How far the plan strays from the direct way: the worst over its rows of the angle
+    /// (degrees) from the row's orientation to the nearest point of the geodesic (the slerp)
+    /// from row 0's orientation to the plan's goal ([`max_path_deviation_deg`]).
+    pub max_path_deviation_deg: f64,
     /// See [`Plan::reached`].
     pub reached: bool,
     /// The tolerance `reached` is judged with, degrees ([`PlanSettings::tolerance`]).
@@ -247,6 +252,7 @@ impl Plan {
             final_angle_deg: self.rows.last().map(|r| r.cum_angle_deg).unwrap_or(0.0),
             max_axis_error_deg: max_axis_error_deg(&self.rows),
             final_orientation_error_deg: final_orientation_error_deg(s, &self.rows),
+            max_path_deviation_deg: max_path_deviation_deg(s, &self.rows),
             reached: self.reached,
             tolerance_deg: s.tolerance.0.to_degrees(),
             total_settle_time_s: total_settle_time(&self.rows),
@@ -275,6 +281,28 @@ pub fn final_orientation_error_deg(s: &PlanSettings, rows: &[PlanRow]) -> f64 {
         (Some(goal), Some(last)) => last.q.angle_to(&goal).to_degrees(),
         _ => 0.0,
     }
+}
+
+/// The worst path deviation of a plan made for `s`, degrees (0 for no rows): over its rows, the
+/// angle from the row's orientation to the nearest point of the geodesic (the slerp) from row
+/// 0's orientation to the plan's goal ([`goal_of`]); see [`path_deviation_deg`].
+pub fn max_path_deviation_deg(s: &PlanSettings, rows: &[PlanRow]) -> f64 {
+    match (rows.first(), goal_of(s, rows)) {
+        (Some(first), Some(goal)) => path_deviation_deg(rows.iter().map(|r| &r.q), &first.q, &goal),
+        _ => 0.0,
+    }
+}
+
+/// The worst angle (degrees) from any of the orientations `qs` to the nearest point of the
+/// geodesic from `start` to `goal` (0 for none).
+pub fn path_deviation_deg<'a>(
+    qs: impl IntoIterator<Item = &'a Orientation>,
+    start: &Orientation,
+    goal: &Orientation,
+) -> f64 {
+    qs.into_iter()
+        .map(|q| distance_to_geodesic(q, start, goal).to_degrees().0)
+        .fold(0.0, f64::max)
 }
 
 /// `p` (a plan made for `s`) judged at its end: reached only when its search completed the

@@ -15,7 +15,8 @@ use crate::planning::commutation::{
 use crate::planning::on_time::{self, OnTimes};
 pub use crate::planning::plan::turn_to;
 use crate::planning::plan::{
-    max_axis_error_deg, total_settle_time, unsettled_steps, Plan, PlanRow, PlanSettings,
+    max_axis_error_deg, path_deviation_deg, total_settle_time, unsettled_steps, Plan, PlanRow,
+    PlanSettings,
 };
 use crate::planning::planner::{plan, plan_on_from, replanned_from_row0};
 use crate::planning::search::{on_times_of, over_on_time};
@@ -60,6 +61,11 @@ pub struct WaypointReached {
     pub step: usize,
     /// The angle from that row's orientation to the waypoint, degrees.
     pub error_deg: f64,
+    /// How far the rows serving it stray from the direct way: the worst angle (degrees) from
+    /// one of their orientations to the nearest point of the geodesic (the slerp) from the
+    /// waypoint before (for the first, row 0's orientation) to this one; 0 when no row
+    /// serves it.
+    pub max_path_deviation_deg: f64,
 }
 
 /// A waypoint plan's figures (the JSON summary of `plan --waypoints`).
@@ -73,6 +79,9 @@ pub struct WaypointSummary {
     pub worst_waypoint_error_deg: f64,
     /// The worst cumulative axis error of any leg, degrees.
     pub max_axis_error_deg: f64,
+    /// The worst path deviation of any waypoint's rows, degrees (the largest of the
+    /// waypoints' [`WaypointReached::max_path_deviation_deg`]).
+    pub max_path_deviation_deg: f64,
     /// The tolerance every waypoint had to be reached within, degrees.
     pub tolerance_deg: f64,
     /// Every waypoint reached within the tolerance, within the on-time limit.
@@ -103,8 +112,12 @@ impl WaypointPlan {
         WaypointSummary {
             steps: self.rows.len().saturating_sub(1),
             worst_waypoint_error_deg: at.iter().map(|w| w.error_deg).fold(0.0, f64::max),
-            waypoints: at,
             max_axis_error_deg: max_axis_error_deg(&self.rows),
+            max_path_deviation_deg: at
+                .iter()
+                .map(|w| w.max_path_deviation_deg)
+                .fold(0.0, f64::max),
+            waypoints: at,
             tolerance_deg,
             reached: self.reached,
             total_settle_time_s: total_settle_time(&self.rows),
@@ -118,7 +131,8 @@ impl WaypointPlan {
 }
 
 /// Where each of `waypoints` is reached by the rows that serve them (`serves`, row by row): its
-/// last row, or for a waypoint no row serves, the last row before the next one's.
+/// last row, or for a waypoint no row serves, the last row before the next one's; and how far
+/// its rows stray from the geodesic from the waypoint before (the first: from row 0).
 pub fn reached_at(
     rows: &[PlanRow],
     serves: &[usize],
@@ -134,10 +148,20 @@ pub fn reached_at(
         let Some(r) = rows.get(row) else {
             continue;
         };
+        let from = match k.checked_sub(1) {
+            Some(before) => waypoints.get(before),
+            None => rows.first().map(|r| &r.q),
+        };
+        let leg = rows
+            .iter()
+            .zip(serves)
+            .filter(|&(_, &v)| v == number)
+            .map(|(r, _)| &r.q);
         out.push(WaypointReached {
             waypoint: number,
             step: r.step,
             error_deg: r.q.angle_to(w).to_degrees(),
+            max_path_deviation_deg: from.map_or(0.0, |from| path_deviation_deg(leg, from, w)),
         });
     }
     out

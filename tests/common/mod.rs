@@ -48,3 +48,38 @@ pub fn csv_bytes(p: &spherestep::planning::planner::Plan) -> Vec<u8> {
     spherestep::io::planfile::write_plan(&p.rows, &mut b).unwrap();
     b
 }
+
+/// The worst angle, degrees, from any of `qs` to `samples` + 1 points of the slerp from `a` to
+/// `b` (sampled: an independent check of `spherestep::model::geometry::distance_to_geodesic`).
+pub fn sampled_path_deviation_deg(
+    qs: &[Orientation],
+    a: &Orientation,
+    b: &Orientation,
+    samples: usize,
+) -> f64 {
+    let a4 = a.quaternion().coords;
+    let b4 = match a4.dot(&b.quaternion().coords) < 0.0 {
+        true => -b.quaternion().coords,
+        false => b.quaternion().coords,
+    };
+    let path: Vec<Orientation> = (0..=samples)
+        .map(|k| {
+            let t = k as f64 / samples as f64;
+            let p = a4 * (1.0 - t) + b4 * t; // along the chord, then onto the sphere
+            let theta = a4.dot(&b4).clamp(-1.0, 1.0).acos();
+            let p = match theta < 1e-12 {
+                true => p,
+                false => (a4 * ((1.0 - t) * theta).sin() + b4 * (t * theta).sin()) / theta.sin(),
+            };
+            UnitQuaternion::from_quaternion(nalgebra::Quaternion::from(p))
+        })
+        .collect();
+    qs.iter()
+        .map(|q| {
+            path.iter()
+                .map(|p| q.angle_to(p))
+                .fold(f64::INFINITY, f64::min)
+                .to_degrees()
+        })
+        .fold(0.0, f64::max)
+}

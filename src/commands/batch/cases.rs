@@ -10,7 +10,7 @@ use crate::io::planfile::write_plan;
 use crate::io::scenario::Scenario;
 use crate::physics::torque::MagnetTorques;
 use crate::planning::commutation::{pivot_floor, StepModel};
-use crate::planning::plan::{final_orientation_error_deg, PlanRow};
+use crate::planning::plan::{final_orientation_error_deg, max_path_deviation_deg, PlanRow};
 use crate::planning::planner::{max_axis_error_deg, plan, total_settle_time, PlanSettings};
 use rayon::prelude::*;
 use std::path::Path;
@@ -120,6 +120,7 @@ pub(super) fn sweep_record(c: &Case, o: &Outcome, torques: &MagnetTorques) -> Ve
             .unwrap_or(0.0)
             .to_string(),
         max_axis_error_deg(&o.rows).to_string(),
+        max_path_deviation_deg(s, &o.rows).to_string(),
         o.reached.to_string(),
         total_settle_time(&o.rows).to_string(),
         pivot_floor(torques, &s.axis).0.to_degrees().to_string(),
@@ -130,7 +131,18 @@ pub(super) fn sweep_record(c: &Case, o: &Outcome, torques: &MagnetTorques) -> Ve
 }
 
 /// Where a sweep row's start columns begin (after pivot_floor_deg).
-const START_COLUMN: usize = 14;
+const START_COLUMN: usize = 15;
+
+/// A sweep row's `steps` column.
+const STEPS_COLUMN: usize = 8;
+
+/// A sweep row's `reached` column.
+const REACHED_COLUMN: usize = 12;
+
+/// A sweep row's columns that hold a number (not a whole one): final_angle_deg,
+/// max_axis_error_deg, max_path_deviation_deg, total_settle_time_s, pivot_floor_deg and
+/// final_orientation_error_deg.
+const NUMBER_COLUMNS: [usize; 6] = [9, 10, 11, 13, 14, START_COLUMN + 4];
 
 /// The columns of a case's sweep row that its start fixes: start_qx, start_qy, start_qz,
 /// start_qw.
@@ -166,13 +178,13 @@ pub(super) fn sweep_row_problem(c: &Case, record: &[String]) -> Option<String> {
             ));
         }
     }
-    if record[8].parse::<usize>().is_err() {
+    if record[STEPS_COLUMN].parse::<usize>().is_err() {
         return Some(format!(
             "column `steps`: expected a whole number, {}",
-            got(8)
+            got(STEPS_COLUMN)
         ));
     }
-    if let Some(k) = [9, 10, 12, 13, START_COLUMN + 4]
+    if let Some(k) = NUMBER_COLUMNS
         .into_iter()
         .find(|&k| record[k].parse::<f64>().is_err())
     {
@@ -182,10 +194,10 @@ pub(super) fn sweep_row_problem(c: &Case, record: &[String]) -> Option<String> {
             got(k)
         ));
     }
-    if !matches!(record[11].as_str(), "true" | "false") {
+    if !matches!(record[REACHED_COLUMN].as_str(), "true" | "false") {
         return Some(format!(
             "column `reached`: expected true or false, {}",
-            got(11)
+            got(REACHED_COLUMN)
         ));
     }
     None
@@ -235,7 +247,7 @@ pub(super) fn run_cases(
                 bar.inc(1);
                 return Outcome {
                     rows: Vec::new(),
-                    reached: record.get(11).is_some_and(|r| r == "true"),
+                    reached: record.get(REACHED_COLUMN).is_some_and(|r| r == "true"),
                     seconds: 0.0,
                     record: record.clone(),
                     error: None,
@@ -261,4 +273,28 @@ pub(super) fn run_cases(
             o
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_column_indices_name_their_columns() {
+        assert_eq!(SWEEP_HEADER[STEPS_COLUMN], "steps");
+        assert_eq!(SWEEP_HEADER[REACHED_COLUMN], "reached");
+        assert_eq!(SWEEP_HEADER[START_COLUMN], "start_qx");
+        let numbers = NUMBER_COLUMNS.map(|k| SWEEP_HEADER[k]);
+        assert_eq!(
+            numbers,
+            [
+                "final_angle_deg",
+                "max_axis_error_deg",
+                "max_path_deviation_deg",
+                "total_settle_time_s",
+                "pivot_floor_deg",
+                "final_orientation_error_deg"
+            ]
+        );
+    }
 }

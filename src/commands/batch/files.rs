@@ -15,11 +15,13 @@ use crate::planning::plan::PlanRow;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
-/// The content hash of a scenario's work: program version, the scenario as loaded (points,
-/// wells, settings) and which part of it.
+/// The content hash of a scenario's work: program version, the sweep CSV's columns (a result
+/// written with other columns, e.g. before `max_path_deviation_deg`, is of other content and
+/// computed again), the scenario as loaded (points, wells, settings) and which part of it.
 pub(super) fn content_hash(sc: &Scenario, text: &str, part: &str) -> String {
     let mut h = Sha256::new();
     h.update(env!("CARGO_PKG_VERSION").as_bytes());
+    h.update(SWEEP_HEADER.join(",").as_bytes());
     h.update(text.as_bytes());
     h.update(format!("{:?}", sc.torques).as_bytes());
     h.update(format!("{:?}{:?}{:?}{:?}", sc.body, sc.settle, sc.plan, sc.sweep).as_bytes());

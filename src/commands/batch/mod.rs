@@ -93,7 +93,7 @@ pub struct BatchReport {
 pub const MAX_JOBS: usize = 256;
 
 /// The header of a sweep CSV.
-pub const SWEEP_HEADER: [&str; 19] = [
+pub const SWEEP_HEADER: [&str; 20] = [
     "case",
     "scheme",
     "model",
@@ -105,6 +105,7 @@ pub const SWEEP_HEADER: [&str; 19] = [
     "steps",
     "final_angle_deg",
     "max_axis_error_deg",
+    "max_path_deviation_deg",
     "reached",
     "total_settle_time_s",
     "pivot_floor_deg",
@@ -116,7 +117,7 @@ pub const SWEEP_HEADER: [&str; 19] = [
 ];
 
 /// The header of summary.csv.
-pub const SUMMARY_HEADER: [&str; 13] = [
+pub const SUMMARY_HEADER: [&str; 14] = [
     "name",
     "kind",
     "cases",
@@ -128,6 +129,7 @@ pub const SUMMARY_HEADER: [&str; 13] = [
     "steps",
     "final_angle_deg",
     "max_axis_error_deg",
+    "max_path_deviation_deg",
     "reached",
     "total_settle_time_s",
 ];

@@ -7,7 +7,7 @@ use crate::io::planfile::parse_plan;
 use crate::io::scenario::{Scenario, Sweep};
 use crate::io::table::{csv_bytes, Table};
 use crate::model::geometry::UnitVec;
-use crate::planning::plan::PlanRow;
+use crate::planning::plan::{max_path_deviation_deg, PlanRow};
 use crate::planning::planner::{max_axis_error_deg, total_settle_time};
 use std::path::{Path, PathBuf};
 
@@ -57,30 +57,34 @@ fn plan_summary(sc: &Scenario, rows: &[PlanRow]) -> Vec<String> {
         rows.len().saturating_sub(1).to_string(),
         fin.to_string(),
         max_axis_error_deg(rows).to_string(),
+        max_path_deviation_deg(s, rows).to_string(),
         reached.to_string(),
         total_settle_time(rows).to_string(),
     ]
 }
 
 /// The summary row of a sweep: its cases' steps and settle times summed, the smallest final
-/// angle, the worst axis error and how many reached their target.
+/// angle, the worst axis error, the worst path deviation and how many reached their target.
 fn sweep_summary(sc: &Scenario, sw: &Sweep, t: &Table) -> Result<Vec<String>> {
     let col = |name: &str| t.require(name, "");
-    let [steps_c, final_c, worst_c, reached_c, settle_c] = [
+    let [steps_c, final_c, worst_c, deviation_c, reached_c, settle_c] = [
         col("steps")?,
         col("final_angle_deg")?,
         col("max_axis_error_deg")?,
+        col("max_path_deviation_deg")?,
         col("reached")?,
         col("total_settle_time_s")?,
     ];
     let (mut n, mut reached, mut steps) = (0usize, 0usize, 0usize);
     let (mut worst, mut settle, mut min_final) = (0.0f64, 0.0f64, f64::INFINITY);
+    let mut deviation = 0.0f64;
     for r in t.rows() {
         let num = |k: usize| r.get(k).parse::<f64>().unwrap_or(0.0);
         n += 1;
         steps += num(steps_c) as usize;
         min_final = min_final.min(num(final_c));
         worst = worst.max(num(worst_c));
+        deviation = deviation.max(num(deviation_c));
         reached += usize::from(r.get(reached_c) == "true");
         settle += num(settle_c);
     }
@@ -116,6 +120,7 @@ fn sweep_summary(sc: &Scenario, sw: &Sweep, t: &Table) -> Result<Vec<String>> {
             min_final.to_string()
         },
         worst.to_string(),
+        deviation.to_string(),
         format!("{reached}/{n}"),
         settle.to_string(),
     ])
