@@ -36,9 +36,9 @@ for pair in "gaussian-14-35 gaussian-weak" "gaussian-14-35 gaussian-strong" \
   for axis in 0,1,0 0,0,1 1,0,0 0.5,-0.6,0.6; do
     # a run that ends past its tolerance exits 1: its row says how far it ended
     "$bin" run "$dir/$1.toml" --plant "$dir/$2.toml" --axis "$axis" --angle 90 --json \
-      --out "$dir/open.csv" > "$dir/open.json" || true
+      --out "$dir/open.csv" > "$dir/open.json" 2>/dev/null || true
     "$bin" run "$dir/$1.toml" --plant "$dir/$2.toml" --axis "$axis" --angle 90 --closed-loop \
-      --sensor-noise-deg 1 --json --out "$dir/closed.csv" > "$dir/closed.json" || true
+      --sensor-noise-deg 1 --json --out "$dir/closed.csv" > "$dir/closed.json" 2>/dev/null || true
     python3 - "$1" "$2" "$axis" "$dir/open.json" "$dir/closed.json" <<'PY'
 import json, sys
 model, plant, axis, o, c = sys.argv[1:]

@@ -362,3 +362,37 @@ fn a_random_motion_sweep_plans_each_motion_from_its_own_start_and_reports_where_
     let e = Scenario::load(&s.join("m.toml")).unwrap_err().to_string();
     assert!(e.contains("sweep.seed") && e.contains("motions"), "{e}");
 }
+
+#[test]
+fn the_summary_says_reached_as_plan_does_at_the_target_orientation() {
+    // the same 30 degree plan judged with a tolerance it cannot meet and with one it meets:
+    // summary.csv's `reached` is what `plan` says (it counted the angle alone before)
+    let t = tempfile::tempdir().unwrap();
+    let dir = t.path().join("sc");
+    std::fs::create_dir(&dir).unwrap();
+    for (name, tol) in [("tight", 0.001), ("loose", 10.0)] {
+        std::fs::write(
+            dir.join(format!("{name}.toml")),
+            format!(
+                "name = \"{name}\"\n[plan]\naxis = [0, 0, 1]\nangle_deg = 30.0\n\
+                 tolerance_deg = {tol}\n"
+            ),
+        )
+        .unwrap();
+    }
+    let out = t.path().join("out");
+    let r = batch(&[dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let reached = |name: &str| {
+        let line = summary
+            .lines()
+            .find(|l| l.starts_with(&format!("{name},plan,")))
+            .unwrap_or_else(|| panic!("{summary}"));
+        line.split(',').nth(12).unwrap().to_string()
+    };
+    let header: Vec<&str> = summary.lines().next().unwrap().split(',').collect();
+    assert_eq!(header[12], "reached");
+    assert_eq!(reached("tight"), "false", "{summary}");
+    assert_eq!(reached("loose"), "true", "{summary}");
+}

@@ -223,7 +223,10 @@ def test_closed_loop_run_is_deterministic(motor):
     a = motor.run(plant, axis=(0, 0, 1), angle=90, closed_loop=True, sensor_noise_deg=1.0, seed=2)
     b = motor.run(plant, axis=(0, 0, 1), angle=90, closed_loop=True, sensor_noise_deg=1.0, seed=2)
     assert a.csv() == b.csv()
-    assert a.summary["reached"] and a.error_to_goal_deg[-1] < 2.0
+    # the ball ends within the 2 degree goal tolerance; the run is reached when its last
+    # (noisy) measurement says so too
+    assert a.summary["final_error_deg"] < 2.0
+    assert a.summary["reached"] == (a.summary["final_measured_error_deg"] <= 2.0)
     np.testing.assert_array_equal(a.measured_q, b.measured_q)
 
 

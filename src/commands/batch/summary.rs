@@ -7,7 +7,7 @@ use crate::io::planfile::parse_plan;
 use crate::io::scenario::{Scenario, Sweep};
 use crate::io::table::{csv_bytes, Table};
 use crate::model::geometry::UnitVec;
-use crate::planning::plan::{max_path_deviation_deg, PlanRow};
+use crate::planning::plan::{final_orientation_error_deg, max_path_deviation_deg, PlanRow};
 use crate::planning::planner::{max_axis_error_deg, total_settle_time};
 use std::path::{Path, PathBuf};
 
@@ -44,7 +44,10 @@ pub(super) fn summary_csv(inputs: &[PathBuf], out: &Path, report: &BatchReport) 
 fn plan_summary(sc: &Scenario, rows: &[PlanRow]) -> Vec<String> {
     let s = &sc.plan;
     let fin = rows.last().map(|r| r.cum_angle_deg).unwrap_or(0.0);
-    let reached = fin >= (s.angle.0 - s.angle_tolerance.0).to_degrees();
+    // as `plan` judges it: the angle turned, and the end within the tolerance of the target
+    // orientation
+    let turned = fin >= (s.angle.0 - s.angle_tolerance.0).to_degrees();
+    let reached = turned && final_orientation_error_deg(s, rows) <= s.tolerance.0.to_degrees();
     vec![
         sc.name.clone(),
         "plan".into(),
