@@ -378,7 +378,8 @@ fn mounted_quat_csv_sensor_in_a_rotated_frame_decides_as_an_unrotated_one() {
     // a 4 degree stray after step 2: the loop replans from a measurement the rotated frame
     // maps back a rounding (~3e-16 rad) away from the unrotated one's, and plans the same steps
     let (b, replans) = same_decisions(SensorFormat::QuatCsv, Some(2), 1e-9);
-    assert_eq!(replans, 1);
+    // the stray is replanned from (how often after it is the planner's business)
+    assert!(replans >= 1, "{replans}");
     // the tare row keeps the line the sensor sent
     let tare = b.log.lines().find(|l| l.contains(",tare,")).unwrap();
     assert!(tare.ends_with('"'), "{tare}");
