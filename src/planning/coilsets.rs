@@ -277,12 +277,7 @@ impl StepSource for CoilSets<'_> {
         let sets = self.landing_sets(from, goal, avoid);
         let follow = FOLLOWED_PER_STATE;
         let (spent, states) = self.settle_ranked(&from.q, &sets, follow, |r| r.angle_to(goal));
-        // a landing step may turn any way towards the goal
-        let landing = StepLimits {
-            max_axis_error: Radians(std::f64::consts::PI),
-            min_angle: Radians(0.0),
-            ..self.s.limits
-        };
+        let landing = self.s.limits.landing();
         (spent, self.steps_to(from, states, &towards, &landing))
     }
 }

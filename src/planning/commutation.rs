@@ -383,6 +383,16 @@ pub const DEFAULT_MAX_COILS_ON: usize = 4;
 pub const PIVOT_CAPTURE: Radians = Radians(6.0 * std::f64::consts::PI / 180.0);
 
 impl StepLimits {
+    /// These limits for a landing step (towards a goal orientation, after the turn): it may
+    /// turn any way towards the goal, by any angle.
+    pub fn landing(&self) -> StepLimits {
+        StepLimits {
+            max_axis_error: Radians(std::f64::consts::PI),
+            min_angle: Radians(0.0),
+            ..*self
+        }
+    }
+
     /// The capture distance in force: the one given; else [`PIVOT_CAPTURE`] for the pivot
     /// model, and for the dynamic model the distance at which the well's pull peaks
     /// ([`peak_pull_distance`]): nearer in, the pull grows as the magnet is pushed out, so the

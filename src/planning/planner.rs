@@ -268,12 +268,7 @@ impl StepSource for PairSteps<'_> {
             .collect();
         let spent = sets.len();
         let outcomes = settled_states(self.motor, sets, &at.state.q);
-        // a landing step may turn any way towards the goal
-        let landing = StepLimits {
-            max_axis_error: Radians(std::f64::consts::PI),
-            min_angle: Radians(0.0),
-            ..s.limits
-        };
+        let landing = s.limits.landing();
         let capture = landing.capture_for(StepModel::Dynamic, &self.motor.torques.well);
         let steps = proposals
             .into_iter()
