@@ -231,3 +231,29 @@ fn bad_waypoint_files_and_tolerances_are_refused_by_name() {
     assert_ne!(code, 0);
     assert!(err.contains("--axis"), "{err}");
 }
+
+#[test]
+fn the_progress_counts_the_waypoints_served_and_leaves_the_plan_as_it_is() {
+    // the raster: every report is a count of waypoints served (at most all ten, fewer when the
+    // planner goes back), the last is all ten, and the plan is the one made without reports
+    let sc = load("scenarios/prototype.toml");
+    let file = "scenarios/waypoints/raster-10.csv";
+    let waypoints = read_waypoints(Path::new(file), &sc.plan.start).unwrap();
+    let mut reports = Vec::new();
+    let with = spherestep::planning::waypoints::plan_waypoints_with(
+        &sc.motor(),
+        &sc.plan,
+        &waypoints,
+        3.0,
+        &mut |k| reports.push(k),
+    );
+    assert!(with.reached, "{:?}", with.message);
+    assert!(reports.len() >= waypoints.len(), "{reports:?}");
+    assert!(reports.iter().all(|&k| k <= waypoints.len()), "{reports:?}");
+    assert_eq!(reports.last(), Some(&waypoints.len()), "{reports:?}");
+    // one more served at a time
+    for w in reports.windows(2) {
+        assert!(w[1] <= w[0] + 1, "{reports:?}");
+    }
+    assert_eq!(csv(&with), csv(&plan_path(&sc, file, 3.0)));
+}

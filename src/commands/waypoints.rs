@@ -9,7 +9,7 @@ use crate::io::scenario::Scenario;
 use crate::io::waypoints::read_waypoints;
 use crate::planning::plan::PlanSettings;
 use crate::planning::simulate::SimRow;
-use crate::planning::waypoints::{plan_waypoints, WaypointPlan};
+use crate::planning::waypoints::{plan_waypoints_with, WaypointPlan};
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
@@ -58,7 +58,20 @@ pub fn plan_waypoints_command(
     note: &mut dyn Write,
 ) -> Result<WaypointPlan> {
     let waypoints = read_waypoints(job.file, &settings.start)?;
-    let p = plan_waypoints(&sc.motor(), settings, &waypoints, job.tolerance_deg);
+    // a progress bar on standard error (drawn only when it is a terminal): waypoints served
+    let bar = indicatif::ProgressBar::new(waypoints.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} waypoints, {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let p = plan_waypoints_with(
+        &sc.motor(),
+        settings,
+        &waypoints,
+        job.tolerance_deg,
+        &mut |k| bar.set_position(k as u64),
+    );
+    bar.finish_and_clear();
     let mut csv = Vec::new();
     write_waypoint_plan(&p, &mut csv)?;
     let out = emit_csv(&csv, out_file, json, out, note)?;

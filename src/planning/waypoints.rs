@@ -176,6 +176,19 @@ pub fn plan_waypoints(
     waypoints: &[Orientation],
     tolerance_deg: f64,
 ) -> WaypointPlan {
+    plan_waypoints_with(motor, s, waypoints, tolerance_deg, &mut |_| {})
+}
+
+/// [`plan_waypoints`], telling `served` how many waypoints the plan serves so far each time
+/// that changes (one more served; fewer when it goes back to an earlier waypoint): a progress
+/// bar's position, out of `waypoints.len()`.
+pub fn plan_waypoints_with(
+    motor: &Motor,
+    s: &PlanSettings,
+    waypoints: &[Orientation],
+    tolerance_deg: f64,
+    served: &mut dyn FnMut(usize),
+) -> WaypointPlan {
     let mut out = WaypointPlan {
         rows: Vec::new(),
         serves: Vec::new(),
@@ -209,6 +222,7 @@ pub fn plan_waypoints(
                     legs: rest,
                 });
                 k += 1;
+                served(k);
             }
             Err(why) => {
                 if failure.as_ref().is_none_or(|(f, _, _)| k >= *f) {
@@ -224,6 +238,7 @@ pub fn plan_waypoints(
                         out.rows.truncate(p.before);
                         out.serves.truncate(p.before);
                         k = p.index;
+                        served(k);
                         legs = Some(p.legs);
                     }
                     None => {
