@@ -13,7 +13,7 @@ use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{coils_of, label};
 use crate::planning::commutation::{cumulative, cumulative_from, CommutationState, Motor, Step};
 use crate::planning::identify::{Identifier, Observation};
-use crate::planning::on_time::{self, OnTimes};
+use crate::planning::on_time::OnTimes;
 use crate::planning::plan::{path_deviation_deg, Plan, PlanRow, PlanSettings};
 use crate::planning::search::{first_row, step_row};
 use crate::planning::seek::{Path, Seek};
@@ -354,7 +354,7 @@ impl<'a> Controller<'a> {
         }
         self.learn(&row.active, measured);
         if let Some(l) = self.settings.limits.on_time {
-            on_time::hold_row(&mut self.on, &row, &l);
+            row.hold(&mut self.on, &l);
         }
         loop {
             let steer = self.steering();

@@ -8,8 +8,6 @@
 //! switches every coil off, so that a plan within the limit on paper never meets the guard on
 //! the wire.
 
-use crate::model::geometry::CoilId;
-use crate::planning::plan::PlanRow;
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -126,16 +124,6 @@ pub fn hold<K: Ord + Copy>(
         });
         h.on += dwell + STEP_IO;
     }
-}
-
-/// One row of a plan replayed: its coils held for the row's dwell under `limit` (see [`hold`]).
-pub fn hold_row(on: &mut OnTimes<CoilId>, row: &PlanRow, limit: &OnTimeLimit) {
-    hold(
-        on,
-        row.active.iter().map(|p| p.coil),
-        row.step,
-        limit.dwell(row.settle_time_s),
-    );
 }
 
 /// The first relay (in key order) of `on` that has been on longer than a plan may keep it

@@ -4,10 +4,11 @@
 //! summary.
 
 use crate::model::geometry::{
-    distance_to_geodesic, rotation_angle, rotation_axis, Degrees, Orientation, Pair, Radians,
-    UnitVec,
+    distance_to_geodesic, rotation_angle, rotation_axis, CoilId, Degrees, Orientation, Pair,
+    Radians, UnitVec,
 };
 use crate::planning::commutation::{CommutationState, PairsPerStep, StepLimits, StepModel};
+use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
 use serde::{Deserialize, Serialize};
 
 /// One step of a plan.
@@ -41,6 +42,17 @@ pub struct PlanRow {
 }
 
 impl PlanRow {
+    /// This row replayed: its coils held for its dwell under `limit`, added to `on` (see
+    /// [`on_time::hold`]).
+    pub fn hold(&self, on: &mut OnTimes<CoilId>, limit: &OnTimeLimit) {
+        on_time::hold(
+            on,
+            self.active.iter().map(|p| p.coil),
+            self.step,
+            limit.dwell(self.settle_time_s),
+        );
+    }
+
     /// The commutation state the row leaves the ball in: its orientation, what is on and the
     /// settle time of the move into it.
     pub fn state(&self) -> CommutationState {

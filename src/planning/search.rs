@@ -946,7 +946,7 @@ pub(crate) fn on_times_of(
         None => (OnTimes::new(), 0),
     };
     for r in rows.iter().skip(skip) {
-        on_time::hold_row(&mut on, r, &l);
+        r.hold(&mut on, &l);
     }
     on
 }
@@ -958,7 +958,7 @@ pub fn over_on_time(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> Option<Stri
     let l = limit?;
     let mut on = OnTimes::new();
     for r in rows {
-        on_time::hold_row(&mut on, r, &l);
+        r.hold(&mut on, &l);
         if let Some((coil, h)) = on_time::over(&on, l.max_on) {
             let o = OverTime {
                 coil,

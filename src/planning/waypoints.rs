@@ -496,7 +496,7 @@ fn go_on(
             let row = release_row(last, &freed);
             let mut on = on.clone();
             if let Some(l) = leg.limits.on_time {
-                on_time::hold_row(&mut on, &row, &l);
+                row.hold(&mut on, &l);
                 if on_time::over(&on, l.max_on).is_some() {
                     return None;
                 }

@@ -235,7 +235,12 @@ pub fn run_batch(inputs: &[PathBuf], opts: &BatchOptions) -> Result<BatchReport>
             continue;
         }
         if opts.resume && saves_progress(&job, opts) {
-            let (saved, warning) = progress::read_progress(&job.csv, &job.hash, &job.cases);
+            let by_index: BTreeMap<usize, &Case> = job.cases.iter().map(|c| (c.index, c)).collect();
+            let check = |i: usize, row: &[String]| {
+                let c = by_index.get(&i)?;
+                Some(cases::sweep_row_problem(c, row).map_or(Ok(()), Err))
+            };
+            let (saved, warning) = progress::read_progress(&job.csv, &job.hash, &check);
             job.saved = saved;
             report.warnings.extend(warning);
         }

@@ -2,7 +2,6 @@
 //! ends, with a checksum, so that a killed sweep is continued by `--resume` instead of starting
 //! over, and a row that is not what was written is computed again instead of kept.
 
-use super::cases::{sweep_row_problem, Case};
 use super::{Job, SWEEP_HEADER};
 use crate::error::{printable, Error, Result};
 use crate::io::output::write_atomic;
@@ -44,48 +43,56 @@ fn progress_line(hash: &str, record: &[String]) -> Result<Vec<u8>> {
     csv_line(&fields)
 }
 
+/// How a sweep's saved rows are checked: for a case index and a row, `None` when the sweep has
+/// no such case, else what is wrong with the row (`Some(Ok(()))`: nothing).
+pub(super) type RowCheck<'a> =
+    &'a dyn Fn(usize, &[String]) -> Option<std::result::Result<(), String>>;
+
 /// The case and sweep row of a whole progress line's `fields` (the row, then its checksum),
 /// or what is wrong with them.
 fn saved_row(
     mut fields: Vec<String>,
-    by_index: &BTreeMap<usize, &Case>,
+    check_row: RowCheck,
     hash: &str,
 ) -> std::result::Result<(usize, Vec<String>), String> {
-    let case = fields.first().and_then(|f| f.parse::<usize>().ok());
-    let Some(c) = case.and_then(|i| by_index.get(&i)) else {
-        return Err(format!(
+    let not_a_case = |fields: &[String]| {
+        format!(
             "column `case`: expected a case of this sweep, got \"{}\"",
             printable(fields.first().map_or("", |f| f.as_str()))
-        ));
+        )
+    };
+    let Some(index) = fields.first().and_then(|f| f.parse::<usize>().ok()) else {
+        return Err(not_a_case(&fields));
     };
     let check = match fields.len() == SWEEP_HEADER.len() + 1 {
         true => fields.pop(),
         false => None,
     };
-    if let Some(p) = sweep_row_problem(c, &fields) {
-        return Err(format!("case {}: {p}", c.index));
+    match check_row(index, &fields) {
+        None => return Err(not_a_case(&fields)),
+        Some(Err(p)) => return Err(format!("case {index}: {p}")),
+        Some(Ok(())) => {}
     }
     if check.as_deref() != Some(row_check(hash, &fields).as_str()) {
         return Err(format!(
-            "case {}: expected the row's checksum after it, got {} (the row was edited, or \
+            "case {index}: expected the row's checksum after it, got {} (the row was edited, or \
              saved by another version)",
-            c.index,
             check.map_or("none".to_string(), |k| format!("\"{}\"", printable(&k)))
         ));
     }
-    Ok((c.index, fields))
+    Ok((index, fields))
 }
 
 /// The finished cases in `csv`'s progress file (case index -> row) among `cases`, when the file
 /// belongs to this `hash` (else none, silently: it is of other content). The last row cut short
 /// by a kill (no line end) counts for nothing; every whole row is checked as this sweep writes
-/// it (`sweep_row_problem`) and against its checksum ([`row_check`]), and those that are not
+/// it (`check_row`) and against its checksum ([`row_check`]), and those that are not
 /// (edited, of no case here, unreadable) are left out, their cases computed again, and named
 /// in the warning returned.
 pub(super) fn read_progress(
     csv: &Path,
     hash: &str,
-    cases: &[Case],
+    check_row: RowCheck,
 ) -> (BTreeMap<usize, Vec<String>>, Option<String>) {
     let mut done = BTreeMap::new();
     let path = progress_path(csv);
@@ -100,7 +107,6 @@ pub(super) fn read_progress(
     }
     let rest = &bytes[k + 1..];
     let whole = &rest[..rest.iter().rposition(|&b| b == b'\n').map_or(0, |k| k + 1)];
-    let by_index: BTreeMap<usize, &Case> = cases.iter().map(|c| (c.index, c)).collect();
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
@@ -122,7 +128,7 @@ pub(super) fn read_progress(
                     damaged.push((line, "not UTF-8 text".to_string()));
                     continue;
                 };
-                match saved_row(fields, &by_index, hash) {
+                match saved_row(fields, check_row, hash) {
                     Err(problem) => (line, problem),
                     Ok((index, row)) => {
                         done.insert(index, row);
