@@ -154,7 +154,16 @@ impl Running {
             }
             std::thread::sleep(Duration::from_millis(20));
         };
-        let out: Vec<String> = self.out.try_iter().collect();
+        // every line up to the end of its output: the reader thread may still be passing on
+        // the last ones (the summary) when the process has ended
+        let mut out = Vec::new();
+        let end = std::time::Instant::now() + GUARD;
+        while let Ok(l) = self
+            .out
+            .recv_timeout(end.saturating_duration_since(std::time::Instant::now()))
+        {
+            out.push(l);
+        }
         let err = self.err.recv_timeout(GUARD).unwrap_or_default();
         (code, out.join("\n"), err)
     }
