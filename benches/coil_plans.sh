@@ -10,8 +10,8 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 scenarios=("$@")
 [ ${#scenarios[@]} -gt 0 ] || scenarios=(scenarios/broad-wells.toml scenarios/soft-wells.toml)
-echo "| scenario | about | steps | final angle | from the target | worst cumulative axis error | settles | wall | replay |"
-echo "|---|---|---|---|---|---|---|---|---|"
+echo "| scenario | about | steps | final angle | from the target | worst cumulative axis error | path deviation | settles | wall | replay |"
+echo "|---|---|---|---|---|---|---|---|---|---|"
 for sc in "${scenarios[@]}"; do
   for axis in 0,0,1 0,1,0 1,0,0 -1,2,-1; do
     start=$(date +%s.%N)
@@ -25,7 +25,8 @@ sc, axis, start, end, plan, sim = sys.argv[1:]
 p, s = json.load(open(plan)), json.load(open(sim))
 name = {"0,0,1": "Z", "0,1,0": "Y", "1,0,0": "X"}.get(axis, axis)
 print(f"| {os.path.basename(sc)[:-5]} | {name} | {p['steps']} | {p['final_angle_deg']:.2f} "
-      f"| {p['final_orientation_error_deg']:.2f} | **{p['max_axis_error_deg']:.2f}** | {p['settles']} | {float(end) - float(start):.1f} s "
+      f"| {p['final_orientation_error_deg']:.2f} | **{p['max_axis_error_deg']:.2f}** "
+      f"| {p['max_path_deviation_deg']:.2f} | {p['settles']} | {float(end) - float(start):.1f} s "
       f"| {s['max_deviation_deg']:.1e} |")
 EOF
   done
