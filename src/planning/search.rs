@@ -881,14 +881,18 @@ fn expand_rested(
 ) -> (usize, Vec<Step>) {
     let last = at.rows.last().map_or(0.0, |r| r.settle_time_s);
     let mut avoid = tired_coils(at, s.limits.on_time, last);
-    let q0 = at.rows[0].q;
     let (mut spent, mut steps) = (0usize, Vec::new());
     loop {
         let (settles, found) = src.expand_towards(&at.frontier(), goal, &avoid);
         spent += settles;
+        // the on-time check of `Node::extend`, without building the plan
+        let over = |st: &Step| {
+            let (to, step) = (&st.to, at.rows.len());
+            held_after(&at.on, s.limits.on_time, &to.active, step, to.settle_time_s).is_err()
+        };
         let shortest_over = found
             .iter()
-            .filter(|st| at.extend(st, &q0, s).is_err())
+            .filter(|st| over(st))
             .map(|st| st.to.settle_time_s)
             .min_by(f64::total_cmp);
         steps.extend(found);
