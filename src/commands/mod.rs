@@ -33,6 +33,15 @@ fn write_err(path: &str) -> impl Fn(std::io::Error) -> Error + '_ {
     move |e| Error::io(path, e)
 }
 
+/// `bar` drawn with `template` (indicatif's template; its default look if the template does
+/// not parse): the one style of every progress bar the commands draw on standard error.
+pub(crate) fn styled(bar: indicatif::ProgressBar, template: &str) -> indicatif::ProgressBar {
+    bar.with_style(
+        indicatif::ProgressStyle::with_template(template)
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    )
+}
+
 /// `spherestep packing`: the compatibility report of a scenario's rotor and stator.
 pub fn packing_report(sc: &Scenario, json: bool, out: &mut dyn Write) -> Result<()> {
     let r = packing::report(&sc.rotor, &sc.stator);

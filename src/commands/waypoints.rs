@@ -59,10 +59,9 @@ pub fn plan_waypoints_command(
 ) -> Result<WaypointPlan> {
     let waypoints = read_waypoints(job.file, &settings.start)?;
     // a progress bar on standard error (drawn only when it is a terminal): waypoints served
-    let bar = indicatif::ProgressBar::new(waypoints.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} waypoints, {elapsed}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    let bar = crate::commands::styled(
+        indicatif::ProgressBar::new(waypoints.len() as u64),
+        "{bar:40} {pos}/{len} waypoints, {elapsed}",
     );
     let p = plan_waypoints_with(
         &sc.motor(),

@@ -419,12 +419,7 @@ fn compute(jobs: &[Job], opts: &BatchOptions) -> Result<Vec<(f64, Result<()>)>> 
     } else {
         indicatif::ProgressBar::hidden()
     };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} cases, {elapsed} ({eta} left)",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
+    let bar = crate::commands::styled(bar, "{bar:40} {pos}/{len} cases, {elapsed} ({eta} left)");
     let run = || -> Vec<(f64, Result<()>)> {
         jobs.par_iter()
             .map(|job| {
