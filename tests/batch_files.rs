@@ -14,6 +14,19 @@ fn text(p: &Path) -> String {
     std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
 
+/// `batch INPUT --out OUT --resume`, which must succeed: its standard error.
+fn resumed(input: &Path, out: &Path) -> String {
+    let r = batch(&[
+        input.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--resume",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr).into_owned();
+    assert!(r.status.success(), "{err}");
+    err
+}
+
 #[test]
 fn scenario_names_must_be_plain_file_names() {
     let t = tempfile::tempdir().unwrap();
@@ -59,13 +72,7 @@ fn scenario_names_must_be_plain_file_names() {
     assert!(summary.starts_with("name,kind,"), "{summary}");
     assert_eq!(summary.lines().count(), 2, "{summary}");
     // --resume over the same folder still works.
-    let r = batch(&[
-        s.join("good.toml").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--resume",
-    ]);
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    resumed(&s.join("good.toml"), &out);
 }
 
 /// The pid of a process that has ended.
@@ -205,18 +212,8 @@ fn resume_continues_a_sweep_from_its_saved_cases() {
     std::fs::remove_dir_all(out.join("sw")).unwrap();
     let half: String = sorted.iter().take(6).map(|l| format!("{l}\n")).collect();
     std::fs::write(&progress, format!("{first}\n{half}7,weigh")).unwrap();
-    let r = batch(&[
-        s.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--resume",
-    ]);
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert!(
-        r.stderr.is_empty(),
-        "{}",
-        String::from_utf8_lossy(&r.stderr)
-    );
+    let err = resumed(&s, &out);
+    assert!(err.is_empty(), "{err}");
     assert_eq!(text(&out.join("sw.csv")), format!("{header}\n{rows}"));
     let computed = kept_plans(&out.join("sw"));
     assert_eq!(computed.len(), 6, "{computed:?}");
@@ -354,14 +351,7 @@ fn damaged_progress_rows_are_computed_again_with_a_warning() {
     damaged = set(&damaged, 9, 0, "99");
     damaged.push_str("1,2,3\n");
     std::fs::write(&progress, format!("{first}\n{damaged}")).unwrap();
-    let r = batch(&[
-        s.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--resume",
-    ]);
-    let err = String::from_utf8_lossy(&r.stderr);
-    assert!(r.status.success(), "{err}");
+    let err = resumed(&s, &out);
     assert_eq!(
         text(&out.join("sw.csv")),
         expected,
@@ -406,14 +396,7 @@ fn an_edited_progress_row_is_computed_again() {
         })
         .collect();
     std::fs::write(&progress, format!("{first}\n{edited}")).unwrap();
-    let r = batch(&[
-        s.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--resume",
-    ]);
-    let err = String::from_utf8_lossy(&r.stderr);
-    assert!(r.status.success(), "{err}");
+    let err = resumed(&s, &out);
     let got = std::fs::read(out.join("sw.csv")).unwrap();
     assert!(
         got == expected,
