@@ -86,6 +86,7 @@ fn main() -> Result<()> {
                 ranked: None,
                 on_time: settings.limits.on_time,
                 held: Default::default(),
+                not_first: Vec::new(),
             };
             let ahead = seek.search(&root, 12, 32, WITHIN_DEG.to_radians());
             let best = ahead

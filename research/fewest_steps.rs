@@ -80,6 +80,7 @@ fn main() -> Result<()> {
         ranked: None,
         on_time: settings.limits.on_time,
         held: Default::default(),
+        not_first: Vec::new(),
     };
     println!(
         "start {:.2} deg from the goal after {played} of the plan's steps; beam {beam}",

@@ -588,3 +588,93 @@ fn random_motions_land_near_their_target_orientation_and_replay_in_their_own_dyn
     let e = final_orientation_error_deg(&y, &p.rows);
     assert!(p.reached && e < 1.5, "{e}");
 }
+
+#[test]
+fn the_sweeps_worst_ends_land_within_the_tolerance_on_sets_that_hold_nearest_the_goal() {
+    use spherestep::planning::plan::final_orientation_error_deg;
+    use spherestep::planning::search::over_on_time;
+    let sc = load("scenarios/prototype.toml");
+    let motor = sc.motor();
+    // (start x,y,z,w; axis; angle deg; where the plan ended before the landing aimed at the
+    // goal's final sets), motions 409, 434, 222 and 297 of results/sweep-500-motions.csv
+    let motions: [([f64; 4], [f64; 3], f64, f64); 4] = [
+        (
+            [
+                0.027547130186449876,
+                0.056523811473446435,
+                0.9633456214074397,
+                0.260790007611716,
+            ],
+            [
+                -0.5289125843342626,
+                -0.4330305844041121,
+                -0.7298876564948092,
+            ],
+            157.74979449604734,
+            2.79,
+        ),
+        (
+            [
+                0.3149166490076957,
+                0.0939016930864874,
+                0.9341589459293669,
+                0.13912957972116924,
+            ],
+            [
+                0.8922280547014205,
+                0.07300295496615707,
+                -0.44564522545397967,
+            ],
+            41.086630554542545,
+            2.39,
+        ),
+        (
+            [
+                -0.6860009423252367,
+                0.20979563853383087,
+                -0.04299929843466013,
+                0.6953700867273459,
+            ],
+            [-0.5601994651574631, -0.4878342582175177, 0.6694731478906801],
+            129.40194177392803,
+            1.91,
+        ),
+        (
+            [
+                -0.44613279096844316,
+                -0.5139572815017256,
+                0.12982827549814777,
+                0.7210811774656446,
+            ],
+            [
+                -0.37361111596617164,
+                -0.3727297276508139,
+                -0.8494040758978391,
+            ],
+            15.393629612580694,
+            1.21,
+        ),
+    ];
+    for (q, a, angle, before) in motions {
+        let start = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            q[3], q[0], q[1], q[2],
+        ));
+        let s = PlanSettings {
+            axis: unit(Vector3::new(a[0], a[1], a[2])).unwrap(),
+            angle: Radians(angle.to_radians()),
+            start,
+            ..sc.plan.clone()
+        };
+        let p = plan(&motor, &s);
+        let e = final_orientation_error_deg(&s, &p.rows);
+        assert!(
+            p.reached && e <= 1.0,
+            "{angle} deg: {e} (was {before}) {:?}",
+            p.message
+        );
+        // the landing's steps are what the dynamics does, within every coil's on-time
+        let sim = spherestep::planning::simulate::simulate(&motor, &p.rows);
+        assert!(sim.iter().all(|r| r.deviation_deg < 1e-4), "{angle} deg");
+        assert_eq!(over_on_time(&p.rows, s.limits.on_time), None, "{angle} deg");
+    }
+}

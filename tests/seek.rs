@@ -5,6 +5,7 @@
 use spherestep::io::scenario::Scenario;
 use spherestep::model::geometry::{rot_q, unit, Degrees};
 use spherestep::physics::dynamics::settle;
+use spherestep::planning::coilsets::coils_of;
 use spherestep::planning::commutation::CommutationState;
 use spherestep::planning::plan::PlanSettings;
 use spherestep::planning::planner::plan;
@@ -35,9 +36,20 @@ fn the_search_reaches_the_goal_through_steps_the_physics_takes() {
         ranked: None,
         on_time: None,
         held: Default::default(),
+        not_first: Vec::new(),
     };
     let tolerance = Degrees(2.0).to_radians().0;
     let path = seek.search(&root, 8, 8, tolerance);
+    // a closed loop back where it was does not take the same first step again
+    let first = coils_of(&path.states[0].active);
+    let other = Seek {
+        not_first: vec![first.clone()],
+        held: Default::default(),
+        ..seek
+    };
+    let again = other.search(&root, 8, 8, tolerance);
+    assert!(!again.states.is_empty());
+    assert_ne!(coils_of(&again.states[0].active), first);
     assert!(!path.states.is_empty());
     let last = path.states.last().unwrap();
     assert!(

@@ -248,7 +248,15 @@ pub struct Controller<'a> {
     /// How long each coil on has been on, by the dwells of the rows played (see
     /// [`crate::planning::on_time`]): a replan keeps to the limit from there.
     on: OnTimes<CoilId>,
+    /// Each step played: where the ball was before it and the coils it switched to (sorted).
+    taken: Vec<(Orientation, Vec<CoilId>)>,
 }
+
+/// A replan from within this (degrees) of where the ball was before a step played earlier
+/// does not take that step's coil set first again: the ball is back where it was, and the same
+/// step would take it round the same circle (a plant the model does not describe can turn a
+/// step the model expects forwards into one back).
+pub const REVISIT_DEG: f64 = 0.5;
 
 impl<'a> Controller<'a> {
     /// A controller that plays `open` (made with `model` for `settings`, row 0 its initial
@@ -278,6 +286,7 @@ impl<'a> Controller<'a> {
             replan_ms: Vec::new(),
             arrived: false,
             on: OnTimes::new(),
+            taken: Vec::new(),
         })
     }
 
@@ -457,6 +466,7 @@ impl<'a> Controller<'a> {
     fn learn(&mut self, active: &[Pair], measured: &Orientation) {
         let from = std::mem::replace(&mut self.last, *measured);
         self.steps += 1;
+        self.taken.push((from, coils_of(active)));
         let Some(id) = self.identifier.as_mut() else {
             return;
         };
@@ -507,6 +517,10 @@ impl<'a> Controller<'a> {
             ranked: Some(REPLAN_SETS),
             on_time: self.settings.limits.on_time,
             held: self.on.clone(),
+            not_first: (self.taken.iter())
+                .filter(|(q, _)| angular(q, est) <= REVISIT_DEG.to_radians())
+                .map(|(_, c)| c.clone())
+                .collect(),
         };
         let root = CommutationState {
             q: *est,
@@ -570,6 +584,7 @@ impl<'a> Controller<'a> {
             let wide = Seek {
                 ranked: Some(REPLAN_SETS_WIDE),
                 held: seek.held.clone(),
+                not_first: seek.not_first.clone(),
                 ..*seek
             };
             let again = wide.search(root, left, self.cl.replan_beam, tolerance);

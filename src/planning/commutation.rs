@@ -547,11 +547,53 @@ pub fn predicted_orientation(
     q: &Orientation,
     set: &[Pair],
 ) -> Orientation {
+    wahba(torques, q, set, |_| 1.0)
+}
+
+/// A finer cheap prediction than [`predicted_orientation`], for sets whose magnets lie across
+/// the well's shoulder: springs weighted as the wells pull (each pair's pull g(d) over sin d;
+/// nothing beyond the maximum attraction distance), first at `guess`, then at each prediction,
+/// `iterations` times. A well pulls a far magnet less than a spring would, so the prediction
+/// leans towards the near pairs, as the settle does. Unweighted springs when no pair pulls at
+/// `guess`.
+pub fn predicted_in_wells(
+    torques: &MagnetTorques,
+    q: &Orientation,
+    set: &[Pair],
+    guess: &Orientation,
+    iterations: usize,
+) -> Orientation {
+    let mut qp = *guess;
+    for _ in 0..iterations {
+        let r = qp.to_rotation_matrix();
+        let weight = |p: &Pair| {
+            let d = pair_gap(torques, &r, *p).0.max(1e-9);
+            torques.well.g(d) / d.sin()
+        };
+        if set.iter().all(|p| weight(p) <= 0.0) {
+            return match qp == *guess {
+                true => predicted_orientation(torques, q, set),
+                false => qp,
+            };
+        }
+        qp = wahba(torques, q, set, weight);
+    }
+    qp
+}
+
+/// The rotation that brings `set`'s magnets (the ball at `q`) nearest their coils with each
+/// pair weighed by `weight` (Wahba's problem, solved by SVD), applied to `q`.
+fn wahba(
+    torques: &MagnetTorques,
+    q: &Orientation,
+    set: &[Pair],
+    weight: impl Fn(&Pair) -> f64,
+) -> Orientation {
     let r = q.to_rotation_matrix();
     let mut b = nalgebra::Matrix3::zeros();
     for p in set {
         let a = r * torques.rotor[p.magnet.0];
-        b += torques.stator[p.coil.0] * a.transpose();
+        b += weight(p) * torques.stator[p.coil.0] * a.transpose();
     }
     let svd = b.svd(true, true);
     let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {

@@ -11,6 +11,7 @@ pub mod closed_loop;
 pub mod coilsets;
 pub mod commutation;
 pub mod identify;
+mod landing;
 mod motor;
 pub mod on_time;
 pub mod plan;

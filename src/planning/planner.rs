@@ -6,14 +6,15 @@
 //! schemes, a beam search and a best-first branch and bound). The settings and the plan are in
 //! `plan` (re-exported here).
 
-use crate::model::geometry::{rotation_axis, CoilId, MagnetId, Orientation, Pair, Radians};
+use crate::model::geometry::{rotation_axis, CoilId, Orientation, Pair};
 use crate::physics::dynamics::settle;
 use crate::planning::coilsets::CoilSets;
 use crate::planning::commutation::{
-    admissible, candidate_steps, evaluate_proposals, fits_supply, initial_states, pair_gap,
-    predicted_orientation, proposals_within, settled_states, CommutationState, Motor, Proposal,
-    Step, StepLimits, StepModel, PIVOT_CAPTURE,
+    admissible, candidate_steps, evaluate_proposals, initial_states, predicted_orientation,
+    proposals_within, settled_states, CommutationState, Motor, Proposal, Step, StepLimits,
+    StepModel, PIVOT_CAPTURE,
 };
+use crate::planning::landing::{landing_proposals, Finals};
 use crate::planning::on_time::OnTimes;
 use crate::planning::plan::PlanRow;
 use crate::planning::search::{self, predicted_rank, weighed, wide_limits, Frontier, StepSource};
@@ -119,9 +120,9 @@ fn plan_with(
     };
     let p = match s.model {
         StepModel::Coils => run(&CoilSets::new(motor, s)),
-        StepModel::Dynamic => run(&PairSteps { motor, s }),
+        StepModel::Dynamic => run(&PairSteps::new(motor, s)),
         StepModel::Pivot => {
-            let mut p = run(&PairSteps { motor, s });
+            let mut p = run(&PairSteps::new(motor, s));
             predict_settle_times(motor, &mut p.rows, &s.start);
             // the search counted the dwell floor only: the settle times are known now
             if let Some(why) = search::over_on_time(&p.rows, s.limits.on_time) {
@@ -210,6 +211,18 @@ struct PairSteps<'a> {
     motor: &'a Motor,
     /// The settings, with the capture resolved.
     s: &'a PlanSettings,
+    /// The final sets the landing aims at, per goal.
+    finals: Finals,
+}
+
+impl<'a> PairSteps<'a> {
+    fn new(motor: &'a Motor, s: &'a PlanSettings) -> Self {
+        PairSteps {
+            motor,
+            s,
+            finals: Finals::default(),
+        }
+    }
 }
 
 impl StepSource for PairSteps<'_> {
@@ -261,15 +274,18 @@ impl StepSource for PairSteps<'_> {
         let Some(towards) = rotation_axis(&(goal * at.state.q.inverse())) else {
             return (0, Vec::new());
         };
-        let proposals = landing_proposals(self.motor, s, at.state, goal, avoid);
+        let (found, finals) = self.finals.of(self.motor, s, goal);
+        let on = (at.state.active.as_slice(), &at.state.q);
+        let proposals = landing_proposals(self.motor, s, on, goal, &finals, avoid);
         let sets: Vec<Vec<Pair>> = proposals
             .iter()
             .map(|(kept, new)| kept.iter().chain(new).copied().collect())
             .collect();
-        let spent = sets.len();
+        let spent = found + sets.len();
         let outcomes = settled_states(self.motor, sets, &at.state.q);
         let landing = s.limits.landing();
-        let capture = landing.capture_for(StepModel::Dynamic, &self.motor.torques.well);
+        // held where the settle says so: every magnet within its coil's reach (see `landing`)
+        let capture = self.motor.torques.well.max_attraction();
         let steps = proposals
             .into_iter()
             .zip(outcomes)
@@ -292,118 +308,6 @@ impl StepSource for PairSteps<'_> {
             })
             .collect();
         (spent, steps)
-    }
-}
-
-/// A landing weighs the pairs whose magnets lie within the capture distance and this (3
-/// degrees) of their coils at the goal: a set settles near the goal, not on it, and its pairs
-/// hold there.
-const LANDING_MARGIN: Radians = Radians(3.0 * std::f64::consts::PI / 180.0);
-
-/// A landing step's set: the pairs it keeps on of those on before it, and the pairs it
-/// switches on.
-type LandingSet = (Vec<Pair>, Vec<Pair>);
-
-/// The sets a landing weighs from `state` towards `goal`, as (the pairs kept on, the pairs
-/// switched on): any of the pairs on now kept (none, some or all), with pairs whose magnets
-/// lie within the capture distance of their coils at the goal (and [`LANDING_MARGIN`]) switched
-/// on, or none (a release: some of the pairs on switched off, which lets a full supply take a
-/// new coil at the next step); between `pairs.min` and `pairs.max` pairs in all, within the
-/// supply (the coils on and the new ones together, make before break: [`fits_supply`]) and none
-/// of `avoid`'s coils kept or switched on; ranked by how near the goal their cheap prediction
-/// ([`predicted_orientation`]) leaves the ball, the `settles_per_state` nearest.
-fn landing_proposals(
-    motor: &Motor,
-    s: &PlanSettings,
-    state: &CommutationState,
-    goal: &Orientation,
-    avoid: &[CoilId],
-) -> Vec<LandingSet> {
-    let t = &motor.torques;
-    let capture = Radians(s.limits.capture.unwrap_or(PIVOT_CAPTURE).0 + LANDING_MARGIN.0);
-    let r = goal.to_rotation_matrix();
-    let near_goal: Vec<Pair> = (0..t.stator.len())
-        .flat_map(|c| (0..t.rotor.len()).map(move |m| (c, m)))
-        .map(|(c, m)| Pair {
-            coil: CoilId(c),
-            magnet: MagnetId(m),
-        })
-        .filter(|p| !avoid.contains(&p.coil) && pair_gap(t, &r, *p).0 <= capture.0)
-        .collect();
-    let on = &state.active;
-    let mut ranked: Vec<(f64, LandingSet)> = Vec::new();
-    let mut set: Vec<Pair> = Vec::new();
-    let mut weigh = |kept: &[Pair], new: &[Pair], ranked: &mut Vec<(f64, LandingSet)>| {
-        set.clear();
-        set.extend(kept.iter().chain(new).copied());
-        let qp = predicted_orientation(t, &state.q, &set);
-        ranked.push((qp.angle_to(goal), (kept.to_vec(), new.to_vec())));
-    };
-    // every subset of the pairs on, as a bit mask, in a fixed order
-    for mask in 0..(1usize << on.len()) {
-        let kept: Vec<Pair> = (on.iter().enumerate())
-            .filter(|(i, _)| mask >> i & 1 == 1)
-            .map(|(_, p)| *p)
-            .collect();
-        if kept.len() > s.pairs.max || kept.iter().any(|p| avoid.contains(&p.coil)) {
-            continue;
-        }
-        if kept.len() >= s.pairs.min && kept.len() < on.len() {
-            weigh(&kept, &[], &mut ranked);
-        }
-        if kept.len() == s.pairs.max {
-            continue;
-        }
-        let others: Vec<Pair> = near_goal
-            .iter()
-            .copied()
-            .filter(|p| kept.iter().all(|k| k.coil != p.coil))
-            .collect();
-        let least = s.pairs.min.saturating_sub(kept.len()).max(1);
-        each_combination(
-            &others,
-            least,
-            s.pairs.max - kept.len(),
-            &mut Vec::new(),
-            0,
-            &mut |new| {
-                if fits_supply(on, new, s.limits.max_coils_on) {
-                    weigh(&kept, new, &mut ranked);
-                }
-            },
-        );
-    }
-    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
-    ranked
-        .into_iter()
-        .take(s.settles_per_state)
-        .map(|(_, p)| p)
-        .collect()
-}
-
-/// Calls `f` with each set of `least` to `most` of `pairs` with distinct coils, in a
-/// deterministic order (depth first, each set before its extensions, the later pairs' branches
-/// first), growing `set` from `from` on: one buffer, no set allocated that `f` does not keep.
-fn each_combination(
-    pairs: &[Pair],
-    least: usize,
-    most: usize,
-    set: &mut Vec<Pair>,
-    from: usize,
-    f: &mut impl FnMut(&[Pair]),
-) {
-    if set.len() >= least {
-        f(set);
-    }
-    if set.len() == most {
-        return;
-    }
-    for (i, p) in pairs.iter().enumerate().skip(from).rev() {
-        if set.iter().all(|q| q.coil != p.coil) {
-            set.push(*p);
-            each_combination(pairs, least, most, set, i + 1, f);
-            set.pop();
-        }
     }
 }
 

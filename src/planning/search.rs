@@ -764,13 +764,15 @@ fn goal_of_node(p: &Node, s: &PlanSettings) -> Orientation {
 /// The landing: the complete plans a search found that end further than the angle tolerance
 /// from their goal orientation ([`goal_of_node`]) are carried on, best-first by the distance
 /// to the goal, with the steps that turn the ball from their ends towards it
-/// ([`StepSource::expand_towards`]), until a plan ends within the tolerance, `budget` settles
-/// are spent or nothing is left to expand. A landing may pass through states up to
-/// [`LANDING_DETOUR`] further from the goal than the plan it carries on, and keeps every plan's
-/// [`score`] (worst axis error, overshoot) within [`LANDING_SLACK`] of the best plan's, and
-/// every coil within the on-time limit. The plan that ends nearest its goal (complete, or within
-/// the tolerance), and the settles spent. The cumulative rotation's figures stay those about
-/// the plan's axis. `plans` is best first; the first is the search's best.
+/// ([`StepSource::expand_towards`]), until a plan ends within the angle tolerance, `budget`
+/// settles are spent or nothing is left to expand. Plans that end in one state are carried on
+/// once (the first). A landing may pass through states up to the leeway's detour further from
+/// the goal than the plan it carries on, and keeps every plan's [`score`] (worst axis error,
+/// overshoot) within the leeway's slack of the best plan's, and every coil within the on-time
+/// limit. The plan that ends nearest its goal orientation (a complete plan, or any plan the
+/// landing made: what the ball is sent to is the goal, not the angle turned about the axis),
+/// and the settles spent. The cumulative rotation's figures stay those about the plan's axis.
+/// `plans` is best first; the first is the search's best.
 fn land(
     src: &dyn StepSource,
     s: &PlanSettings,
@@ -791,7 +793,15 @@ fn land(
         if path_score(&p, s) > bound {
             continue;
         }
-        seen.push((src.key(&p.state), p.state.q));
+        // plans that end in one state are landed once (the first, the best)
+        let key = src.key(&p.state);
+        if seen
+            .iter()
+            .any(|(k, q)| *k == key && q.angle_to(&p.state.q) < SAME_STATE_RAD)
+        {
+            continue;
+        }
+        seen.push((key, p.state.q));
         open.push(Open {
             rank: d,
             node: nodes.len(),
@@ -837,9 +847,8 @@ fn land(
             }
             seen.push((key, c.state.q));
             let id = nodes.len();
-            let eligible = reached(&c, s) || d <= s.angle_tolerance.0;
             nodes.push((c, goal, limit));
-            if eligible && d < dist(&nodes[nearest]) {
+            if d < dist(&nodes[nearest]) {
                 nearest = id;
             }
             open.push(Open { rank: d, node: id });

@@ -42,6 +42,9 @@ pub struct Seek<'a> {
     /// do not take one ([`crate::planning::on_time`]).
     pub on_time: Option<OnTimeLimit>,
     pub held: OnTimes<CoilId>,
+    /// Coil sets (sorted) not taken as the first step: those a closed loop took before from
+    /// where the ball is again, which led it round in a circle.
+    pub not_first: Vec<Vec<CoilId>>,
 }
 
 /// Two states with the same coils on whose orientations lie within this (degrees) of each
@@ -148,6 +151,9 @@ impl Seek<'_> {
             for ((parent, _), cs) in parents.into_iter().zip(children) {
                 let on = parent.map_or(&self.held, |i| &kept_on[i]);
                 for c in cs {
+                    if d == 0 && self.not_first.contains(&coils_of(&c.active)) {
+                        continue;
+                    }
                     let mut held = on.clone();
                     if let Some(l) = self.on_time {
                         let dwell = l.dwell(c.settle_time_s);
