@@ -795,10 +795,7 @@ fn land(
         }
         // plans that end in one state are landed once (the first, the best)
         let key = src.key(&p.state);
-        if seen
-            .iter()
-            .any(|(k, q)| *k == key && q.angle_to(&p.state.q) < SAME_STATE_RAD)
-        {
+        if seen_before(&seen, &key, &p.state.q) {
             continue;
         }
         seen.push((key, p.state.q));
@@ -839,10 +836,7 @@ fn land(
                 continue;
             }
             let key = src.key(&c.state);
-            if seen
-                .iter()
-                .any(|(k, q)| *k == key && q.angle_to(&c.state.q) < SAME_STATE_RAD)
-            {
+            if seen_before(&seen, &key, &c.state.q) {
                 continue;
             }
             seen.push((key, c.state.q));
@@ -855,6 +849,13 @@ fn land(
         }
     }
     (nodes.swap_remove(nearest).0, spent)
+}
+
+/// Whether a state with the key `key` at `q` is one of `seen` (the same key, within
+/// [`SAME_STATE_RAD`]).
+fn seen_before(seen: &[(Vec<Pair>, Orientation)], key: &[Pair], q: &Orientation) -> bool {
+    seen.iter()
+        .any(|(k, o)| k.as_slice() == key && o.angle_to(q) < SAME_STATE_RAD)
 }
 
 /// Each plan of `plans` without its last step (a one-step plan's parent is its row 0 alone,

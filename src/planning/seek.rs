@@ -151,19 +151,10 @@ impl Seek<'_> {
             for ((parent, _), cs) in parents.into_iter().zip(children) {
                 let on = parent.map_or(&self.held, |i| &kept_on[i]);
                 for c in cs {
-                    if d == 0 && self.not_first.contains(&coils_of(&c.active)) {
-                        continue;
+                    if let Some(held) = self.admitted(on, &c, d) {
+                        next.push((parent, c));
+                        next_on.push(held);
                     }
-                    let mut held = on.clone();
-                    if let Some(l) = self.on_time {
-                        let dwell = l.dwell(c.settle_time_s);
-                        on_time::hold(&mut held, coils_of(&c.active), d, dwell);
-                        if on_time::over(&held, l.max_on).is_some() {
-                            continue;
-                        }
-                    }
-                    next.push((parent, c));
-                    next_on.push(held);
                 }
             }
             let mut keyed: Vec<(f64, usize)> = next
@@ -203,6 +194,28 @@ impl Seek<'_> {
             nearest_by_depth,
             settles,
         }
+    }
+
+    /// The on-times after `c` is stepped to at depth `d` (0: the root's step) from the on-times
+    /// `on`, or `None` when the step is not taken: it keeps a coil on past the on-time limit, or
+    /// it is a first step of [`Seek::not_first`].
+    fn admitted(
+        &self,
+        on: &OnTimes<CoilId>,
+        c: &CommutationState,
+        d: usize,
+    ) -> Option<OnTimes<CoilId>> {
+        if d == 0 && self.not_first.contains(&coils_of(&c.active)) {
+            return None;
+        }
+        let mut held = on.clone();
+        if let Some(l) = self.on_time {
+            on_time::hold(&mut held, coils_of(&c.active), d, l.dwell(c.settle_time_s));
+            if on_time::over(&held, l.max_on).is_some() {
+                return None;
+            }
+        }
+        Some(held)
     }
 
     /// For each of `froms`, the states one step from it: each coil set the supply allows,
