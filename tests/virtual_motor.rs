@@ -392,8 +392,8 @@ fn a_port_that_vanishes_stops_the_replay_with_the_step_to_resume_from() {
 
 #[test]
 fn a_stuck_relay_is_found_by_the_read_back() {
-    // coil 15 (channel 16) goes on in step 0 of the plan about Y
-    let (_, said) = fault(&["--stuck-relay", "16"], None);
+    // coil 12 (channel 13) goes on in step 0 of the plan about Y
+    let (_, said) = fault(&["--stuck-relay", "13"], None);
     assert!(
         said.contains("all coils switched off; resume with --from-step 0"),
         "{said}"

@@ -4,9 +4,9 @@
 //! greedy seeds. They are generic over a [`StepSource`]: a step model says where a plan starts,
 //! which steps lead on from a state and which states are one; the searches decide the rest.
 
-use crate::model::geometry::{CoilId, Orientation, Pair, Radians};
+use crate::model::geometry::{distance_to_geodesic, rot_q, CoilId, Orientation, Pair, Radians};
 use crate::planning::commutation::{
-    cumulative, cumulative_from, step_measure, CommutationState, Step, StepLimits,
+    cumulative, cumulative_from, step_measure, CommutationState, Step, StepLimits, StepModel,
 };
 use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
 use crate::planning::plan::PlanRow;
@@ -150,7 +150,7 @@ impl Node {
         Ok(Node {
             rows,
             state: step.to.clone(),
-            worst: self.worst.max(ce.0),
+            worst: self.worst.max(ce.0).max(departure(&step.to.q, q0, s)),
             cum: ca.0,
             on,
         })
@@ -209,7 +209,7 @@ pub fn run(src: &dyn StepSource, s: &PlanSettings) -> Plan {
     };
     match s.scheme {
         Scheme::Search => match s.model {
-            crate::planning::commutation::StepModel::Pivot => search(src, s, roots),
+            StepModel::Pivot => search(src, s, roots),
             _ => best_first(src, s, roots),
         },
         g => greedy(src, s, first, g),
@@ -499,7 +499,7 @@ fn greedy_best(
     for g in [Scheme::Weighted, Scheme::MinAxisError, Scheme::MaxAngle] {
         let p = greedy(src, s, root.clone(), g);
         if p.reached {
-            let cand = node_of(&p.rows, s.limits.on_time, before.as_ref());
+            let cand = node_of(&p.rows, s, before.as_ref());
             if better(&cand, best.as_ref(), s) {
                 best = Some(cand);
             }
@@ -530,7 +530,25 @@ pub fn predicted_rank(at: &Frontier, qp: &Orientation, s: &PlanSettings) -> Opti
         return None;
     }
     let (ca, ce) = cumulative_from(&at.q0, qp, &s.axis, at.cum);
-    Some(rank(at.worst.max(ce.0), ca.0, s.angle.0))
+    Some(rank(
+        at.worst.max(ce.0).max(departure(qp, &at.q0, s)),
+        ca.0,
+        s.angle.0,
+    ))
+}
+
+/// How far `q` lies from the straight way of a plan from `q0` (rad): its angle to the nearest
+/// point of the geodesic from `q0` to the target rotation applied to it. The searches weigh it
+/// beside the cumulative axis error (the worst of the two is a partial plan's `worst`): on a
+/// large turn a few degrees of axis error are many degrees off the path, on a small one the
+/// axis error counts a small miss large. 0 for the pivot model, whose plans keep the paper's
+/// measure (the worst cumulative axis error alone: its figures are the paper's).
+pub fn departure(q: &Orientation, q0: &Orientation, s: &PlanSettings) -> f64 {
+    if s.model == StepModel::Pivot {
+        return 0.0;
+    }
+    let goal = rot_q(&s.axis, s.angle) * q0;
+    distance_to_geodesic(q, q0, &goal).0
 }
 
 /// An entry of the best-first search's open list: rank, then arrival order.
@@ -865,7 +883,7 @@ fn parents_of(plans: &[Node], s: &PlanSettings, before: Option<&OnTimes<CoilId>>
     plans
         .iter()
         .filter(|p| p.rows.len() >= 2)
-        .map(|p| node_of(&p.rows[..p.rows.len() - 1], s.limits.on_time, before))
+        .map(|p| node_of(&p.rows[..p.rows.len() - 1], s, before))
         .collect()
 }
 
@@ -933,13 +951,15 @@ fn tired_coils(p: &Node, limit: Option<OnTimeLimit>, settle_time_s: f64) -> Vec<
 
 /// The partial plan of `rows` (at least row 0), with its running figures and on-times (`before`:
 /// those of row 0's coils, when the plan goes on where another left off).
-fn node_of(rows: &[PlanRow], limit: Option<OnTimeLimit>, before: Option<&OnTimes<CoilId>>) -> Node {
+fn node_of(rows: &[PlanRow], s: &PlanSettings, before: Option<&OnTimes<CoilId>>) -> Node {
     let last = &rows[rows.len() - 1];
     Node {
         state: last.state(),
-        on: on_times_of(rows, limit, before),
+        on: on_times_of(rows, s.limits.on_time, before),
         rows: rows.to_vec(),
-        worst: max_axis_error_deg(rows).to_radians(),
+        worst: (rows.iter())
+            .map(|r| departure(&r.q, &rows[0].q, s))
+            .fold(max_axis_error_deg(rows).to_radians(), f64::max),
         cum: last.cum_angle_deg.to_radians(),
     }
 }
