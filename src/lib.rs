@@ -124,10 +124,9 @@ mod book {
 }
 
 pub use error::{Error, Result};
+pub use io::pairs::parse_pairs;
 pub use io::scenario::Scenario;
-pub use model::geometry::{
-    parse_pairs, CoilId, Degrees, MagnetId, Orientation, Pair, Radians, UnitVec,
-};
+pub use model::geometry::{CoilId, Degrees, MagnetId, Orientation, Pair, Radians, UnitVec};
 pub use physics::dynamics::{Body, SettleParams, SettleResult, Stop};
 pub use physics::torque::{MagnetTorques, Well, WellShape};
 pub use physics::well_curve::{WellSummary, MAX_STEP_DEG, MIN_STEP_DEG};

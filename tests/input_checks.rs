@@ -6,7 +6,7 @@
 mod common;
 
 use spherestep::io::scenario::Scenario;
-use spherestep::model::geometry::parse_pairs;
+use spherestep::parse_pairs;
 use std::path::Path;
 
 use common::run;

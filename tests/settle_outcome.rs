@@ -4,7 +4,8 @@
 
 use spherestep::commands::{settle_one, settle_sets, Holding};
 use spherestep::io::scenario::Scenario;
-use spherestep::model::geometry::{parse_pairs, Pair};
+use spherestep::model::geometry::Pair;
+use spherestep::parse_pairs;
 use spherestep::physics::dynamics::settle;
 
 fn proto() -> Scenario {

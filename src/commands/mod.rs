@@ -12,12 +12,13 @@ pub mod wells;
 
 use crate::error::{printable, Error, Result};
 use crate::io::output::emit_csv;
+use crate::io::pairs::parse_pairs;
 use crate::io::planfile::{read_plan, write_plan};
 use crate::io::scenario::{
     check_pairs_per_step, check_supply, default_pairs_per_step, parse_pairs_per_step, Scenario,
 };
 use crate::io::table::write_csv;
-use crate::model::geometry::{parse_pairs, xyzw, Orientation, Pair};
+use crate::model::geometry::{xyzw, Orientation, Pair};
 use crate::model::packing::{self, points_csv};
 use crate::physics::dynamics::{settle, settle_many, SettleResult};
 use crate::planning::commutation::{pair_gap, StepModel};

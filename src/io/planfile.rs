@@ -16,8 +16,9 @@
 //! ignore them.
 
 use crate::error::Result;
+use crate::io::pairs::parse_pairs;
 use crate::io::table::{write_csv, Row, Table};
-use crate::model::geometry::{orientation_from_xyzw, parse_pairs, xyzw, Orientation, Pair};
+use crate::model::geometry::{orientation_from_xyzw, xyzw, Orientation, Pair};
 use crate::planning::plan::PlanRow;
 use crate::planning::waypoints::WaypointPlan;
 use std::io::Write;

@@ -2,7 +2,6 @@
 //! numerically safe angle/axis extraction, and the small typed wrappers (degrees, radians, unit
 //! vectors, coil and magnet indices) that keep units and indices from being confused.
 
-use crate::error::{Error, Result};
 use nalgebra::{Matrix3, Quaternion, Rotation3, Unit, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -113,31 +112,6 @@ impl FromStr for Pair {
             _ => Err(()),
         }
     }
-}
-
-/// Parses an active set written `coil:magnet,coil:magnet` (0-based) or with `;` separators.
-pub fn parse_pairs(text: &str, arg: &str) -> Result<Vec<Pair>> {
-    let bad = |what: &str| Error::Arg {
-        arg: arg.into(),
-        expected: format!("pairs written coil:magnet,coil:magnet (0-based integers), {what}"),
-    };
-    let mut out = Vec::new();
-    if text.trim().is_empty() {
-        return Err(bad("got nothing"));
-    }
-    for item in text.split([',', ';']) {
-        let item = item.trim();
-        if item.is_empty() {
-            return Err(bad(&format!(
-                "got an empty pair in '{text}' (a stray ',' or ';')"
-            )));
-        }
-        out.push(item.parse().map_err(|()| bad(&format!("got '{item}'")))?);
-    }
-    if out.is_empty() {
-        return Err(bad("got nothing"));
-    }
-    Ok(out)
 }
 
 /// Angular distance on the sphere, d(a, b) = acos(clamp(a . b, -1, 1)), in [0, pi].
