@@ -166,7 +166,7 @@ fn aimed_at(
     avoid: &[CoilId],
 ) -> Vec<LandingSet> {
     let mut out: Vec<LandingSet> = Vec::new();
-    let key = |l: &LandingSet| (sorted(&l.0), sorted(&l.1));
+    let key = landing_key;
     let now = sorted(on);
     let usable: Vec<Pair> = on
         .iter()
@@ -228,6 +228,11 @@ fn aimed_at(
     out
 }
 
+/// A landing set as it is compared: its kept and its new pairs, each sorted.
+fn landing_key(l: &LandingSet) -> (Vec<Pair>, Vec<Pair>) {
+    (sorted(&l.0), sorted(&l.1))
+}
+
 /// The pairs of `pairs` whose bits are set in `mask`, in order.
 fn subset(pairs: &[Pair], mask: usize) -> Vec<Pair> {
     (pairs.iter().enumerate())
@@ -267,10 +272,7 @@ pub(crate) fn landing_proposals(
     };
     // every subset of the pairs on, as a bit mask, in a fixed order
     for mask in 0..(1usize << on.len()) {
-        let kept: Vec<Pair> = (on.iter().enumerate())
-            .filter(|(i, _)| mask >> i & 1 == 1)
-            .map(|(_, p)| *p)
-            .collect();
+        let kept = subset(on, mask);
         if kept.len() > s.pairs.max || kept.iter().any(|p| avoid.contains(&p.coil)) {
             continue;
         }
@@ -300,13 +302,11 @@ pub(crate) fn landing_proposals(
         );
     }
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
-    let same = |a: &LandingSet, b: &LandingSet| {
-        sorted(&a.0) == sorted(&b.0) && sorted(&a.1) == sorted(&b.1)
-    };
+    let taken: Vec<_> = aimed.iter().map(landing_key).collect();
     let rest: Vec<LandingSet> = ranked
         .into_iter()
         .map(|(_, p)| p)
-        .filter(|p| !aimed.iter().any(|a| same(a, p)))
+        .filter(|p| !taken.contains(&landing_key(p)))
         .take(s.settles_per_state)
         .collect();
     aimed.into_iter().chain(rest).collect()
