@@ -564,36 +564,38 @@ pub fn predicted_in_wells(
     iterations: usize,
 ) -> Orientation {
     let mut qp = *guess;
-    for _ in 0..iterations {
+    for k in 0..iterations {
         let r = qp.to_rotation_matrix();
-        let weight = |p: &Pair| {
-            let d = pair_gap(torques, &r, *p).0.max(1e-9);
-            torques.well.g(d) / d.sin()
-        };
-        if set.iter().all(|p| weight(p) <= 0.0) {
-            return match qp == *guess {
-                true => predicted_orientation(torques, q, set),
-                false => qp,
+        let weights: Vec<f64> = (set.iter())
+            .map(|p| {
+                let d = pair_gap(torques, &r, *p).0.max(1e-9);
+                torques.well.g(d) / d.sin()
+            })
+            .collect();
+        if weights.iter().all(|w| *w <= 0.0) {
+            return match k {
+                0 => predicted_orientation(torques, q, set),
+                _ => qp,
             };
         }
-        qp = wahba(torques, q, set, weight);
+        qp = wahba(torques, q, set, |i| weights[i]);
     }
     qp
 }
 
-/// The rotation that brings `set`'s magnets (the ball at `q`) nearest their coils with each
-/// pair weighed by `weight` (Wahba's problem, solved by SVD), applied to `q`.
+/// The rotation that brings `set`'s magnets (the ball at `q`) nearest their coils with the
+/// `i`th pair weighed by `weight(i)` (Wahba's problem, solved by SVD), applied to `q`.
 fn wahba(
     torques: &MagnetTorques,
     q: &Orientation,
     set: &[Pair],
-    weight: impl Fn(&Pair) -> f64,
+    weight: impl Fn(usize) -> f64,
 ) -> Orientation {
     let r = q.to_rotation_matrix();
     let mut b = nalgebra::Matrix3::zeros();
-    for p in set {
+    for (i, p) in set.iter().enumerate() {
         let a = r * torques.rotor[p.magnet.0];
-        b += weight(p) * torques.stator[p.coil.0] * a.transpose();
+        b += weight(i) * torques.stator[p.coil.0] * a.transpose();
     }
     let svd = b.svd(true, true);
     let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
