@@ -313,12 +313,13 @@ impl StepSource for PairSteps<'_> {
 
 /// The proposals from a partial plan's state that the search settles: all that pass the filter
 /// within the search bound, ranked by the rank their cheap prediction
-/// ([`predicted_orientation`]) would give the plan, the `settles_per_state` best.
+/// ([`predicted_orientation`]) would give the plan, the `settles_per_state` best. The
+/// predictions run in parallel and are collected in order: the same on any number of threads.
 fn ranked_proposals(motor: &Motor, s: &PlanSettings, at: &Frontier) -> Vec<Proposal> {
     let bound = wide_limits(&s.limits).bound_start;
     let ranked: Vec<(f64, Proposal)> =
         proposals_within(motor, at.state, &s.axis, s.pairs, bound, &s.limits)
-            .into_iter()
+            .into_par_iter()
             .filter_map(|(pivot, new)| {
                 let mut set = vec![pivot];
                 set.extend_from_slice(&new);
