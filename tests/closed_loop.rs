@@ -594,3 +594,61 @@ fn a_runs_path_deviation_is_its_measured_rows_distance_from_the_slerp() {
     );
     assert!(reported > 0.0 && reported < 30.0, "{reported}");
 }
+
+/// A replan counts the time it takes against the coils that hold the ball meanwhile, and plans
+/// within the limit from there: the hardware loop checks each replan against the coils'
+/// measured on-times, which include the search, and refused a replan that its simulated twin
+/// accepted (coil 12 for 10.017 s against 10 s on the virtual motor).
+#[test]
+fn a_replan_counts_its_own_time_against_the_coils_holding_the_ball() {
+    use spherestep::planning::closed_loop::{Controller, Decision};
+    use spherestep::planning::on_time::{self, REPLAN_RESERVE, STEP_IO};
+    let sc = load("scenarios/prototype.toml");
+    let s = plan_settings(
+        &sc,
+        &PlanOverrides {
+            axis: Some("0,1,0".into()),
+            angle_deg: Some(90.0),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let limit = s.limits.on_time.expect("the prototype's relay limit");
+    let motor = sc.motor();
+    let open = motor.plan(&s);
+    let goal = spherestep::planning::plan::goal_of(&s, &open.rows).unwrap();
+    let o = LoopOptions {
+        closed: true,
+        noise_deg: 0.5,
+        seed: 1,
+        max_steps: None,
+        identify: false,
+    };
+    let cl = spherestep::commands::closed_loop::loop_settings(&o, open.rows.len() - 1).unwrap();
+    let mut ctl = Controller::new(&motor, &s, &open, goal, cl).unwrap();
+    // row 0 switched and settled; the ball measured 6 degrees off where the plan put it
+    let row0 = open.rows[0].clone();
+    let off = spherestep::model::geometry::rot_q(
+        &spherestep::model::geometry::unit(nalgebra::Vector3::new(1.0, 0.3, 0.0)).unwrap(),
+        spherestep::Radians(6f64.to_radians()),
+    ) * row0.q;
+    let d = ctl.observe(&off);
+    assert_eq!(ctl.replans(), 1, "{d:?}");
+    assert_eq!(d, Decision::Replanned);
+    // row 0's coils: its dwell, its frames and the search
+    let held = limit.dwell(row0.settle_time_s) + STEP_IO + REPLAN_RESERVE;
+    let on = ctl.on_times();
+    assert!(!on.is_empty());
+    for (coil, h) in on {
+        assert_eq!(h.on, held, "coil {coil:?}");
+    }
+    // and the new plan keeps every coil within the limit from there
+    let mut counted = on.clone();
+    for row in ctl.plan().iter().skip(1) {
+        row.hold(&mut counted, &limit);
+        assert!(
+            on_time::over(&counted, limit.max_on).is_none(),
+            "{counted:?}"
+        );
+    }
+}

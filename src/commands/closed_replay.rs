@@ -120,10 +120,15 @@ pub fn prepare_closed(opts: &ReplayOptions, so: &SensorOptions) -> Result<Closed
             ),
         });
     }
+    // the replans count the dwells the replay keeps
+    let mut settings = f.settings;
+    if let (Some(l), Some(ms)) = (settings.limits.on_time.as_mut(), opts.dwell_ms) {
+        l.fixed_dwell = Some(Duration::from_millis(ms));
+    }
     Ok(ClosedInputs {
         prep,
         scenario,
-        settings: f.settings,
+        settings,
         open: f.plan,
         goal: f.goal,
         cl,

@@ -13,7 +13,7 @@ use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::{coils_of, label};
 use crate::planning::commutation::{cumulative, cumulative_from, CommutationState, Motor, Step};
 use crate::planning::identify::{Identifier, Observation};
-use crate::planning::on_time::OnTimes;
+use crate::planning::on_time::{self, OnTimes};
 use crate::planning::plan::{path_deviation_deg, Plan, PlanRow, PlanSettings};
 use crate::planning::search::{first_row, step_row};
 use crate::planning::seek::{Path, Seek};
@@ -310,6 +310,13 @@ impl<'a> Controller<'a> {
         self.replans
     }
 
+    /// How long each coil on has been on as the loop counts it (empty without an on-time
+    /// limit): the dwells of the rows played, [`STEP_IO`](on_time::STEP_IO) a step, and
+    /// [`REPLAN_RESERVE`](on_time::REPLAN_RESERVE) for each search while they held the ball.
+    pub fn on_times(&self) -> &OnTimes<CoilId> {
+        &self.on
+    }
+
     /// The wall time of each replan so far (the whole decision: the fit and the search), ms.
     pub fn replan_ms(&self) -> &[f64] {
         &self.replan_ms
@@ -381,13 +388,15 @@ impl<'a> Controller<'a> {
             if self.arrived && (last || !on_track || !self.nearer_ahead(distance)) {
                 return Decision::Done;
             }
-            if on_track && !last {
+            if on_track && !last && self.next_fits() {
                 self.next += 1;
                 return Decision::Continue;
             }
             // played out on track: only a step that promises more than the noise is taken
             let worth = if on_track { self.cl.worth() } else { 0.0 };
             self.planned_with = steer;
+            // the coils on hold the ball while the loop searches
+            on_time::extend(&mut self.on, on_time::REPLAN_RESERVE);
             match self.search(steer, &est, &row.active) {
                 Ok(p) if p.1 < distance - worth => return self.take(p.0),
                 Ok(p) => {
@@ -408,6 +417,19 @@ impl<'a> Controller<'a> {
                 Err(m) => return Decision::Stuck(m),
             }
         }
+    }
+
+    /// Whether the plan's next row keeps every coil within the on-time limit as the loop
+    /// counts it (the decisions included): a plan made in the open, or its steps after a slow
+    /// stretch, may not; then the loop replans from what is on.
+    fn next_fits(&self) -> bool {
+        let (Some(l), Some(row)) = (self.settings.limits.on_time, self.rows.get(self.next + 1))
+        else {
+            return true;
+        };
+        let mut on = self.on.clone();
+        row.hold(&mut on, &l);
+        crate::planning::on_time::over(&on, l.max_on).is_none()
     }
 
     /// Whether a row of the plan still to come, within the steps left of `max_steps`, lies

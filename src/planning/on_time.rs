@@ -21,6 +21,8 @@ pub struct OnTimeLimit {
     pub dwell_factor: f64,
     /// ...and at least this.
     pub dwell_floor: Duration,
+    /// `replay --dwell-ms`: every step dwells this long instead.
+    pub fixed_dwell: Option<Duration>,
 }
 
 /// The default limit on one coil's continuous on-time, s (`relay.max_on_time_s`).
@@ -35,6 +37,15 @@ pub const DEFAULT_DWELL_FLOOR_MS: f64 = 200.0;
 /// reply at 9600 baud about 20 ms), a `--verify` read back, and in a closed loop the sensor's
 /// reading (a quat-csv line comes every 20 ms).
 pub const STEP_IO: Duration = Duration::from_millis(20);
+
+/// What a closed loop counts against the on-time of the coils on while it replans (the
+/// search from the measurement, with the coils of the last step holding the ball), beside the
+/// reading in [`STEP_IO`]: a replan of the default planner takes about 0.1 s on the prototype;
+/// a decision on track, a few ms, is within [`STEP_IO`]. The replan plans with it, so that
+/// what it keeps on fits the limit on the wire too, and the simulated loop counts it as the
+/// hardware loop does; `replay --sensor` checks each replan against the coils' measured
+/// on-times, which count a longer search as it is.
+pub const REPLAN_RESERVE: Duration = Duration::from_millis(250);
 
 /// How far ahead of `relay.max_on_time_s` the runtime guard switches every coil off, at most
 /// (a quarter of the limit below 400 ms): room for the guard's poll (10 ms, 5 ms in a board's
@@ -73,15 +84,25 @@ impl Default for OnTimeLimit {
             max_on: Duration::from_secs_f64(DEFAULT_MAX_ON_TIME_S),
             dwell_factor: DEFAULT_DWELL_FACTOR,
             dwell_floor: Duration::from_secs_f64(DEFAULT_DWELL_FLOOR_MS / 1000.0),
+            fixed_dwell: None,
         }
     }
 }
 
 impl OnTimeLimit {
-    /// The dwell of a step predicted to settle in `settle_time_s`.
+    /// The dwell of a step predicted to settle in `settle_time_s`: the fixed one, else that
+    /// settle time times the factor, at least the floor.
     pub fn dwell(&self, settle_time_s: f64) -> Duration {
-        dwell(settle_time_s, self.dwell_factor, self.dwell_floor)
+        match self.fixed_dwell {
+            Some(d) => d,
+            None => dwell(settle_time_s, self.dwell_factor, self.dwell_floor),
+        }
     }
+}
+
+/// Every relay of `on` held `extra` longer (what is on stays on while a closed loop replans).
+pub fn extend<K: Ord + Copy>(on: &mut OnTimes<K>, extra: Duration) {
+    on.values_mut().for_each(|h| h.on += extra);
 }
 
 /// The dwell of a step predicted to settle in `settle_time_s`: that times `factor`, at least
@@ -138,6 +159,21 @@ pub fn over<K: Ord + Copy>(on: &OnTimes<K>, max: Duration) -> Option<(K, Held)> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_fixed_dwell_replaces_the_derived_one_and_a_replan_adds_its_reserve() {
+        let mut l = OnTimeLimit::default();
+        // 0.5 s settle x 1.5; a fixed dwell whatever the settle time
+        assert_eq!(l.dwell(0.5), Duration::from_millis(750));
+        l.fixed_dwell = Some(Duration::from_millis(120));
+        assert_eq!(l.dwell(0.5), Duration::from_millis(120));
+        assert_eq!(l.dwell(30.0), Duration::from_millis(120));
+        let mut on = OnTimes::new();
+        hold(&mut on, [3u32, 5], 0, l.dwell(1.0));
+        extend(&mut on, REPLAN_RESERVE);
+        let each = Duration::from_millis(120) + STEP_IO + REPLAN_RESERVE;
+        assert!(on.values().all(|h| h.on == each), "{on:?}");
+    }
 
     #[test]
     fn a_coil_adds_up_its_dwells_until_it_goes_off() {

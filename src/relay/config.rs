@@ -200,6 +200,7 @@ impl RelaySettings {
             max_on: self.max_on_time,
             dwell_factor: self.dwell_factor,
             dwell_floor: self.dwell_floor,
+            fixed_dwell: None,
         }
     }
 
