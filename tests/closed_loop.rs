@@ -602,7 +602,7 @@ fn a_runs_path_deviation_is_its_measured_rows_distance_from_the_slerp() {
 #[test]
 fn a_replan_counts_its_own_time_against_the_coils_holding_the_ball() {
     use spherestep::planning::closed_loop::{Controller, Decision};
-    use spherestep::planning::on_time::{self, REPLAN_RESERVE, STEP_IO};
+    use spherestep::planning::on_time::{self, STEP_IO};
     let sc = load("scenarios/prototype.toml");
     let s = plan_settings(
         &sc,
@@ -636,7 +636,7 @@ fn a_replan_counts_its_own_time_against_the_coils_holding_the_ball() {
     assert_eq!(ctl.replans(), 1, "{d:?}");
     assert_eq!(d, Decision::Replanned);
     // row 0's coils: its dwell, its frames and the search
-    let held = limit.dwell(row0.settle_time_s) + STEP_IO + REPLAN_RESERVE;
+    let held = limit.dwell(row0.settle_time_s) + STEP_IO + limit.replan_reserve;
     let on = ctl.on_times();
     assert!(!on.is_empty());
     for (coil, h) in on {

@@ -311,8 +311,9 @@ impl<'a> Controller<'a> {
     }
 
     /// How long each coil on has been on as the loop counts it (empty without an on-time
-    /// limit): the dwells of the rows played, [`STEP_IO`](on_time::STEP_IO) a step, and
-    /// [`REPLAN_RESERVE`](on_time::REPLAN_RESERVE) for each search while they held the ball.
+    /// limit): the dwells of the rows played, [`STEP_IO`](on_time::STEP_IO) a step, and the
+    /// limit's [`replan_reserve`](on_time::OnTimeLimit::replan_reserve) for each search while
+    /// they held the ball.
     pub fn on_times(&self) -> &OnTimes<CoilId> {
         &self.on
     }
@@ -396,7 +397,9 @@ impl<'a> Controller<'a> {
             let worth = if on_track { self.cl.worth() } else { 0.0 };
             self.planned_with = steer;
             // the coils on hold the ball while the loop searches
-            on_time::extend(&mut self.on, on_time::REPLAN_RESERVE);
+            if let Some(l) = self.settings.limits.on_time {
+                on_time::extend(&mut self.on, l.replan_reserve);
+            }
             match self.search(steer, &est, &row.active) {
                 Ok(p) if p.1 < distance - worth => return self.take(p.0),
                 Ok(p) => {

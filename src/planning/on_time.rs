@@ -23,6 +23,10 @@ pub struct OnTimeLimit {
     pub dwell_floor: Duration,
     /// `replay --dwell-ms`: every step dwells this long instead.
     pub fixed_dwell: Option<Duration>,
+    /// What a closed loop counts against the on-time of the coils on while it replans (the
+    /// search from the measurement, with the last step's coils holding the ball), beside the
+    /// reading in [`STEP_IO`] (`relay.replan_reserve_ms`, [`DEFAULT_REPLAN_RESERVE_MS`]).
+    pub replan_reserve: Duration,
 }
 
 /// The default limit on one coil's continuous on-time, s (`relay.max_on_time_s`).
@@ -38,14 +42,14 @@ pub const DEFAULT_DWELL_FLOOR_MS: f64 = 200.0;
 /// reading (a quat-csv line comes every 20 ms).
 pub const STEP_IO: Duration = Duration::from_millis(20);
 
-/// What a closed loop counts against the on-time of the coils on while it replans (the
-/// search from the measurement, with the coils of the last step holding the ball), beside the
-/// reading in [`STEP_IO`]: a replan of the default planner takes about 0.1 s on the prototype;
-/// a decision on track, a few ms, is within [`STEP_IO`]. The replan plans with it, so that
-/// what it keeps on fits the limit on the wire too, and the simulated loop counts it as the
-/// hardware loop does; `replay --sensor` checks each replan against the coils' measured
-/// on-times, which count a longer search as it is.
-pub const REPLAN_RESERVE: Duration = Duration::from_millis(250);
+/// The default [`OnTimeLimit::replan_reserve`], ms: the closed-loop grid's replans of the
+/// default planner on the prototype's plants take 91 ms at the median and 283 ms at most on a
+/// 2-core machine (a decision on track, a few ms, is within [`STEP_IO`]); a coil-set model's
+/// replans take seconds, and want a larger reserve. The replans plan with it, so that what they
+/// keep on fits the limit on the wire too, and the simulated loop counts it as the hardware
+/// loop does; `replay --sensor` checks each replan against the coils' measured on-times, which
+/// count a longer search as it was.
+pub const DEFAULT_REPLAN_RESERVE_MS: f64 = 500.0;
 
 /// How far ahead of `relay.max_on_time_s` the runtime guard switches every coil off, at most
 /// (a quarter of the limit below 400 ms): room for the guard's poll (10 ms, 5 ms in a board's
@@ -85,6 +89,7 @@ impl Default for OnTimeLimit {
             dwell_factor: DEFAULT_DWELL_FACTOR,
             dwell_floor: Duration::from_secs_f64(DEFAULT_DWELL_FLOOR_MS / 1000.0),
             fixed_dwell: None,
+            replan_reserve: Duration::from_secs_f64(DEFAULT_REPLAN_RESERVE_MS / 1000.0),
         }
     }
 }
@@ -170,8 +175,8 @@ mod tests {
         assert_eq!(l.dwell(30.0), Duration::from_millis(120));
         let mut on = OnTimes::new();
         hold(&mut on, [3u32, 5], 0, l.dwell(1.0));
-        extend(&mut on, REPLAN_RESERVE);
-        let each = Duration::from_millis(120) + STEP_IO + REPLAN_RESERVE;
+        extend(&mut on, l.replan_reserve);
+        let each = Duration::from_millis(620) + STEP_IO;
         assert!(on.values().all(|h| h.on == each), "{on:?}");
     }
 

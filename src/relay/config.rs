@@ -24,6 +24,8 @@ pub const DEFAULT_MAX_ON_TIME_S: f64 = crate::planning::on_time::DEFAULT_MAX_ON_
 pub const DEFAULT_DWELL_FACTOR: f64 = crate::planning::on_time::DEFAULT_DWELL_FACTOR;
 /// ...but at least this long, ms (relays take a few ms to close, the ball longer to settle).
 pub const DEFAULT_DWELL_FLOOR_MS: f64 = crate::planning::on_time::DEFAULT_DWELL_FLOOR_MS;
+/// What a closed loop counts for each replan by default, ms (`replan_reserve_ms`).
+pub const DEFAULT_REPLAN_RESERVE_MS: f64 = crate::planning::on_time::DEFAULT_REPLAN_RESERVE_MS;
 /// The longest `max_on_time_s` accepted (a day).
 pub const MAX_ON_TIME_LIMIT_S: f64 = 86_400.0;
 /// The longest `dwell_floor_ms` accepted (an hour).
@@ -64,6 +66,8 @@ pub struct RelayConfig {
     pub dwell_factor: Option<f64>,
     /// ...and at least this many ms.
     pub dwell_floor_ms: Option<f64>,
+    /// What a closed loop counts against the coils holding the ball while it replans, ms.
+    pub replan_reserve_ms: Option<f64>,
     /// "make-before-break" (default) or "break-before-make".
     pub order: Option<SwitchOrder>,
     /// Several boards, in order (board 0 first): `[[relay.boards]]`.
@@ -132,6 +136,8 @@ pub struct RelaySettings {
     pub max_on_time: Duration,
     pub dwell_factor: f64,
     pub dwell_floor: Duration,
+    /// `replan_reserve_ms`: see [`crate::planning::on_time::OnTimeLimit::replan_reserve`].
+    pub replan_reserve: Duration,
     pub order: SwitchOrder,
     pub map: CoilMap,
     /// `[[relay.boards]]`, checked (empty: the single-board form).
@@ -165,6 +171,13 @@ impl RelaySettings {
             true,
             MAX_DWELL_FLOOR_MS,
         )?;
+        let replan_reserve = f.millis(
+            "replan_reserve_ms",
+            raw.replan_reserve_ms,
+            DEFAULT_REPLAN_RESERVE_MS,
+            true,
+            MAX_DWELL_FLOOR_MS,
+        )?;
         let map = match (raw.map, listed.is_empty()) {
             (None, true) => CoilMap::Default,
             (None, false) => CoilMap::Laid(listed.iter().map(|b| b.channels).collect()),
@@ -188,6 +201,7 @@ impl RelaySettings {
             )?,
             dwell_factor: f.positive("dwell_factor", raw.dwell_factor, DEFAULT_DWELL_FACTOR)?,
             dwell_floor,
+            replan_reserve,
             order: raw.order.unwrap_or_default(),
             map,
             boards: listed,
@@ -201,6 +215,7 @@ impl RelaySettings {
             dwell_factor: self.dwell_factor,
             dwell_floor: self.dwell_floor,
             fixed_dwell: None,
+            replan_reserve: self.replan_reserve,
         }
     }
 

@@ -483,11 +483,22 @@ impl RelayError {
                 step,
                 replan,
                 cause,
-            } => format!(
-                "the plan replanned after step {step} (replan {replan}) is refused before \
-                 switching anything of it: {}",
-                cause.worded(w)
-            ),
+            } => {
+                // a replan planned within the limit with its reserve: what it kept on is over
+                // only when the search took longer than that
+                let hint = match **cause {
+                    RelayError::OnTooLong { .. } => {
+                        " (the replan counted relay.replan_reserve_ms for its own search, which \
+                         took longer: raise it)"
+                    }
+                    _ => "",
+                };
+                format!(
+                    "the plan replanned after step {step} (replan {replan}) is refused before \
+                     switching anything of it: {}{hint}",
+                    cause.worded(w)
+                )
+            }
             RelayError::LoopStopped {
                 cause,
                 steps,
