@@ -286,3 +286,29 @@ fn a_plant_with_other_packings_and_a_physics_that_holds_nothing_are_refused() {
         "{m}"
     );
 }
+
+/// Broad gaussian wells whose every step settles in seconds: under the default 10 s on-time
+/// limit a coil stays on for one step only, so every step switches to coils all new. The
+/// search proposes no step that keeps such a tired coil on (before, those proposals took the
+/// places of the sets it settles and were then refused, and the plan about Y strayed 42.9
+/// degrees from its path; 21.7 now, 5.0 without the limit).
+#[test]
+fn a_coil_set_plan_does_not_spend_its_settles_on_tired_coils() {
+    use spherestep::planning::plan::max_path_deviation_deg;
+    let text = "[magnets]\nshape = \"gaussian\"\nstrength_j = 0.3\nwidth_deg = 14.0\n\
+                max_attraction_deg = 35.0\ninteraction = \"coils\"\n[body]\ninertia_kg_m2 = 0.023\n\
+                damping_nms = 1.1\n[settle]\nt_max_s = 60.0\n";
+    let sc = scenario(text);
+    let s = about(&sc, "0,1,0", None);
+    assert_eq!(s.model, StepModel::Coils);
+    let p = plan(&sc.motor(), &s);
+    assert!(p.reached, "{:?}", p.message);
+    let d = max_path_deviation_deg(&s, &p.rows);
+    assert!(d < 30.0, "path deviation {d} deg");
+    // every coil within the limit, at the replay's dwells
+    let limit = s.limits.on_time.expect("the default relay limit");
+    assert!(
+        spherestep::planning::search::over_on_time(&p.rows, Some(limit)).is_none(),
+        "a coil over the limit"
+    );
+}

@@ -158,7 +158,7 @@ impl<'a> CoilSets<'a> {
     /// smallest size (the prediction is poorest where few coils pull many magnets), and of each
     /// larger size the `settles_per_state` best by the rank their cheap prediction (each coil
     /// pulling its nearest magnet like a spring) would give the plan, those predicted not to
-    /// advance last.
+    /// advance last; none that keeps a tired coil on ([`Frontier::tired`]).
     fn ranked_sets(&self, at: &Frontier) -> Vec<Vec<CoilId>> {
         let (torques, s) = (&self.motor.torques, self.s);
         let reach = coils_in_reach(torques, &at.state.q);
@@ -167,6 +167,7 @@ impl<'a> CoilSets<'a> {
         let ranked: Vec<(f64, Vec<CoilId>)> =
             coil_sets(&held, &reach, s.pairs, s.limits.max_coils_on)
                 .into_iter()
+                .filter(|set| set.iter().all(|c| !at.tired.contains(c)))
                 .map(|set| {
                     let qp = predicted_orientation(torques, &at.state.q, &labels.label(&set));
                     (predicted_rank(at, &qp, s).unwrap_or(f64::INFINITY), set)
@@ -256,6 +257,7 @@ impl StepSource for CoilSets<'_> {
             q0: state.q,
             worst: 0.0,
             cum: 0.0,
+            tired: &[],
         };
         self.weigh(&at, &self.ranked_sets(&at)).1
     }

@@ -25,6 +25,9 @@ pub struct Frontier<'a> {
     /// Its cumulative angle about the axis so far, rad (tracked continuously: see
     /// [`cumulative_from`]).
     pub cum: f64,
+    /// The coils on that could not stay on through another step as long as the last within
+    /// the on-time limit (none without one): a step model need not propose keeping them.
+    pub tired: &'a [CoilId],
 }
 
 /// A step model as the searches see it.
@@ -166,12 +169,13 @@ impl Node {
                 .all(|(c, h)| o.on.get(c).is_some_and(|x| h.on <= x.on))
     }
 
-    fn frontier(&self) -> Frontier<'_> {
+    fn frontier<'b>(&'b self, tired: &'b [CoilId]) -> Frontier<'b> {
         Frontier {
             state: &self.state,
             q0: self.rows[0].q,
             worst: self.worst,
             cum: self.cum,
+            tired,
         }
     }
 }
@@ -669,7 +673,7 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
         if !f.current(src, node) {
             continue; // a better plan reached this state since
         }
-        let (settles, steps) = src.expand(&path.frontier());
+        let (settles, steps) = expand_fresh(src, &path, s);
         spent += settles;
         let q0 = path.rows[0].q;
         for st in &steps {
@@ -716,6 +720,14 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
     );
     plan.settles = spent;
     plan
+}
+
+/// The search's expansion of `path`: the steps its step model proposes, none keeping on a coil
+/// that could not stay on through another step as long as the last ([`tired_coils`]).
+fn expand_fresh(src: &dyn StepSource, path: &Node, s: &PlanSettings) -> (usize, Vec<Step>) {
+    let last = path.rows.last().map_or(0.0, |r| r.settle_time_s);
+    let tired = tired_coils(path, s.limits.on_time, last);
+    src.expand(&path.frontier(&tired))
 }
 
 /// The search's best plan carried on by the landing (with the other complete plans it found,
@@ -911,7 +923,7 @@ fn expand_rested(
     let mut avoid = tired_coils(at, s.limits.on_time, last);
     let (mut spent, mut steps) = (0usize, Vec::new());
     loop {
-        let (settles, found) = src.expand_towards(&at.frontier(), goal, &avoid);
+        let (settles, found) = src.expand_towards(&at.frontier(&avoid), goal, &avoid);
         spent += settles;
         // the on-time check of `Node::extend`, without building the plan
         let over = |st: &Step| {
