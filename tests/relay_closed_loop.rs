@@ -755,6 +755,8 @@ fn switched_off_before_the_limit(ran: &Ran, limit: Duration, phase: &str) {
         "{text}"
     );
     let on = longest_on(&ran.received, ran.ended);
+    // the margin the guard kept, printed for docs/safety.md (`-- --nocapture`)
+    eprintln!("{phase}: the coil on longest went off {on:?} into a {limit:?} limit");
     assert!(
         on < limit,
         "a coil was on {on:?}, over {limit:?}\n{}",
