@@ -26,19 +26,24 @@ fn play(plant: &str, axis: &str, closed: bool, noise_deg: f64, seed: u64) -> (Ve
     play_with("scenarios/broad-wells.toml", plant, axis, &o)
 }
 
-/// One run about `axis` (90 degrees), planned in `model`, played on `plant` as `o` says.
-fn play_with(model: &str, plant: &str, axis: &str, o: &LoopOptions) -> (Vec<u8>, RunSummary) {
-    let sc = load(model);
-    let plant = load(plant);
-    let s = plan_settings(
-        &sc,
+/// The plan settings of `sc` for 90 degrees about `axis`.
+fn about(sc: &Scenario, axis: &str) -> spherestep::planning::plan::PlanSettings {
+    plan_settings(
+        sc,
         &PlanOverrides {
             axis: Some(axis.into()),
             angle_deg: Some(90.0),
             ..Default::default()
         },
     )
-    .unwrap();
+    .unwrap()
+}
+
+/// One run about `axis` (90 degrees), planned in `model`, played on `plant` as `o` says.
+fn play_with(model: &str, plant: &str, axis: &str, o: &LoopOptions) -> (Vec<u8>, RunSummary) {
+    let sc = load(model);
+    let plant = load(plant);
+    let s = about(&sc, axis);
     let (mut csv, mut note) = (Vec::new(), Vec::new());
     let summary = run_command(
         &sc,
@@ -604,15 +609,7 @@ fn a_replan_counts_its_own_time_against_the_coils_holding_the_ball() {
     use spherestep::planning::closed_loop::{Controller, Decision};
     use spherestep::planning::on_time::{self, STEP_IO};
     let sc = load("scenarios/prototype.toml");
-    let s = plan_settings(
-        &sc,
-        &PlanOverrides {
-            axis: Some("0,1,0".into()),
-            angle_deg: Some(90.0),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let s = about(&sc, "0,1,0");
     let limit = s.limits.on_time.expect("the prototype's relay limit");
     let motor = sc.motor();
     let open = motor.plan(&s);

@@ -266,17 +266,12 @@ impl StepSource for CoilSets<'_> {
         self.weigh(at, &self.ranked_sets(at))
     }
 
-    fn expand_towards(
-        &self,
-        at: &Frontier,
-        goal: &Orientation,
-        avoid: &[CoilId],
-    ) -> (usize, Vec<Step>) {
+    fn expand_towards(&self, at: &Frontier, goal: &Orientation) -> (usize, Vec<Step>) {
         let from = at.state;
         let Some(towards) = rotation_axis(&(goal * from.q.inverse())) else {
             return (0, Vec::new());
         };
-        let sets = self.landing_sets(from, goal, avoid);
+        let sets = self.landing_sets(from, goal, at.tired);
         let follow = FOLLOWED_PER_STATE;
         let (spent, states) = self.settle_ranked(&from.q, &sets, follow, |r| r.angle_to(goal));
         let landing = self.s.limits.landing();

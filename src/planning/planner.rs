@@ -163,13 +163,8 @@ impl StepSource for FromState<'_> {
         self.inner.expand(at)
     }
 
-    fn expand_towards(
-        &self,
-        at: &Frontier,
-        goal: &Orientation,
-        avoid: &[CoilId],
-    ) -> (usize, Vec<Step>) {
-        self.inner.expand_towards(at, goal, avoid)
+    fn expand_towards(&self, at: &Frontier, goal: &Orientation) -> (usize, Vec<Step>) {
+        self.inner.expand_towards(at, goal)
     }
 
     fn key(&self, state: &CommutationState) -> Vec<crate::model::geometry::Pair> {
@@ -264,19 +259,14 @@ impl StepSource for PairSteps<'_> {
         (spent, steps)
     }
 
-    fn expand_towards(
-        &self,
-        at: &Frontier,
-        goal: &Orientation,
-        avoid: &[CoilId],
-    ) -> (usize, Vec<Step>) {
+    fn expand_towards(&self, at: &Frontier, goal: &Orientation) -> (usize, Vec<Step>) {
         let s = self.s;
         let Some(towards) = rotation_axis(&(goal * at.state.q.inverse())) else {
             return (0, Vec::new());
         };
         let (found, finals) = self.finals.of(self.motor, s, goal);
         let on = (at.state.active.as_slice(), &at.state.q);
-        let proposals = landing_proposals(self.motor, s, on, goal, &finals, avoid);
+        let proposals = landing_proposals(self.motor, s, on, goal, &finals, at.tired);
         let sets: Vec<Vec<Pair>> = proposals
             .iter()
             .map(|(kept, new)| kept.iter().chain(new).copied().collect())

@@ -49,14 +49,10 @@ pub trait StepSource: Sync {
     /// The landing's expansion of a complete plan that ends short of its goal orientation
     /// (the target rotation applied to its row 0): the settles spent and the admissible steps
     /// that turn the ball from `at` towards `goal` (their angle and axis error measured about
-    /// the turn that remains), keeping the coils of `avoid` off (they have been on too long to
-    /// stay on for another step). By default none: the step model does not land.
-    fn expand_towards(
-        &self,
-        _at: &Frontier,
-        _goal: &Orientation,
-        _avoid: &[CoilId],
-    ) -> (usize, Vec<Step>) {
+    /// the turn that remains), keeping the frontier's tired coils off ([`Frontier::tired`]:
+    /// they have been on too long to stay on for another step). By default none: the step
+    /// model does not land.
+    fn expand_towards(&self, _at: &Frontier, _goal: &Orientation) -> (usize, Vec<Step>) {
         (0, Vec::new())
     }
 
@@ -923,7 +919,7 @@ fn expand_rested(
     let mut avoid = tired_coils(at, s.limits.on_time, last);
     let (mut spent, mut steps) = (0usize, Vec::new());
     loop {
-        let (settles, found) = src.expand_towards(&at.frontier(&avoid), goal, &avoid);
+        let (settles, found) = src.expand_towards(&at.frontier(&avoid), goal);
         spent += settles;
         // the on-time check of `Node::extend`, without building the plan
         let over = |st: &Step| {

@@ -99,20 +99,17 @@ pub struct Schedule {
 }
 
 /// The dwell of a plan row: the override as given, or settle time x factor, at least the floor
-/// (the planners' own computation, [`crate::planning::on_time::dwell`]).
+/// (the planners' own computation, [`crate::planning::on_time::OnTimeLimit::dwell`]).
 pub fn dwell(
     row: &PlanRow,
     settings: &RelaySettings,
     dwell_override: Option<Duration>,
 ) -> Duration {
-    match dwell_override {
-        Some(d) => d,
-        None => on_time::dwell(
-            row.settle_time_s,
-            settings.dwell_factor,
-            settings.dwell_floor,
-        ),
-    }
+    let limit = on_time::OnTimeLimit {
+        fixed_dwell: dwell_override,
+        ..settings.on_time_limit()
+    };
+    limit.dwell(row.settle_time_s)
 }
 
 /// `schedule_on` for a single board of type `board` with `channels` channels.
