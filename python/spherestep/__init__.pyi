@@ -139,6 +139,9 @@ class SettleResult:
     @property
     def settle_time_s(self) -> float: ...
     @property
+    def arrival_time_s(self) -> float:
+        """From when the ball stays within settle.arrival_deg of its rest, s."""
+    @property
     def evaluations(self) -> int: ...
     @property
     def steps(self) -> int: ...

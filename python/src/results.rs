@@ -104,6 +104,13 @@ impl SettleResult {
     fn settle_time_s(&self) -> f64 {
         self.r.settle_time_s
     }
+    /// The simulated time from which the ball stays within the scenario's
+    /// `settle.arrival_deg` of where it settles (at most `settle_time_s`), s: what a step's
+    /// dwell waits for.
+    #[getter]
+    fn arrival_time_s(&self) -> f64 {
+        self.r.arrival_time_s
+    }
     /// Right-hand-side evaluations of the integrator.
     #[getter]
     fn evaluations(&self) -> u32 {
@@ -318,7 +325,8 @@ impl Plan {
     fn cum_axis_error_deg<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         self.numbers(py, |r| r.cum_axis_error_deg)
     }
-    /// Each step's predicted settle time, s (t_max where it does not settle).
+    /// Each step's predicted settle time, s: until the ball stays within the scenario's
+    /// `settle.arrival_deg` of its rest (t_max where it does not settle).
     #[getter]
     fn settle_time_s<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         self.numbers(py, |r| r.settle_time_s)

@@ -77,6 +77,7 @@ def test_settle_matches_the_cli_json(cli, prototype_toml):
     r = spherestep.Scenario.load(prototype_toml).motor().settle([(0, 14), (12, 26)], q0=start)
     assert r.q.tolist() == j["q"]
     assert r.settle_time_s == j["settle_time_s"]
+    assert r.arrival_time_s == j["arrival_time_s"] < r.settle_time_s
     assert r.evaluations == j["evaluations"] and r.steps == j["steps"]
     assert r.energy_j == j["energy_j"]
     assert r.residual_torque_nm == j["residual_torque_nm"]

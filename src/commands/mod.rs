@@ -110,6 +110,7 @@ pub fn settle_json(r: &SettleResult, h: &Holding) -> serde_json::Value {
     serde_json::json!({
         "q": xyzw(&r.q),
         "settle_time_s": r.settle_time_s,
+        "arrival_time_s": r.arrival_time_s,
         "evaluations": r.evaluations,
         "steps": r.steps,
         "energy_j": r.energy_j,
@@ -206,6 +207,13 @@ pub fn settle_one(
         .map_err(&w)?;
         writeln!(
             out,
+            "arrived: within {:.3} deg of its rest from t = {:.6} s",
+            sc.settle.arrival.to_degrees().0,
+            r.arrival_time_s
+        )
+        .map_err(&w)?;
+        writeln!(
+            out,
             "outcome: {}  (holding: {}; out of reach: {})",
             h.outcome(&r),
             or_none(&h.held),
@@ -228,7 +236,7 @@ pub fn settle_one(
 }
 
 /// Header of the CSV written by `settle --sets`.
-pub const SETS_HEADER: [&str; 14] = [
+pub const SETS_HEADER: [&str; 15] = [
     "line",
     "active",
     "qx",
@@ -236,6 +244,7 @@ pub const SETS_HEADER: [&str; 14] = [
     "qz",
     "qw",
     "settle_time_s",
+    "arrival_time_s",
     "evaluations",
     "steps",
     "energy_j",
@@ -286,6 +295,7 @@ pub fn settle_sets(
             q[2].to_string(),
             q[3].to_string(),
             r.settle_time_s.to_string(),
+            r.arrival_time_s.to_string(),
             r.evaluations.to_string(),
             r.steps.to_string(),
             r.energy_j.to_string(),

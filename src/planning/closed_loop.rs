@@ -914,7 +914,7 @@ impl Loop<'_> {
             error_to_goal_deg: angular(&res.q, &self.goal).to_degrees(),
             replanned,
             settled: res.settled,
-            settle_time_s: res.settle_time_s,
+            settle_time_s: res.arrival_time_s,
         });
     }
 

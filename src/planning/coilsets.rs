@@ -97,7 +97,7 @@ impl<'a> CoilSets<'a> {
                 let to = CommutationState {
                     q: r.q,
                     active,
-                    settle_time_s: r.settle_time_s,
+                    settle_time_s: r.arrival_time_s,
                 };
                 holds(torques, &to, self.capture).then_some(to)
             })

@@ -175,7 +175,8 @@ pub struct CommutationState {
     pub q: Orientation,
     /// The coil:magnet pairs energised.
     pub active: Vec<Pair>,
-    /// Predicted settle time of the move into this state, s (0 for the geometric model).
+    /// Predicted settle time of the move into this state (the settle's arrival time), s (0
+    /// for the geometric model).
     pub settle_time_s: f64,
 }
 
@@ -196,7 +197,7 @@ pub fn settled_states(
             r.settled.then_some(CommutationState {
                 q: r.q,
                 active,
-                settle_time_s: r.settle_time_s,
+                settle_time_s: r.arrival_time_s,
             })
         })
         .collect()

@@ -33,7 +33,9 @@ pub struct PlanRow {
     pub cum_angle_deg: f64,
     /// The axis error of the rotation from row 0 to this row, degrees.
     pub cum_axis_error_deg: f64,
-    /// Predicted settle time of the step, s (t_max where it does not settle).
+    /// Predicted settle time of the step, s: the time until the ball stays within
+    /// `settle.arrival_deg` of where it comes to rest (the settle's arrival time; t_max where it
+    /// does not settle). A step's dwell is this times `relay.dwell_factor`.
     pub settle_time_s: f64,
     /// Whether the step settles in the dynamics within t_max: a pivot plan's steps are the
     /// geometry's, and one of them may not settle (its settle time is then t_max, not a settle

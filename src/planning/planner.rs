@@ -192,7 +192,7 @@ fn predict_settle_times(motor: &Motor, rows: &mut [PlanRow], start: &Orientation
         .par_iter()
         .zip(&froms)
         .map(|(r, from)| settle(&motor.torques, &r.active, from, motor.body, motor.settle))
-        .map(|res| (res.settle_time_s, res.settled))
+        .map(|res| (res.arrival_time_s, res.settled))
         .collect();
     for (r, (t, settled)) in rows.iter_mut().zip(times) {
         r.settle_time_s = t;

@@ -262,7 +262,7 @@ impl Seek<'_> {
                     .map(|(r, coils)| CommutationState {
                         q: r.q,
                         active: label(torques, coils, &r.q),
-                        settle_time_s: r.settle_time_s,
+                        settle_time_s: r.arrival_time_s,
                     })
                     .collect()
             })

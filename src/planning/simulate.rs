@@ -50,7 +50,7 @@ pub fn simulate(motor: &Motor, rows: &[PlanRow]) -> Vec<SimRow> {
             q,
             deviation_deg: q.angle_to(&r.q).to_degrees(),
             settled: res.settled,
-            settle_time_s: res.settle_time_s,
+            settle_time_s: res.arrival_time_s,
         });
     }
     out

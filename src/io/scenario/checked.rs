@@ -842,9 +842,27 @@ impl Checker<'_> {
             atol: self.positive("settle.atol", raw.atol, d.atol)?,
             method: raw.method.unwrap_or(d.method),
             follow_unheld: d.follow_unheld,
+            arrival: match raw.arrival_deg {
+                None => d.arrival,
+                Some(x) if x.is_finite() && x > 0.0 && x <= MAX_ARRIVAL_DEG => {
+                    Degrees(x).to_radians()
+                }
+                Some(x) => {
+                    return Err(self.err(
+                        "settle.arrival_deg",
+                        format!(
+                            "an angle in (0, {MAX_ARRIVAL_DEG}] degrees, got {}",
+                            shown(x)
+                        ),
+                    ))
+                }
+            },
         })
     }
 }
+
+/// The largest `settle.arrival_deg`: beyond it a step would be cut short of its well.
+const MAX_ARRIVAL_DEG: f64 = 5.0;
 
 /// Reads a torque table CSV: header `angle_deg,torque_nm` (required), then rows.
 pub(super) fn read_table(path: &Path) -> std::result::Result<TorqueTable, String> {

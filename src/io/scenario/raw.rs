@@ -170,4 +170,5 @@ pub(super) struct RawSettle {
     pub(super) rtol: Option<f64>,
     pub(super) atol: Option<f64>,
     pub(super) method: Option<Method>,
+    pub(super) arrival_deg: Option<f64>,
 }

@@ -37,6 +37,8 @@ const EARLY_EXIT: [f64; 2] = [1.3, 1.3];
 /// looks for the first instant of the settle test on a grid of step 0.1 / omega_0, as fine as
 /// the reference's own steps there.
 const SAMPLE_STEP: f64 = 0.1;
+/// Bisections of the end phase's arrival time (a millionth of the end phase's span).
+const ARRIVAL_BISECTIONS: u32 = 12;
 /// The most samples the end phase takes (a bounded cost whatever t_max and the damping are).
 const MAX_SAMPLES: u64 = 1_000_000;
 
@@ -288,6 +290,39 @@ impl EndPhase {
         }
         let (x, v) = propagate(a, &w02, horizon, &self.x0, &self.v0);
         (params.t_max, self.state(&x, &v), false)
+    }
+
+    /// The first instant in [t0, `t_end`] from which the ball stays within `params.arrival` of
+    /// the minimum: where the energy of the linear motion about it, 1/2 (x' K x + I v^2), is at
+    /// most 1/2 k_min arrival^2 (then k_min |x|^2 <= x' K x <= that, and the damping never lets
+    /// the energy rise again), bisected to a millionth of the interval; `t_end` if the energy
+    /// is still above it there, t0 if it already was at t0.
+    pub(super) fn arrival(&self, body: Body, params: &SettleParams, t_end: f64) -> f64 {
+        let inertia = body.inertia.x;
+        let a = 0.5 * body.damping / inertia;
+        let w02 = self.k / inertia;
+        let limit = 0.5 * self.k.min() * params.arrival.0 * params.arrival.0;
+        let energy = |t: f64| {
+            let (x, v) = propagate(a, &w02, t, &self.x0, &self.v0);
+            0.5 * (self.k.dot(&x.component_mul(&x)) + inertia * v.norm_squared())
+        };
+        let span = t_end - self.t0;
+        if energy(0.0) <= limit {
+            return self.t0;
+        }
+        if span <= 0.0 || energy(span) > limit {
+            return t_end;
+        }
+        let (mut lo, mut hi) = (0.0, span);
+        for _ in 0..ARRIVAL_BISECTIONS {
+            let mid = 0.5 * (lo + hi);
+            if energy(mid) <= limit {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        self.t0 + hi
     }
 
     /// A time from t0 before which the linear motion cannot meet the settle test: the latest of

@@ -34,6 +34,10 @@ fn fast_tolerance<M: TorqueModel>(
     (scale, rtol)
 }
 
+/// A trace to append the accepted steps to, and its length before the run at hand (a run given
+/// up for a tight one gives up its steps too).
+type Tail<'t> = (Option<&'t mut Vec<(f64, State)>>, usize);
+
 /// What the fast path's integration `out` (ended without the Newton finish) says: the ball
 /// where the stepper left it and why it stopped; never settled without damping; a stop near
 /// rest but never near a strict minimum (`linear`: the model has a linear regime) is
@@ -45,6 +49,7 @@ fn conclude<M: TorqueModel>(
     out: &Outcome<7>,
     evaluations: u32,
     linear: bool,
+    tail: Tail<'_>,
 ) -> SettleResult {
     // where the stepper left the ball, and why it says it stopped
     let stopped_here = |stop: Stop| {
@@ -81,7 +86,7 @@ fn conclude<M: TorqueModel>(
         if !params.follow_unheld {
             return stopped_here(Stop::Unheld);
         }
-        return settle_tight(sys, y0, params, evaluations);
+        return settle_tight(sys, y0, params, evaluations, tail);
     }
     stopped_here(out.end.into())
 }
@@ -153,10 +158,11 @@ fn settle_fast_from<M: TorqueModel>(
             let spent = (evaluations, out.steps, traced);
             return approach_tightly(sys, y0, params, t_past, spent, at.trace, approaches);
         }
-        Some(_) => return settle_tight(sys, y0, params, evaluations),
+        Some(_) => return settle_tight(sys, y0, params, evaluations, (at.trace, traced)),
         None => {}
     }
-    conclude(sys, y0, params, &out, evaluations, scale.is_some())
+    let tail = (at.trace, traced);
+    conclude(sys, y0, params, &out, evaluations, scale.is_some(), tail)
 }
 
 /// What the fast path watches at each accepted step: the graze watch (or the cut-off events),
@@ -291,7 +297,10 @@ fn end_phase_result<M: TorqueModel>(
     } else {
         Stop::TimeLimit
     };
-    finish(sys.model, sys.active, &y, t, evaluations, steps, stop)
+    SettleResult {
+        arrival_time_s: e.arrival(sys.body, &params, t),
+        ..finish(sys.model, sys.active, &y, t, evaluations, steps, stop)
+    }
 }
 
 /// The graze watch: each pair's cut-off margin and its rate at the last accepted step looked
@@ -460,19 +469,25 @@ impl GrazeWatch {
 }
 
 /// The fast path's fallback: the settle from the start by Dopri5 at [`FALLBACK_RTOL`], its
-/// evaluations counted on top of the `spent` ones.
+/// evaluations counted on top of the `spent` ones, its steps in the trace in place of the loose
+/// run's.
 fn settle_tight<M: TorqueModel>(
     sys: &RotorDynamics<'_, M>,
     y0: [f64; 7],
     params: SettleParams,
     spent: u32,
+    (mut trace, traced): Tail<'_>,
 ) -> SettleResult {
     let tight = SettleParams {
         rtol: FALLBACK_RTOL,
         atol: FALLBACK_ATOL,
         ..params
     };
-    let mut r = settle_dopri5(sys, y0, tight, None);
+    if let Some(tr) = trace.as_deref_mut() {
+        // the loose run's steps are given up with it
+        tr.truncate(traced);
+    }
+    let mut r = settle_dopri5(sys, y0, tight, trace);
     r.evaluations = r.evaluations.saturating_add(spent);
     r
 }

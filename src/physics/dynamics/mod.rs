@@ -20,7 +20,7 @@ mod reference;
 use fast::settle_fast;
 use reference::settle_dopri5;
 
-use crate::model::geometry::{Orientation, Pair};
+use crate::model::geometry::{Degrees, Orientation, Pair, Radians};
 use crate::physics::integrator::{End, OdeSystem};
 use crate::physics::torque::{rotation_matrix, TorqueModel};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -71,7 +71,14 @@ pub struct SettleParams {
     /// and says [`Stop::Unheld`] (for planners, which discard such sets: a set that holds is
     /// settled the same either way).
     pub follow_unheld: bool,
+    /// The ball has arrived once it stays within this angle of where it comes to rest: the
+    /// time of that instant ([`SettleResult::arrival_time_s`]) is what a step waits for.
+    pub arrival: Radians,
 }
+
+/// The default [`SettleParams::arrival`], degrees: a twentieth of a degree, below what an
+/// orientation sensor resolves and a thousandth of a step.
+pub const DEFAULT_ARRIVAL_DEG: f64 = 0.05;
 
 impl Default for SettleParams {
     fn default() -> Self {
@@ -83,6 +90,7 @@ impl Default for SettleParams {
             atol: 1e-5,
             method: Method::Bs32,
             follow_unheld: true,
+            arrival: Degrees(DEFAULT_ARRIVAL_DEG).to_radians(),
         }
     }
 }
@@ -108,6 +116,15 @@ pub struct SettleResult {
     pub q: Orientation,
     /// Simulated time at which the ball settled (or `t_max`), s.
     pub settle_time_s: f64,
+    /// Simulated time from which the ball stays within [`SettleParams::arrival`] of where it
+    /// settles, s: where the linear end phase settled the ball, the first instant its energy
+    /// about the minimum is below that of a displacement of `arrival` along its softest mode
+    /// (the energy only falls, so it stays nearer); or the first accepted step from which the
+    /// ball provably stays that near (see `arrival_on`), if earlier. At most `settle_time_s`
+    /// (equal where the settle did not settle): what a step's dwell waits for, where the
+    /// settle test (a torque, which on soft wells is a far smaller angle) may come seconds
+    /// later.
+    pub arrival_time_s: f64,
     /// Right-hand-side evaluations.
     pub evaluations: u32,
     /// Accepted integrator steps.
@@ -309,10 +326,47 @@ fn settle_from<M: TorqueModel>(
         // Already in equilibrium and at rest.
         return finish(model, active, &y0, 0.0, 1, 0, Stop::Settled);
     }
-    match params.method {
-        Method::Bs32 => settle_fast(&sys, y0, params, trace),
-        Method::Dopri5 => settle_dopri5(&sys, y0, params, trace),
+    // the steps are kept (the caller's trace, else one of our own) to find the arrival
+    let mut own = Vec::with_capacity(64);
+    let steps = trace.unwrap_or(&mut own);
+    let from = steps.len();
+    let r = match params.method {
+        Method::Bs32 => settle_fast(&sys, y0, params, Some(&mut *steps)),
+        Method::Dopri5 => settle_dopri5(&sys, y0, params, Some(&mut *steps)),
+    };
+    SettleResult {
+        arrival_time_s: r
+            .arrival_time_s
+            .min(arrival_on(&steps[from..], &r, params.arrival)),
+        ..r
     }
+}
+
+/// The end of the first of the accepted steps `steps` from which the ball stays within
+/// `arrival` of where the settle `r` left it: every later step ends nearer than `arrival` by at
+/// least the turn its rate could make over the step after it (the larger of its ends' rates,
+/// times its length); the settle's own time where the last step is not that near (or the
+/// settle did not settle).
+fn arrival_on(steps: &[(f64, State)], r: &SettleResult, arrival: Radians) -> f64 {
+    if !r.settled {
+        return r.settle_time_s;
+    }
+    let near = |i: usize| {
+        let (t, y) = &steps[i];
+        let q = UnitQuaternion::from_quaternion(Quaternion::new(y[3], y[0], y[1], y[2]));
+        let rate = |y: &State| Vector3::new(y[4], y[5], y[6]).norm();
+        let drift = steps
+            .get(i + 1)
+            .map_or(0.0, |(t1, y1)| (t1 - t) * rate(y).max(rate(y1)));
+        q.angle_to(&r.q) + drift <= arrival.0
+    };
+    let mut first = steps.len();
+    while first > 0 && near(first - 1) {
+        first -= 1;
+    }
+    steps
+        .get(first)
+        .map_or(r.settle_time_s, |(t, _)| t.min(r.settle_time_s))
 }
 
 /// The cubic Hermite basis at s in [0, 1] of a step: the weights of the value at its start, of
@@ -351,6 +405,7 @@ fn finish<M: TorqueModel>(
     SettleResult {
         q,
         settle_time_s: t,
+        arrival_time_s: t,
         evaluations,
         steps,
         energy_j: energy,
