@@ -1,5 +1,5 @@
 //! Closed loop on the hardware (`spherestep replay PLAN SCENARIO --sensor DEV ...`): the
-//! replay of `replay.rs` (the same boards, switching, dwells, guards and all-off endings), and
+//! replay of `replay/` (the same boards, switching, dwells, guards and all-off endings), and
 //! after each step's dwell the ball's orientation read from an orientation sensor and handed to
 //! the closed loop's [`Controller`]: the plan in force goes on, or is replaced by one replanned
 //! from the measurement, or the ball is at the goal, or nothing more can be done. A replanned

@@ -1,5 +1,5 @@
 //! The one clock every coil deadline runs on while a replay waits on a board. The runner owns
-//! the deadlines (it switches the coils: see `replay.rs`); every link it drives holds this
+//! the deadlines (it switches the coils: see `replay/runner.rs`); every link it drives holds this
 //! watch and gives up a wait for a board's reply (or a blocked write) as soon as a signal
 //! arrives or the earliest coil deadline passes, whatever the board's own `timeout_ms`. The
 //! runner then switches every other board off and stops, naming the board that did not
