@@ -9,14 +9,9 @@ use crate::{arg_err, lib_err};
 use numpy::PyArray2;
 use pyo3::prelude::*;
 use spherestep::io::planfile::read_plan;
-use spherestep::io::scenario::{
-    check_pairs_per_step, check_supply, default_pairs_per_step, parse_pairs_per_step,
-};
-use spherestep::planning::plan::{target_angle, turn_to};
+use spherestep::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges};
 use spherestep::Cancel;
-use spherestep::{
-    goal_of, LoopSettings, PairsPerStep, PlanRow, PlanSettings, Radians, Scheme, StepModel,
-};
+use spherestep::{goal_of, LoopSettings, PairsPerStep, PlanRow, PlanSettings, Radians};
 use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use std::time::Duration;
@@ -136,8 +131,20 @@ impl Motor {
     }
 }
 
-/// What to plan: the scenario's `[plan]` section with the arguments given instead, checked as
-/// the command line checks `plan`'s options (`commands::plan_settings`).
+/// What the Python arguments are called in a refusal of a plan setting.
+const ARGUMENT_NAMES: ChangeNames = ChangeNames {
+    axis: "axis",
+    angle: "angle",
+    scheme: "scheme",
+    model: "model",
+    pairs: "pairs",
+    start: "start",
+    to: "to",
+};
+
+/// What to plan: the scenario's `[plan]` section with the arguments given instead, each read
+/// as its type here and the changes checked as the command line checks `plan`'s options
+/// (`Scenario::plan_with`).
 #[allow(clippy::too_many_arguments)]
 fn plan_settings(
     sc: &spherestep::Scenario,
@@ -149,44 +156,18 @@ fn plan_settings(
     start: Option<&Bound<'_, PyAny>>,
     to: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<PlanSettings> {
-    let mut s = sc.plan.clone();
-    if let Some(a) = axis {
-        s.axis = convert::axis(a, "axis")?;
-    }
-    if let Some(a) = angle {
-        s.angle = target_angle(a, "start").map_err(|e| arg_err("angle", e))?;
-    }
-    if let Some(n) = scheme {
-        s.scheme = Scheme::parse(n).map_err(|e| arg_err("scheme", e))?;
-    }
-    if let Some(m) = model {
-        s.model = StepModel::from_name(m)
-            .ok_or_else(|| arg_err("model", format!("pivot, dynamic or coils, got '{m}'")))?;
-        if pairs.is_none() {
-            s.pairs = default_pairs_per_step(s.model);
-        }
-    }
-    if let Some(k) = pairs {
-        s.pairs = pairs_per_step(k)?;
-    }
-    check_pairs_per_step(s.model, s.pairs).map_err(|m| arg_err("pairs", m))?;
-    check_supply(s.pairs, s.limits.max_coils_on)
-        .map_err(|m| arg_err("pairs", format!("{m} (in {})", sc.path.display())))?;
-    if let Some(f) = start {
-        s.start = convert::orientation(f, "start")?;
-    }
-    if let Some(t) = to {
-        if axis.is_some() || angle.is_some() {
-            return Err(arg_err(
-                "to",
-                "a target orientation or an axis and an angle, not both",
-            ));
-        }
-        let to = convert::orientation(t, "to")?;
-        (s.axis, s.angle) = turn_to(&s.start, &to, "start").map_err(|e| arg_err("to", e))?;
-        s.target = Some(to);
-    }
-    Ok(s)
+    let changes = PlanChanges {
+        axis: axis.map(|a| convert::axis(a, "axis")).transpose()?,
+        angle_deg: angle,
+        scheme,
+        model,
+        pairs: pairs.map(pairs_per_step).transpose()?,
+        start: start
+            .map(|f| convert::orientation(f, "start"))
+            .transpose()?,
+        to: to.map(|t| convert::orientation(t, "to")).transpose()?,
+    };
+    sc.plan_with(&changes, &ARGUMENT_NAMES).map_err(lib_err)
 }
 
 /// Pairs per step: an integer K (exactly K) or text `K` or `2-K` (2 to K, chosen per step).

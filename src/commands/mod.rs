@@ -14,18 +14,15 @@ use crate::error::{printable, Error, Result};
 use crate::io::output::emit_csv;
 use crate::io::pairs::parse_pairs;
 use crate::io::planfile::{read_plan, write_plan};
-use crate::io::scenario::{
-    check_pairs_per_step, check_supply, default_pairs_per_step, parse_pairs_per_step, Scenario,
-};
+use crate::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges, Scenario};
 use crate::io::table::write_csv;
 use crate::model::geometry::{xyzw, Orientation, Pair};
 use crate::model::packing::{self, points_csv};
 use crate::physics::dynamics::{settle, settle_many, SettleResult};
-use crate::planning::commutation::{pair_gap, StepModel};
+use crate::planning::commutation::pair_gap;
 use crate::planning::plan::PlanRow;
-use crate::planning::planner::{plan, target_angle, Plan, PlanSettings, Scheme};
+use crate::planning::planner::{plan, Plan, PlanSettings};
 use crate::planning::simulate::{simulate, SimRow};
-use crate::planning::waypoints::turn_to;
 use args::{parse_axis, parse_orientation};
 use std::io::Write;
 use std::path::Path;
@@ -324,60 +321,48 @@ pub struct PlanOverrides {
     pub to: Option<String>,
 }
 
-/// Applies command-line overrides to plan settings, checking each.
+/// What the command line calls each change of the plan settings.
+pub const OPTION_NAMES: ChangeNames = ChangeNames {
+    axis: "--axis",
+    angle: "--angle",
+    scheme: "--scheme",
+    model: "--model",
+    pairs: "--pairs",
+    start: "--from",
+    to: "--to",
+};
+
+/// Applies command-line overrides to plan settings, checking each: the options read as their
+/// types here, the changes made and checked by [`Scenario::plan_with`].
 pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
-    let mut s = sc.plan.clone();
-    if let Some(a) = &o.axis {
-        s.axis = parse_axis(a, "--axis")?;
-    }
-    let arg = |arg: &str| {
-        let arg = arg.to_string();
-        move |expected| Error::Arg { arg, expected }
-    };
-    if let Some(a) = o.angle_deg {
-        s.angle = target_angle(a, "--from").map_err(arg("--angle"))?;
-    }
-    if let Some(n) = &o.scheme {
-        s.scheme = Scheme::parse(n).map_err(arg("--scheme"))?;
-    }
-    if let Some(m) = &o.model {
-        s.model = StepModel::from_name(m).ok_or_else(|| Error::Arg {
-            arg: "--model".into(),
-            expected: format!("pivot, dynamic or coils, got '{m}'"),
-        })?;
-        if o.pairs.is_none() {
-            s.pairs = default_pairs_per_step(s.model);
-        }
-    }
-    if let Some(k) = &o.pairs {
-        s.pairs = parse_pairs_per_step(k).ok_or_else(|| Error::Arg {
+    let pairs = |k: &String| {
+        parse_pairs_per_step(k).ok_or_else(|| Error::Arg {
             arg: "--pairs".into(),
             expected: format!("K (exactly K pairs per step) or 2-K (2 to K), got '{k}'"),
-        })?;
-    }
-    check_pairs_per_step(s.model, s.pairs).map_err(|m| Error::Arg {
-        arg: "--pairs".into(),
-        expected: m,
-    })?;
-    check_supply(s.pairs, s.limits.max_coils_on).map_err(|m| Error::Arg {
-        arg: "--pairs".into(),
-        expected: format!("{m} (in {})", sc.path.display()),
-    })?;
-    if let Some(f) = &o.from {
-        s.start = parse_orientation(f, "--from")?;
-    }
-    if let Some(t) = &o.to {
-        if o.axis.is_some() || o.angle_deg.is_some() {
-            return Err(Error::Arg {
-                arg: "--to".into(),
-                expected: "a target orientation or an axis and an angle, not both".into(),
-            });
-        }
-        let to = parse_orientation(t, "--to")?;
-        (s.axis, s.angle) = turn_to(&s.start, &to, "--from").map_err(arg("--to"))?;
-        s.target = Some(to);
-    }
-    Ok(s)
+        })
+    };
+    let changes = PlanChanges {
+        axis: o
+            .axis
+            .as_ref()
+            .map(|a| parse_axis(a, "--axis"))
+            .transpose()?,
+        angle_deg: o.angle_deg,
+        scheme: o.scheme.as_deref(),
+        model: o.model.as_deref(),
+        pairs: o.pairs.as_ref().map(pairs).transpose()?,
+        start: o
+            .from
+            .as_ref()
+            .map(|f| parse_orientation(f, "--from"))
+            .transpose()?,
+        to: o
+            .to
+            .as_ref()
+            .map(|t| parse_orientation(t, "--to"))
+            .transpose()?,
+    };
+    sc.plan_with(&changes, &OPTION_NAMES)
 }
 
 /// `spherestep plan`: plans, writes the CSV (atomically) to `out_file` when asked and prints

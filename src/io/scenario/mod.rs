@@ -5,9 +5,11 @@
 //! Reading is in two parts: `raw` (the file as written, serde structs) and `checked` (the
 //! checks that make a [`Scenario`] of it); this file holds the checked types.
 
+mod changes;
 mod checked;
 mod raw;
 
+pub use changes::{ChangeNames, PlanChanges};
 use checked::Checker;
 use raw::*;
 

@@ -1,7 +1,7 @@
 //! The replay's CSV log (`--log`): its header for one board or several, the check of an
 //! existing file before anything is appended to it, and its rows.
 
-use super::boards::Prepared;
+use super::ports::Prepared;
 use crate::relay::RelayError;
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};

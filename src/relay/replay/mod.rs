@@ -19,16 +19,16 @@
 //! [`Watch`]: crate::relay::watch::Watch
 //! [`on_time::guard_margin`]: crate::planning::on_time::guard_margin
 
-mod boards;
 mod log;
+mod ports;
 mod runner;
 mod schedule;
 mod stdin;
 
-#[cfg(feature = "hardware")]
-pub use boards::open_ports;
-pub use boards::{prepare, Drive, Prepared};
 pub use log::{check_log, LOG_HEADER, LOG_HEADER_BOARDS, LOG_SENSOR_COLUMNS};
+#[cfg(feature = "hardware")]
+pub use ports::open_ports;
+pub use ports::{prepare, Drive, Prepared};
 pub use runner::{execute, execute_on, Summary};
 pub use schedule::{dwell, schedule, schedule_on, Entry, Mode, Schedule, Switch};
 pub use stdin::stdin_lines;

@@ -1,8 +1,8 @@
 //! The runner of a replay: it switches the boards step by step, prints and logs every frame,
 //! keeps every coil deadline and ends with every board all off.
 
-use super::boards::{configured_port, on_board, Prepared};
 use super::log::{Log, LogKind};
+use super::ports::{configured_port, on_board, Prepared};
 use super::schedule::{Entry, Mode, OnTimes, Schedule};
 use crate::model::geometry::CoilId;
 use crate::planning::on_time;

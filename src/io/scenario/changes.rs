@@ -1,0 +1,198 @@
+//! A front end's changes to a scenario's `[plan]` settings (the command line's options, the
+//! Python arguments), applied and checked in one place for every front end: a refusal names
+//! the change as the front end calls it ([`ChangeNames`]), never a name of its own.
+
+use super::{check_pairs_per_step, check_supply, default_pairs_per_step, Scenario};
+use crate::error::{Error, Result};
+use crate::model::geometry::{Orientation, UnitVec};
+use crate::planning::commutation::{PairsPerStep, StepModel};
+use crate::planning::plan::{target_angle, turn_to};
+use crate::planning::planner::{PlanSettings, Scheme};
+
+/// The changes asked for, each already read as its type by the front end (`None` keeps the
+/// scenario's value); the scheme and the model by name, as a user gives them.
+#[derive(Debug, Clone, Default)]
+pub struct PlanChanges<'a> {
+    pub axis: Option<UnitVec>,
+    pub angle_deg: Option<f64>,
+    pub scheme: Option<&'a str>,
+    pub model: Option<&'a str>,
+    pub pairs: Option<PairsPerStep>,
+    pub start: Option<Orientation>,
+    /// A target orientation (instead of an axis and an angle).
+    pub to: Option<Orientation>,
+}
+
+/// What a front end calls each change, for its refusals (`--from` on the command line, `start`
+/// in Python).
+#[derive(Debug, Clone, Copy)]
+pub struct ChangeNames {
+    pub axis: &'static str,
+    pub angle: &'static str,
+    pub scheme: &'static str,
+    pub model: &'static str,
+    pub pairs: &'static str,
+    pub start: &'static str,
+    pub to: &'static str,
+}
+
+impl Scenario {
+    /// The scenario's `[plan]` settings with `changes` made, each checked as the scenario's own
+    /// value is: a scheme or model by its name, the pairs per step against the model and the
+    /// supply, a target orientation not with an axis or an angle. A refusal is
+    /// [`Error::Arg`], naming the change by `names`.
+    pub fn plan_with(
+        &self,
+        changes: &PlanChanges<'_>,
+        names: &ChangeNames,
+    ) -> Result<PlanSettings> {
+        let arg = |name: &str, expected: String| Error::Arg {
+            arg: name.into(),
+            expected,
+        };
+        let mut s = self.plan.clone();
+        if let Some(a) = changes.axis {
+            s.axis = a;
+        }
+        if let Some(a) = changes.angle_deg {
+            s.angle = target_angle(a, names.start).map_err(|e| arg(names.angle, e))?;
+        }
+        if let Some(n) = changes.scheme {
+            s.scheme = Scheme::parse(n).map_err(|e| arg(names.scheme, e))?;
+        }
+        if let Some(m) = changes.model {
+            s.model = StepModel::from_name(m)
+                .ok_or_else(|| arg(names.model, format!("pivot, dynamic or coils, got '{m}'")))?;
+            if changes.pairs.is_none() {
+                s.pairs = default_pairs_per_step(s.model);
+            }
+        }
+        if let Some(k) = changes.pairs {
+            s.pairs = k;
+        }
+        check_pairs_per_step(s.model, s.pairs).map_err(|m| arg(names.pairs, m))?;
+        check_supply(s.pairs, s.limits.max_coils_on)
+            .map_err(|m| arg(names.pairs, format!("{m} (in {})", self.path.display())))?;
+        if let Some(f) = changes.start {
+            s.start = f;
+        }
+        if let Some(to) = changes.to {
+            if changes.axis.is_some() || changes.angle_deg.is_some() {
+                return Err(arg(
+                    names.to,
+                    "a target orientation or an axis and an angle, not both".into(),
+                ));
+            }
+            (s.axis, s.angle) =
+                turn_to(&s.start, &to, names.start).map_err(|e| arg(names.to, e))?;
+            s.target = Some(to);
+        }
+        Ok(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::geometry::{rot_q, unit, Radians};
+    use nalgebra::UnitQuaternion;
+    use nalgebra::Vector3;
+
+    const SHORT: ChangeNames = ChangeNames {
+        axis: "a",
+        angle: "b",
+        scheme: "c",
+        model: "d",
+        pairs: "e",
+        start: "f",
+        to: "g",
+    };
+
+    /// The refusal's argument and message of `changes`.
+    fn refused(changes: &PlanChanges<'_>) -> (String, String) {
+        match Scenario::prototype().plan_with(changes, &SHORT) {
+            Err(Error::Arg { arg, expected }) => (arg, expected),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn each_refusal_names_the_change_as_the_front_end_calls_it() {
+        let (arg, e) = refused(&PlanChanges {
+            scheme: Some("fastest"),
+            ..Default::default()
+        });
+        assert_eq!(arg, "c", "{e}");
+        let (arg, e) = refused(&PlanChanges {
+            model: Some("springs"),
+            ..Default::default()
+        });
+        assert_eq!(
+            (arg.as_str(), e.as_str()),
+            ("d", "pivot, dynamic or coils, got 'springs'")
+        );
+        let (arg, e) = refused(&PlanChanges {
+            model: Some("pivot"),
+            pairs: Some(PairsPerStep::exactly(3)),
+            ..Default::default()
+        });
+        assert_eq!(arg, "e", "{e}");
+        let (arg, e) = refused(&PlanChanges {
+            pairs: Some(PairsPerStep::exactly(6)),
+            ..Default::default()
+        });
+        assert!(
+            arg == "e" && e.contains("<built-in prototype>"),
+            "{arg}: {e}"
+        );
+        let to = rot_q(&unit(Vector3::new(0.0, 1.0, 0.0)).unwrap(), Radians(0.5));
+        let (arg, e) = refused(&PlanChanges {
+            angle_deg: Some(30.0),
+            to: Some(to),
+            ..Default::default()
+        });
+        assert_eq!(
+            (arg.as_str(), e.as_str()),
+            (
+                "g",
+                "a target orientation or an axis and an angle, not both"
+            )
+        );
+        // the start's name in a message about another change
+        let (arg, e) = refused(&PlanChanges {
+            angle_deg: Some(200.0),
+            ..Default::default()
+        });
+        assert!(arg == "b" && e.contains("each starting (f)"), "{arg}: {e}");
+        let (arg, e) = refused(&PlanChanges {
+            to: Some(UnitQuaternion::identity()),
+            ..Default::default()
+        });
+        assert!(
+            arg == "g" && e.contains("other than the start"),
+            "{arg}: {e}"
+        );
+    }
+
+    #[test]
+    fn a_target_orientation_becomes_the_shortest_turn_from_the_start() {
+        let start = rot_q(&unit(Vector3::new(1.0, 0.0, 0.0)).unwrap(), Radians(0.3));
+        let turn = rot_q(&unit(Vector3::new(0.0, 0.6, 0.8)).unwrap(), Radians(1.2));
+        let s = Scenario::prototype()
+            .plan_with(
+                &PlanChanges {
+                    model: Some("coils"),
+                    start: Some(start),
+                    to: Some(turn * start),
+                    ..Default::default()
+                },
+                &SHORT,
+            )
+            .unwrap();
+        assert!((s.angle.0 - 1.2).abs() < 1e-12);
+        assert!((s.axis.into_inner() - Vector3::new(0.0, 0.6, 0.8)).norm() < 1e-12);
+        assert_eq!(s.model, StepModel::Coils);
+        assert_eq!(s.pairs, default_pairs_per_step(StepModel::Coils));
+        assert_eq!(s.target, Some(turn * start));
+    }
+}
