@@ -69,7 +69,7 @@ pub struct Args {
     /// How long to wait for a reading, ms (default 500).
     #[arg(long, requires = "sensor")]
     pub sensor_timeout_ms: Option<u64>,
-    /// The sensor's expected noise, degrees (0 to 10): replan beyond max(1, 2 x noise) degrees
+    /// The sensor's expected noise, degrees (0 to 10): replan beyond max(1, 3 x noise) degrees
     /// from the plan, done within max(1.5, 2 x noise) degrees of the goal.
     #[arg(long, requires = "sensor", default_value_t = 0.0)]
     pub sensor_noise_deg: f64,

@@ -5,7 +5,7 @@
 //! and hands them to the relay layer (`crate::relay::closed`).
 
 use super::closed_loop::{loop_settings, plan_file_loop, LoopOptions};
-use super::replay::{inputs, ReplayOptions};
+use super::replay::{inputs, Flags, ReplayOptions};
 use crate::error::{Error, Result};
 use crate::io::scenario::Scenario;
 use crate::model::geometry::Orientation;
@@ -104,7 +104,8 @@ pub fn prepare_closed(opts: &ReplayOptions, so: &SensorOptions) -> Result<Closed
     };
     let rows = &f.plan.rows;
     let cl = loop_settings(&o, rows.len() - 1)?;
-    let prep = crate::relay::replay::prepare(rows, relay, scenario.stator.len(), opts.drive())?;
+    let prep = crate::relay::replay::prepare(rows, relay, scenario.stator.len(), opts.drive())?
+        .worded(&Flags);
     check_log(&prep, true)?;
     check_sensor_timeout(so, prep.settings.max_on_time)?;
     if let Some(i) = prep

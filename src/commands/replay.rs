@@ -154,7 +154,8 @@ pub fn inputs(opts: &ReplayOptions) -> Result<(Vec<PlanRow>, Scenario, RelaySett
 /// `--log` is a replay log that may be appended to (or a new or empty file).
 pub fn prepare(opts: &ReplayOptions) -> Result<Prepared> {
     let (rows, scenario, settings) = inputs(opts)?;
-    let prep = crate::relay::replay::prepare(&rows, settings, scenario.stator.len(), opts.drive())?;
+    let prep = crate::relay::replay::prepare(&rows, settings, scenario.stator.len(), opts.drive())?
+        .worded(&Flags);
     check_log(&prep, false)?;
     Ok(prep)
 }

@@ -1009,7 +1009,7 @@ pub fn over_on_time(rows: &[PlanRow], limit: Option<OnTimeLimit>) -> Option<Stri
                 max: l.max_on,
             };
             return Some(format!(
-                "{} through step {}: replay will refuse the plan (a shorter --dwell-ms, or a \
+                "{} through step {}: replay will refuse the plan (a shorter fixed dwell, or a \
                  higher relay.max_on_time_s)",
                 o.describe(),
                 r.step

@@ -419,7 +419,7 @@ fn link(dir: &Path, name: &str, target: &str) -> Result<PathBuf, RehearseError> 
                 path: at.clone(),
                 reason: format!(
                     "links to {}, a port that exists (another virtual motor's?): left alone; \
-                     give another --link-dir, or end what serves it",
+                     give another link directory, or end what serves it",
                     to.display()
                 ),
             });

@@ -158,8 +158,8 @@ impl Summary {
 pub enum RehearseError {
     #[error("cannot open a pseudo-terminal: {0}")]
     Pty(String),
-    #[error("--link-dir: {}: {reason}", path.display())]
+    #[error("the link directory {}: {reason}", path.display())]
     LinkDir { path: PathBuf, reason: String },
-    #[error("--log: {}: {reason}", path.display())]
+    #[error("the virtual motor's log {}: {reason}", path.display())]
     Log { path: PathBuf, reason: String },
 }

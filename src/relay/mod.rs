@@ -303,7 +303,7 @@ pub enum RelayError {
     },
     /// An open-loop replay stopped and switching all off failed too (`error`: `OffFailed` or
     /// `BoardsOffFailed`): where to resume once the board is back.
-    #[error("{error}; once every board answers again, resume with --from-step {resume}")]
+    #[error("{}", self.worded(&Fields))]
     OffFailedResume {
         error: Box<RelayError>,
         resume: usize,
@@ -412,7 +412,7 @@ impl Setting {
 
 /// How a message names the settings it is about: [`Fields`] (the library's `Display`: the
 /// fields' names), or the command line's flags.
-pub trait Wording {
+pub trait Wording: std::fmt::Debug + Sync {
     /// A setting inside a phrase ("resume with `from_step` 3").
     fn name(&self, s: Setting) -> String;
     /// The head of a message about a setting's value ("replay setting `from_step`").
@@ -454,22 +454,10 @@ impl RelayError {
                 w.name(Setting::Verify)
             ),
             RelayError::OnTooLong { .. } | RelayError::OnTimeReached { .. } => self.on_time(w),
-            RelayError::Stopped { cause, resume } => format!(
-                "{}; all coils switched off; resume with {} {resume}",
-                cause.worded(w),
-                w.name(Setting::FromStep)
-            ),
-            RelayError::EndOffFailed(e) => format!(
-                "the replay finished, but switching all coils off FAILED: {}; the coils may \
-                 still be on: cut the coil supply",
-                e.worded(w)
-            ),
-            RelayError::OffFailed { cause, off } => format!(
-                "{}; then switching all coils off FAILED: {}; the coils may still be on: cut \
-                 the coil supply",
-                cause.worded(w),
-                off.worded(w)
-            ),
+            RelayError::Stopped { .. }
+            | RelayError::EndOffFailed(_)
+            | RelayError::OffFailed { .. }
+            | RelayError::OffFailedResume { .. } => self.stopped(w),
             RelayError::MaxSteps {
                 steps,
                 max,
@@ -518,6 +506,34 @@ impl RelayError {
                 failed,
                 switched_off,
             } => boards_off_failed(cause.as_deref(), failed, switched_off, w),
+            e => e.to_string(),
+        }
+    }
+
+    /// The messages of a replay that stopped (and of the all-off that failed), worded by `w`.
+    fn stopped(&self, w: &dyn Wording) -> String {
+        match self {
+            RelayError::Stopped { cause, resume } => format!(
+                "{}; all coils switched off; resume with {} {resume}",
+                cause.worded(w),
+                w.name(Setting::FromStep)
+            ),
+            RelayError::EndOffFailed(e) => format!(
+                "the replay finished, but switching all coils off FAILED: {}; the coils may \
+                 still be on: cut the coil supply",
+                e.worded(w)
+            ),
+            RelayError::OffFailed { cause, off } => format!(
+                "{}; then switching all coils off FAILED: {}; the coils may still be on: cut \
+                 the coil supply",
+                cause.worded(w),
+                off.worded(w)
+            ),
+            RelayError::OffFailedResume { error, resume } => format!(
+                "{}; once every board answers again, resume with {} {resume}",
+                error.worded(w),
+                w.name(Setting::FromStep)
+            ),
             e => e.to_string(),
         }
     }
@@ -736,4 +752,43 @@ pub fn connect(
         BoardKind::Numato => Box::new(numato::Numato::new(link, channels)),
         BoardKind::Modbus => Box::new(modbus::Modbus::new(link, channels, slave_address)),
     })
+}
+
+#[cfg(test)]
+mod wording_tests {
+    use super::*;
+
+    /// A front end's wording: settings as `<name>`.
+    #[derive(Debug)]
+    struct Angled;
+
+    impl Wording for Angled {
+        fn name(&self, s: Setting) -> String {
+            format!("<{}>", s.name())
+        }
+        fn subject(&self, s: Setting) -> String {
+            format!("option <{}>", s.name())
+        }
+    }
+
+    #[test]
+    fn where_to_resume_is_named_by_the_wording_not_by_a_flag() {
+        let e = RelayError::OffFailedResume {
+            error: Box::new(RelayError::Setting {
+                setting: Setting::Dwell,
+                expected: "a dwell".into(),
+            }),
+            resume: 3,
+        };
+        assert_eq!(
+            e.to_string(),
+            "replay setting `dwell_ms`: expected a dwell; once every board answers again, \
+             resume with `from_step` 3"
+        );
+        assert_eq!(
+            e.worded(&Angled),
+            "option <dwell_ms>: expected a dwell; once every board answers again, resume with \
+             <from_step> 3"
+        );
+    }
 }

@@ -2,7 +2,7 @@
 //! existing file before anything is appended to it, and its rows.
 
 use super::ports::Prepared;
-use crate::relay::RelayError;
+use crate::relay::{RelayError, Setting, Wording};
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 
@@ -91,7 +91,12 @@ const LOG_FIRST_LINE_MAX: u64 = 4096;
 /// whose first line is exactly this replay's header (`log_header(listed, kind)`). Anything
 /// else is refused: a log of another kind (its columns would not line up), and any other file
 /// (a plan, a scenario, notes: appending would corrupt it).
-fn inspect_log(path: &Path, listed: bool, kind: LogKind) -> Result<LogFile, RelayError> {
+fn inspect_log(
+    path: &Path,
+    listed: bool,
+    kind: LogKind,
+    w: &dyn Wording,
+) -> Result<LogFile, RelayError> {
     use std::io::{Read, Seek, SeekFrom};
     let err = |e| RelayError::Log {
         path: path.to_path_buf(),
@@ -152,7 +157,8 @@ fn inspect_log(path: &Path, listed: bool, kind: LogKind) -> Result<LogFile, Rela
     Err(refuse(format!(
         "expected an empty or new file, or a replay log whose first line is exactly `{header}`; \
          its first line is `{shown}`, so it is not a replay log and is not appended to: give \
-         another --log file"
+         another {} file",
+        w.name(Setting::Log)
     )))
 }
 
@@ -164,7 +170,7 @@ pub fn check_log(prep: &Prepared, closed_loop: bool) -> Result<(), RelayError> {
         false => LogKind::Replay,
     };
     match &prep.drive.log {
-        Some(p) => inspect_log(p, prep.listed(), kind).map(|_| ()),
+        Some(p) => inspect_log(p, prep.listed(), kind, prep.wording).map(|_| ()),
         None => Ok(()),
     }
 }
@@ -173,13 +179,18 @@ impl Log {
     /// Opens (appends to) the log, after `inspect_log`: a new or empty file gets the header;
     /// a log of this replay's header is appended to, on a line of its own; anything else (a
     /// log of another kind, any other file) is refused.
-    pub(super) fn open(path: &Path, listed: bool, kind: LogKind) -> Result<Log, RelayError> {
+    pub(super) fn open(
+        path: &Path,
+        listed: bool,
+        kind: LogKind,
+        w: &dyn Wording,
+    ) -> Result<Log, RelayError> {
         let err = |e| RelayError::Log {
             path: path.to_path_buf(),
             cause: e,
         };
         let header = log_header(listed, kind);
-        let found = inspect_log(path, listed, kind)?;
+        let found = inspect_log(path, listed, kind, w)?;
         let file = std::fs::OpenOptions::new()
             .create(true)
             .append(true)

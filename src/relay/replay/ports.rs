@@ -3,7 +3,9 @@
 
 use super::schedule::{schedule_on, Mode, Schedule};
 use crate::planning::plan::PlanRow;
-use crate::relay::{connect, BoardKind, BoardSpec, Link, RelayError, RelaySettings, Setting};
+use crate::relay::{
+    connect, BoardKind, BoardSpec, Fields, Link, RelayError, RelaySettings, Setting, Wording,
+};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -15,9 +17,18 @@ pub struct Prepared {
     pub boards: Vec<BoardSpec>,
     pub schedule: Schedule,
     pub drive: Drive,
+    /// How the replay's own lines and refusals name its settings (where to resume, which log
+    /// to give): by their fields ([`Fields`]) unless the front end words them
+    /// ([`Prepared::worded`]; the command line: as its flags).
+    pub wording: &'static dyn Wording,
 }
 
 impl Prepared {
+    /// The same replay, its settings named by `w`.
+    pub fn worded(self, w: &'static dyn Wording) -> Prepared {
+        Prepared { wording: w, ..self }
+    }
+
     /// Whether the boards come from `[[relay.boards]]`: the output and the log then say which
     /// board each frame went to, and errors name the board.
     pub fn listed(&self) -> bool {
@@ -73,6 +84,7 @@ pub fn prepare(
         boards,
         schedule,
         drive,
+        wording: &Fields,
     })
 }
 

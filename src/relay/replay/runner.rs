@@ -107,7 +107,7 @@ impl<'a> Runner<'a> {
             choose_verified(&mut boards, listed)?;
         }
         let log = match &prep.drive.log {
-            Some(p) => Some(Log::open(p, listed, kind)?),
+            Some(p) => Some(Log::open(p, listed, kind, prep.wording)?),
             None => None,
         };
         print_header(out, prep, &boards, dry_run).map_err(stdout_error)?;
@@ -128,6 +128,7 @@ impl<'a> Runner<'a> {
             off_at: BTreeMap::new(),
             next_step: prep.drive.from_step,
             steps_done: 0,
+            wording: prep.wording,
         })
     }
 }
@@ -278,6 +279,8 @@ pub(in crate::relay) struct Runner<'a> {
     off_at: BTreeMap<Slot, Duration>,
     pub(in crate::relay) next_step: usize,
     pub(in crate::relay) steps_done: usize,
+    /// How its own lines name the replay's settings ([`Prepared::wording`]).
+    wording: &'static dyn crate::relay::Wording,
 }
 
 /// How often waits look at the stop flag and the on-time limit.
@@ -715,7 +718,8 @@ impl Runner<'_> {
             Ok(quit) => {
                 let msg = if quit {
                     format!(
-                        "quit before step {next}; all coils off; resume with --from-step {next}"
+                        "quit before step {next}; all coils off; resume with {} {next}",
+                        self.wording.name(Setting::FromStep)
                     )
                 } else {
                     format!("done: {} step(s) replayed; all coils off", self.steps_done)
