@@ -10,8 +10,9 @@ use numpy::PyArray2;
 use pyo3::prelude::*;
 use spherestep::io::planfile::read_plan;
 use spherestep::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges};
+use spherestep::planning::options::{LoopNames, LoopOptions};
 use spherestep::Cancel;
-use spherestep::{goal_of, LoopSettings, PairsPerStep, PlanRow, PlanSettings, Radians};
+use spherestep::{goal_of, LoopSettings, PairsPerStep, PlanRow, PlanSettings};
 use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use std::time::Duration;
@@ -256,12 +257,15 @@ const MAX_THREADS: i64 = 1024;
 /// The sensor noise's seed when none is given (the command line's `--seed` default).
 const DEFAULT_SEED: u64 = 1;
 
-/// The largest sensor noise a run accepts, degrees (the command line's
-/// `commands::closed_loop::MAX_SENSOR_NOISE_DEG`).
-const MAX_SENSOR_NOISE_DEG: f64 = 10.0;
+/// What the Python arguments are called in a refusal of the loop's options.
+const LOOP_ARGUMENT_NAMES: LoopNames = LoopNames {
+    noise_deg: "sensor_noise_deg",
+    max_steps: "max_steps",
+};
 
-/// The loop's settings as `spherestep run` makes them from its options
-/// (`commands::closed_loop::loop_settings`).
+/// The loop's settings as `spherestep run` makes them from its options (the library's
+/// `LoopOptions::settings`); the sensor's arguments only with `closed_loop`, as the command
+/// line's only with `--closed-loop`.
 fn loop_settings(
     closed_loop: bool,
     noise_deg: f64,
@@ -270,19 +274,14 @@ fn loop_settings(
     identify: bool,
     planned_steps: usize,
 ) -> PyResult<LoopSettings> {
-    if !(noise_deg.is_finite() && (0.0..=MAX_SENSOR_NOISE_DEG).contains(&noise_deg)) {
-        return Err(arg_err(
-            "sensor_noise_deg",
-            format!(
-                "a noise in [0, {MAX_SENSOR_NOISE_DEG}] degrees (the goal tolerance is twice \
-                 it), got {}",
-                spherestep::error::shown(noise_deg)
-            ),
-        ));
-    }
-    if max_steps == Some(0) {
-        return Err(arg_err("max_steps", "a whole number >= 1, got 0"));
-    }
+    let o = LoopOptions {
+        closed: closed_loop,
+        noise_deg,
+        seed: seed.unwrap_or(DEFAULT_SEED),
+        max_steps,
+        identify,
+    };
+    o.check(&LOOP_ARGUMENT_NAMES).map_err(lib_err)?;
     if !closed_loop && (noise_deg != 0.0 || seed.is_some() || max_steps.is_some() || !identify) {
         return Err(arg_err(
             "closed_loop",
@@ -290,17 +289,8 @@ fn loop_settings(
              --closed-loop: the open loop plays the plan as it is, measured without noise)",
         ));
     }
-    let seed = seed.unwrap_or(DEFAULT_SEED);
-    let noise = Radians(noise_deg.to_radians());
-    Ok(if closed_loop {
-        let max = max_steps.unwrap_or(3 * planned_steps + 6);
-        LoopSettings {
-            identify,
-            ..LoopSettings::for_noise(noise, seed, max)
-        }
-    } else {
-        LoopSettings::open(noise, seed)
-    })
+    o.settings(planned_steps, &LOOP_ARGUMENT_NAMES)
+        .map_err(lib_err)
 }
 
 /// The rows to simulate: a `Plan` (made by a motor with these packings) or the path of a plan

@@ -7,30 +7,15 @@ use crate::io::loopfile::write_loop;
 use crate::io::output::emit_csv;
 use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
-use crate::model::geometry::{Orientation, Radians};
+use crate::model::geometry::Orientation;
 use crate::planning::closed_loop::{goal_of, run_closed_loop, target_of, LoopRun, LoopSettings};
+use crate::planning::options::LoopNames;
+pub use crate::planning::options::{default_max_steps, LoopOptions, MAX_SENSOR_NOISE_DEG};
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::planner::plan;
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
-
-/// How to play a plan on the plant, as the command line gives it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LoopOptions {
-    /// Replan from the measurements (`--closed-loop`).
-    pub closed: bool,
-    /// The sensor's noise, degrees (`--sensor-noise-deg`).
-    pub noise_deg: f64,
-    /// The noise's seed (`--seed`).
-    pub seed: u64,
-    /// At most this many steps (`--max-steps`; default [`default_max_steps`] of the open-loop
-    /// plan's).
-    pub max_steps: Option<usize>,
-    /// Fit the wells to the measurements and steer with the fit where the model is wrong
-    /// (`--no-identify` turns it off).
-    pub identify: bool,
-}
 
 /// Where a run's CSV and summary go: the CSV to `file` (atomically), else alone to `out`; the
 /// summary (text, or JSON) to `out`, or to `note` when the CSV took `out`.
@@ -54,54 +39,20 @@ pub struct RunSummary {
     pub run: crate::planning::closed_loop::LoopSummary,
 }
 
-/// The largest sensor noise accepted, degrees. The loop's thresholds grow with the noise
-/// (replan beyond, and done within, twice it): at 10 degrees of noise a run counts as reached
-/// within 20 degrees of the goal, and a noisier sensor cannot tell a step from the noise (the
-/// prototype's steps turn 10 to 30 degrees), so it is refused rather than reported as reached.
-pub const MAX_SENSOR_NOISE_DEG: f64 = 10.0;
+/// What the command line calls the loop's options.
+pub const LOOP_OPTION_NAMES: LoopNames = LoopNames {
+    noise_deg: "--sensor-noise-deg",
+    max_steps: "--max-steps",
+};
 
-/// Checks the loop's options, before anything is computed: the noise within
-/// [0, [`MAX_SENSOR_NOISE_DEG`]] degrees, at least one step.
+/// Checks the loop's options as the command line gives them ([`LoopOptions::check`]).
 pub fn check_loop_options(o: &LoopOptions) -> Result<()> {
-    if !(o.noise_deg.is_finite() && (0.0..=MAX_SENSOR_NOISE_DEG).contains(&o.noise_deg)) {
-        return Err(Error::Arg {
-            arg: "--sensor-noise-deg".into(),
-            expected: format!(
-                "a noise in [0, {MAX_SENSOR_NOISE_DEG}] degrees (the goal tolerance is twice \
-                 it), got {}",
-                crate::error::shown(o.noise_deg)
-            ),
-        });
-    }
-    if o.max_steps == Some(0) {
-        return Err(Error::Arg {
-            arg: "--max-steps".into(),
-            expected: "a whole number >= 1, got 0".into(),
-        });
-    }
-    Ok(())
+    o.check(&LOOP_OPTION_NAMES)
 }
 
-/// The closed loop's step budget when `--max-steps` is not given: three times the plan's steps
-/// plus six. It must not hang on the plan's length alone: a plan made in a wrong model may be
-/// much shorter than the plant needs, and a fit of the wells takes a step or two.
-pub fn default_max_steps(planned_steps: usize) -> usize {
-    3 * planned_steps + 6
-}
-
-/// The loop's settings from the options, checked.
+/// The loop's settings from the command line's options, checked ([`LoopOptions::settings`]).
 pub fn loop_settings(o: &LoopOptions, planned_steps: usize) -> Result<LoopSettings> {
-    check_loop_options(o)?;
-    let noise = Radians(o.noise_deg.to_radians());
-    Ok(if o.closed {
-        let max = o.max_steps.unwrap_or(default_max_steps(planned_steps));
-        LoopSettings {
-            identify: o.identify,
-            ..LoopSettings::for_noise(noise, o.seed, max)
-        }
-    } else {
-        LoopSettings::open(noise, o.seed)
-    })
+    o.settings(planned_steps, &LOOP_OPTION_NAMES)
 }
 
 /// `spherestep run`: plans in `sc` (the model) with `settings`, plays the plan on `plant` as

@@ -14,6 +14,7 @@ pub mod identify;
 mod landing;
 mod motor;
 pub mod on_time;
+pub mod options;
 pub mod plan;
 pub mod planner;
 pub mod search;
