@@ -34,10 +34,10 @@ fn a_pair_out_of_reach_holds_nothing() {
     // Nothing pulls, so nothing moves: the settle test passes at once ...
     assert!(r.settled);
     // ... but the set holds nothing, and says so.
-    let h = Holding::of(&sc, &[far], &r.q);
+    let h = Holding::of(&sc.torques, &[far], &r.q);
     assert_eq!(h.held, vec![]);
     assert_eq!(h.not_held, vec![far]);
-    assert_eq!(h.outcome(&r), "unheld");
+    assert_eq!(h.outcome(r.settled), "unheld");
     let mut out = Vec::new();
     settle_one(&sc, "0:15", &identity(), true, &mut out).unwrap();
     let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
@@ -57,8 +57,8 @@ fn a_half_held_set_is_its_own_outcome() {
     // 0:14 and 12:26 hold the ball together.
     let both = parse_pairs("0:14,12:26", "t").unwrap();
     let r = settle(&sc.torques, &both, &identity(), sc.body, sc.settle);
-    let h = Holding::of(&sc, &both, &r.q);
-    assert_eq!(h.outcome(&r), "held");
+    let h = Holding::of(&sc.torques, &both, &r.q);
+    assert_eq!(h.outcome(r.settled), "held");
     // 0:14 with a pair whose magnet stays far out of its coil's reach: partly held.
     let far = (0..sc.torques.rotor.len())
         .map(|m| Pair::new(12, m))
@@ -67,10 +67,10 @@ fn a_half_held_set_is_its_own_outcome() {
     let set = vec![Pair::new(0, 14), far];
     let r = settle(&sc.torques, &set, &identity(), sc.body, sc.settle);
     assert!(r.settled);
-    let h = Holding::of(&sc, &set, &r.q);
+    let h = Holding::of(&sc.torques, &set, &r.q);
     assert_eq!(h.held, vec![Pair::new(0, 14)]);
     assert_eq!(h.not_held, vec![far]);
-    assert_eq!(h.outcome(&r), "partly held");
+    assert_eq!(h.outcome(r.settled), "partly held");
     // The sets CSV says the same, per line.
     let mut out = Vec::new();
     settle_sets(&sc, &[both, set], &identity(), &mut out).unwrap();

@@ -13,41 +13,16 @@ use spherestep::io::output::{check_not_input, write_atomic};
 use spherestep::io::planfile::write_plan;
 use spherestep::io::simfile::write_sim;
 use spherestep::io::table::csv_bytes;
-use spherestep::planning::commutation::pair_gap;
+use spherestep::planning::holding::Holding;
 use spherestep::planning::simulate::summary as sim_summary;
 use spherestep::{LoopRun, Orientation, Pair, PlanSettings, SimRow, WellSummary};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// Which pairs of a settled set hold the ball at `q`: those whose magnet ends within its
-/// coil's reach (the well's maximum attraction distance); the others do not. What the command
-/// line's `commands::Holding::of` computes (the library's `commands` layer is not built here).
+/// Which pairs of `active` hold the ball at `q` in `sc` (the library's `Holding::of`, as the
+/// command line's `settle` reports it).
 pub fn holding(sc: &spherestep::Scenario, active: &[Pair], q: &Orientation) -> Holding {
-    let reach = sc.torques.well.max_attraction().0;
-    let r = q.to_rotation_matrix();
-    let (held, not_held) = active
-        .iter()
-        .partition(|&&p| pair_gap(&sc.torques, &r, p).0 <= reach);
-    Holding { held, not_held }
-}
-
-/// The pairs of a set that hold the ball, and those out of reach.
-pub struct Holding {
-    held: Vec<Pair>,
-    not_held: Vec<Pair>,
-}
-
-impl Holding {
-    /// What the settle came to: `held`, `partly held`, `unheld` or `not settled` (the command
-    /// line's `outcome`).
-    fn outcome(&self, settled: bool) -> &'static str {
-        match (settled, self.held.is_empty(), self.not_held.is_empty()) {
-            (false, _, _) => "not settled",
-            (true, _, true) => "held",
-            (true, true, false) => "unheld",
-            (true, false, false) => "partly held",
-        }
-    }
+    Holding::of(&sc.torques, active, q)
 }
 
 /// Unit vectors as a numpy array of shape `(n, 3)`.

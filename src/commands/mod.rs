@@ -19,7 +19,7 @@ use crate::io::table::write_csv;
 use crate::model::geometry::{xyzw, Orientation, Pair};
 use crate::model::packing::{self, points_csv};
 use crate::physics::dynamics::{settle, settle_many, SettleResult};
-use crate::planning::commutation::pair_gap;
+pub use crate::planning::holding::Holding;
 use crate::planning::plan::PlanRow;
 use crate::planning::planner::{plan, Plan, PlanSettings};
 use crate::planning::simulate::{simulate, SimRow};
@@ -116,41 +116,8 @@ pub fn settle_json(r: &SettleResult, h: &Holding) -> serde_json::Value {
         "stop": r.stop.describe(),
         "held": active_text(&h.held),
         "not_held": active_text(&h.not_held),
-        "outcome": h.outcome(r),
+        "outcome": h.outcome(r.settled),
     })
-}
-
-/// Which pairs of a settled set hold the ball: those whose magnet ends within its coil's reach
-/// (the well's maximum attraction distance). A pair beyond it pulls nothing: a "settled" set
-/// whose pairs are all out of reach was merely left alone.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Holding {
-    pub held: Vec<Pair>,
-    pub not_held: Vec<Pair>,
-}
-
-impl Holding {
-    /// The pairs of `active` that hold the ball at `q` in `sc`.
-    pub fn of(sc: &Scenario, active: &[Pair], q: &Orientation) -> Holding {
-        let reach = sc.torques.well.max_attraction().0;
-        let r = q.to_rotation_matrix();
-        let (held, not_held) = active
-            .iter()
-            .partition(|&&p| pair_gap(&sc.torques, &r, p).0 <= reach);
-        Holding { held, not_held }
-    }
-
-    /// What the settle came to: `held` (settled, every pair holding), `partly held` (settled,
-    /// some pairs out of reach), `unheld` (settled with no pair holding: the ball was left
-    /// alone) or `not settled`.
-    pub fn outcome(&self, r: &SettleResult) -> &'static str {
-        match (r.settled, self.held.is_empty(), self.not_held.is_empty()) {
-            (false, _, _) => "not settled",
-            (true, _, true) => "held",
-            (true, true, false) => "unheld",
-            (true, false, false) => "partly held",
-        }
-    }
 }
 
 /// Text form of an active set in files: `coil:magnet;coil:magnet`.
@@ -176,7 +143,7 @@ pub fn settle_one(
     let active = parse_pairs(pairs, "--pairs")?;
     sc.check_active(&active, "--pairs")?;
     let r = settle(&sc.torques, &active, from, sc.body, sc.settle);
-    let h = Holding::of(sc, &active, &r.q);
+    let h = Holding::of(&sc.torques, &active, &r.q);
     let w = write_err("<stdout>");
     if json {
         writeln!(out, "{}", settle_json(&r, &h)).map_err(&w)?;
@@ -212,7 +179,7 @@ pub fn settle_one(
         writeln!(
             out,
             "outcome: {}  (holding: {}; out of reach: {})",
-            h.outcome(&r),
+            h.outcome(r.settled),
             or_none(&h.held),
             or_none(&h.not_held)
         )
@@ -283,7 +250,7 @@ pub fn settle_sets(
     let results = settle_many(&sc.torques, sets, from, sc.body, sc.settle);
     let record = |(k, (set, r)): (usize, (&Vec<Pair>, &SettleResult))| {
         let q = xyzw(&r.q);
-        let h = Holding::of(sc, set, &r.q);
+        let h = Holding::of(&sc.torques, set, &r.q);
         vec![
             (k + 1).to_string(),
             active_text(set),
@@ -299,7 +266,7 @@ pub fn settle_sets(
             r.residual_torque_nm.to_string(),
             r.settled.to_string(),
             active_text(&h.held),
-            h.outcome(r).to_string(),
+            h.outcome(r.settled).to_string(),
         ]
     };
     let records = sets.iter().zip(&results).enumerate().map(record);
