@@ -37,7 +37,8 @@ const EARLY_EXIT: [f64; 2] = [1.3, 1.3];
 /// looks for the first instant of the settle test on a grid of step 0.1 / omega_0, as fine as
 /// the reference's own steps there.
 const SAMPLE_STEP: f64 = 0.1;
-/// Bisections of the end phase's arrival time (a millionth of the end phase's span).
+/// Bisections of the end phase's arrival time (to 1/4096 of the end phase's span: a
+/// millisecond on a span of seconds).
 const ARRIVAL_BISECTIONS: u32 = 12;
 /// The most samples the end phase takes (a bounded cost whatever t_max and the damping are).
 const MAX_SAMPLES: u64 = 1_000_000;
@@ -295,7 +296,7 @@ impl EndPhase {
     /// The first instant in [t0, `t_end`] from which the ball stays within `params.arrival` of
     /// the minimum: where the energy of the linear motion about it, 1/2 (x' K x + I v^2), is at
     /// most 1/2 k_min arrival^2 (then k_min |x|^2 <= x' K x <= that, and the damping never lets
-    /// the energy rise again), bisected to a millionth of the interval; `t_end` if the energy
+    /// the energy rise again), bisected to 1/4096 of the interval; `t_end` if the energy
     /// is still above it there, t0 if it already was at t0.
     pub(super) fn arrival(&self, body: Body, params: &SettleParams, t_end: f64) -> f64 {
         let inertia = body.inertia.x;
