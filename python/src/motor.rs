@@ -9,7 +9,7 @@ use crate::{arg_err, lib_err};
 use numpy::PyArray2;
 use pyo3::prelude::*;
 use spherestep::io::planfile::read_plan;
-use spherestep::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges};
+use spherestep::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges, RowsFrom};
 use spherestep::planning::options::{LoopNames, LoopOptions};
 use spherestep::Cancel;
 use spherestep::{goal_of, LoopSettings, PairsPerStep, PlanRow, PlanSettings};
@@ -306,22 +306,11 @@ fn plan_rows(sc: &spherestep::Scenario, plan: &Bound<'_, PyAny>) -> PyResult<Vec
             format!("a Plan or the path of a plan file, got {}", shown(plan)),
         ));
     };
-    for (k, r) in rows.iter().enumerate() {
-        sc.check_active(&r.active, "active").map_err(|e| {
-            let e = match &file {
-                Some(f) => spherestep::Error::Row {
-                    file: f.clone(),
-                    line: k + 2,
-                    message: format!("{e} (in scenario {})", sc.path.display()),
-                },
-                None => spherestep::Error::Arg {
-                    arg: format!("plan (step {k})"),
-                    expected: format!("{e} (in scenario {})", sc.path.display()),
-                },
-            };
-            lib_err(e)
-        })?;
-    }
+    let from = match &file {
+        Some(f) => RowsFrom::File(f),
+        None => RowsFrom::Argument("plan"),
+    };
+    sc.check_plan_pairs(&rows, from).map_err(lib_err)?;
     Ok(rows)
 }
 

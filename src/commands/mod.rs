@@ -14,7 +14,7 @@ use crate::error::{printable, Error, Result};
 use crate::io::output::emit_csv;
 use crate::io::pairs::parse_pairs;
 use crate::io::planfile::{read_plan, write_plan};
-use crate::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges, Scenario};
+use crate::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges, RowsFrom, Scenario};
 use crate::io::table::write_csv;
 use crate::model::geometry::{xyzw, Orientation, Pair};
 use crate::model::packing::{self, points_csv};
@@ -415,15 +415,7 @@ pub fn simulate_plan(sc: &Scenario, plan_path: &Path) -> Result<Vec<SimRow>> {
 /// Checks the pairs of a plan read from `plan_path` against the scenario it is played in: an
 /// error names the plan's line and the scenario.
 pub fn check_plan_pairs(sc: &Scenario, rows: &[PlanRow], plan_path: &Path) -> Result<()> {
-    for (k, r) in rows.iter().enumerate() {
-        sc.check_active(&r.active, "active")
-            .map_err(|e| Error::Row {
-                file: plan_path.to_path_buf(),
-                line: k + 2,
-                message: format!("{e} (in scenario {})", sc.path.display()),
-            })?;
-    }
-    Ok(())
+    sc.check_plan_pairs(rows, RowsFrom::File(plan_path))
 }
 
 /// Reads the plan at `plan_path` made for `sc`, checks its pairs against it and replays it in

@@ -1,13 +1,15 @@
-//! A front end's changes to a scenario's `[plan]` settings (the command line's options, the
-//! Python arguments), applied and checked in one place for every front end: a refusal names
-//! the change as the front end calls it ([`ChangeNames`]), never a name of its own.
+//! What a front end brings to a scenario, checked in one place for every front end (the
+//! command line's options, the Python arguments): changes to its `[plan]` settings (a refusal
+//! names the change as the front end calls it, [`ChangeNames`]), and a plan's pairs, from a
+//! file or an argument ([`RowsFrom`]).
 
 use super::{check_pairs_per_step, check_supply, default_pairs_per_step, Scenario};
 use crate::error::{Error, Result};
 use crate::model::geometry::{Orientation, UnitVec};
 use crate::planning::commutation::{PairsPerStep, StepModel};
-use crate::planning::plan::{target_angle, turn_to};
+use crate::planning::plan::{target_angle, turn_to, PlanRow};
 use crate::planning::planner::{PlanSettings, Scheme};
+use std::path::Path;
 
 /// The changes asked for, each already read as its type by the front end (`None` keeps the
 /// scenario's value); the scheme and the model by name, as a user gives them.
@@ -36,7 +38,37 @@ pub struct ChangeNames {
     pub to: &'static str,
 }
 
+/// Where a plan's rows came from, for the refusal of a pair the scenario does not have: a plan
+/// file (the refusal names its line), or a front end's argument (named with the step).
+#[derive(Debug, Clone, Copy)]
+pub enum RowsFrom<'a> {
+    File(&'a Path),
+    Argument(&'a str),
+}
+
 impl Scenario {
+    /// Checks the pairs of a plan's `rows` against the scenario it is played in: a refusal
+    /// names where the rows came from and the scenario.
+    pub fn check_plan_pairs(&self, rows: &[PlanRow], from: RowsFrom<'_>) -> Result<()> {
+        for (k, r) in rows.iter().enumerate() {
+            self.check_active(&r.active, "active").map_err(|e| {
+                let message = format!("{e} (in scenario {})", self.path.display());
+                match from {
+                    RowsFrom::File(file) => Error::Row {
+                        file: file.to_path_buf(),
+                        line: k + 2,
+                        message,
+                    },
+                    RowsFrom::Argument(name) => Error::Arg {
+                        arg: format!("{name} (step {k})"),
+                        expected: message,
+                    },
+                }
+            })?;
+        }
+        Ok(())
+    }
+
     /// The scenario's `[plan]` settings with `changes` made, each checked as the scenario's own
     /// value is: a scheme or model by its name, the pairs per step against the model and the
     /// supply, a target orientation not with an axis or an angle. A refusal is
@@ -194,5 +226,50 @@ mod tests {
         assert_eq!(s.model, StepModel::Coils);
         assert_eq!(s.pairs, default_pairs_per_step(StepModel::Coils));
         assert_eq!(s.target, Some(turn * start));
+    }
+
+    #[test]
+    fn a_plans_pair_the_scenario_lacks_is_refused_where_the_rows_came_from() {
+        use crate::model::geometry::{CoilId, MagnetId, Pair};
+        let row = |step: usize, coil: usize| PlanRow {
+            step,
+            pivot: None,
+            new: Vec::new(),
+            active: vec![Pair {
+                coil: CoilId(coil),
+                magnet: MagnetId(3),
+            }],
+            q: UnitQuaternion::identity(),
+            step_angle_deg: 0.0,
+            step_axis_error_deg: 0.0,
+            cum_angle_deg: 0.0,
+            cum_axis_error_deg: 0.0,
+            settle_time_s: 0.0,
+            settled: true,
+        };
+        let sc = Scenario::prototype();
+        let rows = [row(0, 1), row(1, 99)];
+        let file = Path::new("p.csv");
+        match sc.check_plan_pairs(&rows, RowsFrom::File(file)) {
+            Err(Error::Row {
+                file,
+                line,
+                message,
+            }) => {
+                assert_eq!((file.as_path(), line), (Path::new("p.csv"), 3));
+                assert!(
+                    message.contains("(in scenario <built-in prototype>)"),
+                    "{message}"
+                );
+            }
+            other => panic!("{other:?}"),
+        }
+        match sc.check_plan_pairs(&rows, RowsFrom::Argument("plan")) {
+            Err(Error::Arg { arg, .. }) => assert_eq!(arg, "plan (step 1)"),
+            other => panic!("{other:?}"),
+        }
+        assert!(sc
+            .check_plan_pairs(&rows[..1], RowsFrom::Argument("plan"))
+            .is_ok());
     }
 }
