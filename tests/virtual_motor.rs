@@ -238,6 +238,14 @@ fn rehearse_at(
     args.extend_from_slice(extra);
     let mut v = spawn(&args);
     let ports = v.until("ready:");
+    // the replay it suggests names the plan it rehearses, when one was given
+    let given = extra
+        .iter()
+        .position(|a| *a == "--plan")
+        .map(|i| extra[i + 1]);
+    let ready = ports.last().map_or("", String::as_str);
+    let suggested = format!("spherestep replay {} ", given.unwrap_or("PLAN.csv"));
+    assert!(ready.contains(&suggested), "{ready}");
     let boards = ports.iter().filter(|l| l.starts_with("board ")).count();
     let mut r: Vec<String> = vec![
         "replay".into(),

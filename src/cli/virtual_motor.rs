@@ -125,8 +125,13 @@ impl Args {
                 _ => String::new(),
             };
             let board = o.board.map(|b| format!(" --board {b}")).unwrap_or_default();
+            // the plan being rehearsed, when it was given; else the user's own
+            let plan = o
+                .plan
+                .as_ref()
+                .map_or("PLAN.csv".to_string(), |p| p.display().to_string());
             text.push_str(&format!(
-                "ready: in another terminal, spherestep replay PLAN.csv {}{board} {}{sensor}\n",
+                "ready: in another terminal, spherestep replay {plan} {}{board} {}{sensor}\n",
                 o.plant.display(),
                 board_args.join(" ")
             ));
