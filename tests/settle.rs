@@ -6,7 +6,7 @@ use common::{identity, nearest_magnet};
 use nalgebra::{UnitQuaternion, Vector3};
 use spherestep::io::scenario::Scenario;
 use spherestep::model::geometry::{angular_distance, rot_q, unit, Pair, Radians, UnitVec};
-use spherestep::physics::dynamics::{settle, settle_many, settle_traced, State};
+use spherestep::physics::dynamics::{orientation_of, settle, settle_many, settle_traced, State};
 use spherestep::physics::torque::{Interaction, MagnetTorques, TorqueModel, WellShape};
 
 fn proto() -> Scenario {
@@ -76,7 +76,7 @@ fn total_energy_never_rises_with_damping() {
     assert!(r.settled);
     assert!(trace.len() > 10);
     let energy = |y: &State| {
-        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(y[3], y[0], y[1], y[2]));
+        let q = orientation_of(y.as_slice());
         let w = Vector3::new(y[4], y[5], y[6]);
         let (_, u) = sc
             .torques
@@ -341,11 +341,7 @@ fn the_arrival_is_when_the_ball_stays_within_its_angle_of_the_rest() {
         let mut trace: Vec<(f64, State)> = Vec::new();
         let reference = s.settle.reference();
         settle_traced(&s.torques, set, from, s.body, reference, Some(&mut trace));
-        let at = |y: &State| {
-            let q =
-                UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(y[3], y[0], y[1], y[2]));
-            q.angle_to(&r.q)
-        };
+        let at = |y: &State| orientation_of(y.as_slice()).angle_to(&r.q);
         for (t, y) in trace.iter().filter(|(t, _)| *t >= r.arrival_time_s) {
             assert!(
                 at(y) <= p * 1.02,

@@ -281,7 +281,10 @@ fn loop_settings(
         max_steps,
         identify,
     };
-    o.check(&LOOP_ARGUMENT_NAMES).map_err(lib_err)?;
+    // the options' own refusals first, then the sensor's arguments without closed_loop
+    let settings = o
+        .settings(planned_steps, &LOOP_ARGUMENT_NAMES)
+        .map_err(lib_err)?;
     if !closed_loop && (noise_deg != 0.0 || seed.is_some() || max_steps.is_some() || !identify) {
         return Err(arg_err(
             "closed_loop",
@@ -289,8 +292,7 @@ fn loop_settings(
              --closed-loop: the open loop plays the plan as it is, measured without noise)",
         ));
     }
-    o.settings(planned_steps, &LOOP_ARGUMENT_NAMES)
-        .map_err(lib_err)
+    Ok(settings)
 }
 
 /// The rows to simulate: a `Plan` (made by a motor with these packings) or the path of a plan

@@ -302,18 +302,15 @@ pub const OPTION_NAMES: ChangeNames = ChangeNames {
 /// Applies command-line overrides to plan settings, checking each: the options read as their
 /// types here, the changes made and checked by [`Scenario::plan_with`].
 pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
+    let n = &OPTION_NAMES;
     let pairs = |k: &String| {
         parse_pairs_per_step(k).ok_or_else(|| Error::Arg {
-            arg: "--pairs".into(),
+            arg: n.pairs.into(),
             expected: format!("K (exactly K pairs per step) or 2-K (2 to K), got '{k}'"),
         })
     };
     let changes = PlanChanges {
-        axis: o
-            .axis
-            .as_ref()
-            .map(|a| parse_axis(a, "--axis"))
-            .transpose()?,
+        axis: o.axis.as_ref().map(|a| parse_axis(a, n.axis)).transpose()?,
         angle_deg: o.angle_deg,
         scheme: o.scheme.as_deref(),
         model: o.model.as_deref(),
@@ -321,15 +318,15 @@ pub fn plan_settings(sc: &Scenario, o: &PlanOverrides) -> Result<PlanSettings> {
         start: o
             .from
             .as_ref()
-            .map(|f| parse_orientation(f, "--from"))
+            .map(|f| parse_orientation(f, n.start))
             .transpose()?,
         to: o
             .to
             .as_ref()
-            .map(|t| parse_orientation(t, "--to"))
+            .map(|t| parse_orientation(t, n.to))
             .transpose()?,
     };
-    sc.plan_with(&changes, &OPTION_NAMES)
+    sc.plan_with(&changes, n)
 }
 
 /// `spherestep plan`: plans, writes the CSV (atomically) to `out_file` when asked and prints

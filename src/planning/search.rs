@@ -721,9 +721,7 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
 /// The search's expansion of `path`: the steps its step model proposes, none keeping on a coil
 /// that could not stay on through another step as long as the last ([`tired_coils`]).
 fn expand_fresh(src: &dyn StepSource, path: &Node, s: &PlanSettings) -> (usize, Vec<Step>) {
-    let last = path.rows.last().map_or(0.0, |r| r.settle_time_s);
-    let tired = tired_coils(path, s.limits.on_time, last);
-    src.expand(&path.frontier(&tired))
+    src.expand(&path.frontier(&tired_after_last(path, s)))
 }
 
 /// The search's best plan carried on by the landing (with the other complete plans it found,
@@ -915,8 +913,7 @@ fn expand_rested(
     s: &PlanSettings,
     budget: usize,
 ) -> (usize, Vec<Step>) {
-    let last = at.rows.last().map_or(0.0, |r| r.settle_time_s);
-    let mut avoid = tired_coils(at, s.limits.on_time, last);
+    let mut avoid = tired_after_last(at, s);
     let (mut spent, mut steps) = (0usize, Vec::new());
     loop {
         let (settles, found) = src.expand_towards(&at.frontier(&avoid), goal);
@@ -942,6 +939,12 @@ fn expand_rested(
         avoid = more;
     }
     (spent, steps)
+}
+
+/// [`tired_coils`] for a next step as long as `p`'s last.
+fn tired_after_last(p: &Node, s: &PlanSettings) -> Vec<CoilId> {
+    let last = p.rows.last().map_or(0.0, |r| r.settle_time_s);
+    tired_coils(p, s.limits.on_time, last)
 }
 
 /// The coils on at the end of `p` that could not stay on for another step that settles in

@@ -25,10 +25,11 @@
 //! last row matched on); a coil no row names pulls the magnet nearest it when it goes on.
 
 use crate::model::geometry::{CoilId, MagnetId, Orientation, Pair};
-use crate::physics::dynamics::{settle, Body, RotorDynamics, SettleParams, SettleResult};
+use crate::physics::dynamics::{
+    orientation_of, settle, Body, RotorDynamics, SettleParams, SettleResult,
+};
 use crate::physics::integrator::{integrate_until, Tolerances, Verdict};
 use crate::physics::torque::MagnetTorques;
-use nalgebra::{Quaternion, UnitQuaternion};
 use std::collections::BTreeSet;
 
 /// The integrator's tolerances for the real-time motion: tight enough that the ball comes to
@@ -286,11 +287,6 @@ impl Ball {
 fn state_at_rest(q: &Orientation) -> [f64; 7] {
     let c = q.quaternion();
     [c.i, c.j, c.k, c.w, 0.0, 0.0, 0.0]
-}
-
-/// The orientation held in a state (normalised).
-fn orientation_of(y: &[f64; 7]) -> Orientation {
-    UnitQuaternion::from_quaternion(Quaternion::new(y[3], y[0], y[1], y[2]))
 }
 
 #[cfg(test)]

@@ -353,7 +353,7 @@ fn arrival_on(steps: &[(f64, State)], r: &SettleResult, arrival: Radians) -> f64
     }
     let near = |i: usize| {
         let (t, y) = &steps[i];
-        let q = UnitQuaternion::from_quaternion(Quaternion::new(y[3], y[0], y[1], y[2]));
+        let q = orientation_of(y.as_slice());
         let rate = |y: &State| Vector3::new(y[4], y[5], y[6]).norm();
         let drift = steps
             .get(i + 1)
@@ -381,6 +381,11 @@ fn hermite_weights(s: f64) -> [f64; 4] {
     ]
 }
 
+/// The orientation held in a state `[qx, qy, qz, qw, wx, wy, wz]` (normalised).
+pub fn orientation_of(y: &[f64]) -> Orientation {
+    UnitQuaternion::from_quaternion(Quaternion::new(y[3], y[0], y[1], y[2]))
+}
+
 /// The result of a settle that stopped at `y` at time `t`, for `stop`.
 fn finish<M: TorqueModel>(
     model: &M,
@@ -391,7 +396,7 @@ fn finish<M: TorqueModel>(
     steps: u32,
     stop: Stop,
 ) -> SettleResult {
-    let q = UnitQuaternion::from_quaternion(Quaternion::new(y[3], y[0], y[1], y[2]));
+    let q = orientation_of(y);
     let r = q.to_rotation_matrix();
     let (tau, energy) = model.torque_energy(r.matrix(), active);
     let residual = tau.norm();
