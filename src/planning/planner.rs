@@ -28,8 +28,10 @@ pub use crate::planning::plan::{
 /// Plans a motion, with the settings' step model. With a target orientation
 /// ([`PlanSettings::target`]) the motion is planned twice: as asked (the turn from the start),
 /// and again from where the first plan's initial commutation leaves the ball, aimed at the
-/// target from there ([`replanned_from_row0`]); the plan kept is the one that reaches its
-/// angle, nearer the target (the first on a tie), with the settles of both.
+/// target from there ([`replanned_from_row0`]); the plan kept is the one that reaches the
+/// target, of two that do the one that strays less from the straight way (its worst path
+/// deviation), of two that do not the one that ends nearer (the first on a tie), with the
+/// settles of both.
 pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
     let p = plan_with(motor, s, None);
     let Some(goal) = s.target else {
@@ -40,8 +42,10 @@ pub fn plan(motor: &Motor, s: &PlanSettings) -> Plan {
     };
     let settles = p.settles + again.settles;
     let end = |p: &Plan| p.rows.last().map_or(f64::INFINITY, |r| r.q.angle_to(&goal));
+    let strays = |p: &Plan| crate::planning::plan::max_path_deviation_deg(s, &p.rows);
     let better = match (again.reached, p.reached) {
         (a, b) if a != b => a,
+        (true, true) => strays(&again) < strays(&p) - 1e-9,
         _ => end(&again) < end(&p) - 1e-12,
     };
     let mut kept = if better { again } else { p };

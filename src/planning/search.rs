@@ -10,7 +10,7 @@ use crate::planning::commutation::{
 };
 use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
 use crate::planning::plan::PlanRow;
-use crate::planning::plan::{max_axis_error_deg, Plan, PlanSettings, Scheme};
+use crate::planning::plan::{Plan, PlanSettings, Scheme};
 use rayon::prelude::*;
 
 /// Where a partial plan stands, as a step model needs it to rank the steps it proposes.
@@ -149,7 +149,7 @@ impl Node {
         Ok(Node {
             rows,
             state: step.to.clone(),
-            worst: self.worst.max(ce.0).max(departure(&step.to.q, q0, s)),
+            worst: self.worst.max(strayed(&step.to.q, q0, ce.0, s)),
             cum: ca.0,
             on,
         })
@@ -531,7 +531,7 @@ pub fn predicted_rank(at: &Frontier, qp: &Orientation, s: &PlanSettings) -> Opti
     }
     let (ca, ce) = cumulative_from(&at.q0, qp, &s.axis, at.cum);
     Some(rank(
-        at.worst.max(ce.0).max(departure(qp, &at.q0, s)),
+        at.worst.max(strayed(qp, &at.q0, ce.0, s)),
         ca.0,
         s.angle.0,
     ))
@@ -547,8 +547,22 @@ pub fn departure(q: &Orientation, q0: &Orientation, s: &PlanSettings) -> f64 {
     if s.model == StepModel::Pivot {
         return 0.0;
     }
-    let goal = rot_q(&s.axis, s.angle) * q0;
+    let goal = s.target.unwrap_or_else(|| rot_q(&s.axis, s.angle) * q0);
     distance_to_geodesic(q, q0, &goal).0
+}
+
+/// How far a partial plan at `q` has strayed (rad), from its row 0 at `q0`, its cumulative
+/// axis error `ce`: the worst of the axis error and the [`departure`], for a turn; the departure
+/// alone for a motion to a target orientation (`plan --to`), whose axis is the turn from the
+/// start, which the initial commutation has already left (its axis error says how the plan's
+/// row 0 differs from the start, not how the ball strays); the axis error alone for the pivot
+/// model (the paper's measure).
+fn strayed(q: &Orientation, q0: &Orientation, ce: f64, s: &PlanSettings) -> f64 {
+    match (s.model, s.target) {
+        (StepModel::Pivot, _) => ce,
+        (_, Some(_)) => departure(q, q0, s),
+        (_, None) => ce.max(departure(q, q0, s)),
+    }
 }
 
 /// An entry of the best-first search's open list: rank, then arrival order.
@@ -969,8 +983,8 @@ fn node_of(rows: &[PlanRow], s: &PlanSettings, before: Option<&OnTimes<CoilId>>)
         on: on_times_of(rows, s.limits.on_time, before),
         rows: rows.to_vec(),
         worst: (rows.iter())
-            .map(|r| departure(&r.q, &rows[0].q, s))
-            .fold(max_axis_error_deg(rows).to_radians(), f64::max),
+            .map(|r| strayed(&r.q, &rows[0].q, r.cum_axis_error_deg.to_radians(), s))
+            .fold(0.0, f64::max),
         cum: last.cum_angle_deg.to_radians(),
     }
 }
