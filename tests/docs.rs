@@ -438,3 +438,91 @@ fn the_main_job_prints_what_the_readme_shows() {
         shown.line
     );
 }
+
+/// The relative `src="..."` and `href="..."` targets of an HTML page (no scheme, no page-local
+/// `#anchor`, no `mailto:`), without their `#fragment` or `?query`.
+fn html_targets(html: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for attr in ["src=\"", "href=\""] {
+        let mut rest = html;
+        while let Some(i) = rest.find(attr) {
+            rest = &rest[i + attr.len()..];
+            let Some(end) = rest.find('"') else { break };
+            let t = &rest[..end];
+            let local = !(t.is_empty()
+                || t.contains("://")
+                || t.starts_with('#')
+                || t.starts_with("mailto:")
+                || t.starts_with("data:")
+                || t.starts_with("javascript:"));
+            if local {
+                let t = t.split(['#', '?']).next().unwrap_or(t);
+                if !t.is_empty() {
+                    out.push(t.to_string());
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The book as mdbook builds it (pictures and files outside `docs/` copied in by
+/// `docs/outside.py`): every picture and every relative link of every page resolves to a file
+/// of the built book. Skipped, saying so, where mdbook is not installed (`.ci/run` installs it).
+#[test]
+fn the_built_book_shows_every_picture_and_resolves_every_link() {
+    let installed = Command::new("mdbook").arg("--version").output();
+    if !installed.is_ok_and(|o| o.status.success()) {
+        eprintln!("skipped: mdbook is not installed (cargo install mdbook)");
+        return;
+    }
+    // built where `mdbook build docs` puts it (docs/book, ignored by git): a build elsewhere
+    // would copy that folder in as the book's own files
+    let built = Command::new("mdbook")
+        .arg("build")
+        .arg(Path::new(ROOT).join("docs"))
+        .output()
+        .unwrap();
+    let out = Path::new(ROOT).join("docs/book");
+    assert!(
+        built.status.success(),
+        "{}",
+        String::from_utf8_lossy(&built.stderr)
+    );
+    let mut pages = Vec::new();
+    let mut dirs = vec![out.clone()];
+    while let Some(d) = dirs.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                dirs.push(p);
+            } else if p.extension().is_some_and(|x| x == "html") {
+                pages.push(p);
+            }
+        }
+    }
+    pages.sort();
+    // every chapter of the summary is a page
+    assert!(pages.len() > 30, "{} pages", pages.len());
+    let mut dead = Vec::new();
+    let mut images = 0;
+    for page in &pages {
+        let html = std::fs::read_to_string(page).unwrap();
+        images += html.matches("<img src=\"").count();
+        let dir = page.parent().unwrap();
+        for t in html_targets(&html) {
+            if !dir.join(&t).exists() {
+                let at = page.strip_prefix(&out).unwrap().display().to_string();
+                dead.push(format!("{at}: {t}"));
+            }
+        }
+    }
+    assert!(
+        dead.is_empty(),
+        "dead links in the built book:\n{}",
+        dead.join("\n")
+    );
+    // the pictures the chapters show are in it (results/ among them)
+    assert!(images >= 13, "{images} pictures");
+    assert!(out.join("_outside/results").is_dir());
+}
