@@ -10,6 +10,9 @@ A ball rotor carrying permanent magnets, turned by switching the electromagnets 
     plan = motor.plan(axis=(0, 1, 0), angle=90)
     plan.cum_axis_error_deg, plan.summary, plan.to_csv("plan.csv")
     sim = motor.simulate(plan)
+    plan.to_pandas()                          # or to_dict(); a notebook shows plan as a table
+    q = spherestep.quat_from_axis_angle((0, 0, 1), 30)
+    spherestep.angle_between(plan.q[0], plan.q[-1])
 
 Conventions (frames, quaternions [qx, qy, qz, qw] body to world, degrees, SI units): the
 repository's docs/model.md; this package: docs/python.md. Every error is a
@@ -26,6 +29,8 @@ from ._spherestep import (
     SettleTable,
     Simulation,
     Wells,
+    angle_between,
+    quat_from_axis_angle,
 )
 
 __all__ = [
@@ -38,5 +43,7 @@ __all__ = [
     "SettleTable",
     "Simulation",
     "Wells",
+    "angle_between",
+    "quat_from_axis_angle",
 ]
 __version__ = "0.1.0"

@@ -22,6 +22,8 @@ __all__ = [
     "SettleTable",
     "Simulation",
     "Wells",
+    "angle_between",
+    "quat_from_axis_angle",
 ]
 
 _Pair = Tuple[int, int]
@@ -33,6 +35,9 @@ _Quaternion = Union[Sequence[float], npt.NDArray[np.floating]]
 #: Three numbers x, y, z: a sequence or an array of shape (3,).
 _Vector = Union[Sequence[float], npt.NDArray[np.floating]]
 _PathLike = Union[str, os.PathLike[str]]
+#: Orientations for settle_many: one for all the sets, or one per set (a sequence of them, or
+#: an array of shape (sets, 4)).
+_Starts = Union[_Quaternion, Sequence[_Quaternion], npt.NDArray[np.floating]]
 
 class Error(ValueError):
     """An error of spherestep, with the library's message (file, field or argument, and what
@@ -59,8 +64,9 @@ class Scenario:
     @property
     def description(self) -> str: ...
     @property
-    def path(self) -> pathlib.Path:
-        """The file it was read from (`<built-in prototype>` for the prototype)."""
+    def path(self) -> Optional[pathlib.Path]:
+        """The file it was read from (or from_toml's `path`, "<string>" by default); None for
+        the built-in prototype, which comes from no file."""
     @property
     def rotor(self) -> npt.NDArray[np.float64]:
         """The magnets' unit vectors (body frame), shape (magnets, 3)."""
@@ -83,11 +89,14 @@ class Motor:
     def settle_many(
         self,
         sets: Sequence[_Pairs],
-        q0: Optional[_Quaternion] = None,
+        q0: Optional[_Starts] = None,
         threads: Optional[int] = None,
     ) -> SettleTable:
-        """Settles each set from q0 in parallel (threads: default one per core); the same
-        results, in the sets' order, on any number of threads."""
+        """Settles each set in parallel (threads: default one per core); the same results, in
+        the sets' order, on any number of threads. q0: one start for all the sets (default
+        identity), or one per set (as many orientations as sets, or an array of shape
+        (sets, 4)): set k from q0[k], as settle(sets[k], q0[k]). Error (a ValueError) naming
+        q0 if the number of starts is not the number of sets."""
     def plan(
         self,
         axis: Optional[_Vector] = None,
@@ -177,14 +186,27 @@ class SettleTable:
     outcome: list[str]
     held: list[list[_Pair]]
     active: list[list[_Pair]]
-    def __len__(self) -> int: ...
+    def __len__(self) -> int:
+        """The number of sets (rows)."""
+    def to_dict(self) -> dict[str, list[Any]]:
+        """The columns as {name: list}, one item per row: active, qx, qy, qz, qw, settle_time_s,
+        evaluations, steps, energy_j, residual_torque_nm, settled, outcome, held."""
+    def to_pandas(self) -> Any:
+        """The columns of to_dict as a pandas.DataFrame (numbers keep their dtypes: int64,
+        float64, bool). pandas is imported only here; ImportError ("pip install pandas") if it
+        is missing."""
+    def _repr_html_(self) -> str:
+        """An HTML table of the rows (what Jupyter shows), its texts escaped; the repr as its
+        caption; more than 60 rows: the first and last 20."""
 
 @final
 class Plan:
-    """A plan's rows as numpy columns (row 0: the initial commutation state)."""
+    """A plan's rows as numpy columns (row 0: the initial commutation state, then one row per
+    step: len(plan) is summary["steps"] + 1, as the repr says)."""
 
     @property
-    def step(self) -> npt.NDArray[np.uint64]: ...
+    def step(self) -> npt.NDArray[np.int64]:
+        """0 (the initial commutation), 1, 2, ...: signed, so step - 1 is -1 at row 0."""
     @property
     def pivot(self) -> list[Optional[_Pair]]: ...
     @property
@@ -218,12 +240,27 @@ class Plan:
     def csv(self) -> str:
         """The plan CSV, byte for byte what `spherestep plan --out` writes."""
     def to_csv(self, path: _PathLike) -> None: ...
-    def __len__(self) -> int: ...
+    def __len__(self) -> int:
+        """The number of rows: the steps and row 0, the initial commutation."""
+    def to_dict(self) -> dict[str, list[Any]]:
+        """The columns as {name: list}, one item per row: step, pivot, new, active, qx, qy, qz,
+        qw, step_angle_deg, step_axis_error_deg, cum_angle_deg, cum_axis_error_deg,
+        settle_time_s, settled."""
+    def to_pandas(self) -> Any:
+        """The columns of to_dict as a pandas.DataFrame (numbers keep their dtypes: int64,
+        float64, bool). pandas is imported only here; ImportError ("pip install pandas") if it
+        is missing."""
+    def _repr_html_(self) -> str:
+        """An HTML table of the rows (what Jupyter shows), its texts escaped; the repr as its
+        caption; more than 60 rows: the first and last 20."""
 
 @final
 class Simulation:
+    """A plan replayed through the dynamics, one row per plan row."""
+
     @property
-    def step(self) -> npt.NDArray[np.uint64]: ...
+    def step(self) -> npt.NDArray[np.int64]:
+        """The plan's step numbers (signed)."""
     @property
     def q(self) -> npt.NDArray[np.float64]: ...
     @property
@@ -235,7 +272,18 @@ class Simulation:
     @property
     def summary(self) -> dict[str, Any]: ...
     def csv(self) -> str: ...
-    def __len__(self) -> int: ...
+    def __len__(self) -> int:
+        """The number of rows: the steps and row 0, the initial commutation."""
+    def to_dict(self) -> dict[str, list[Any]]:
+        """The columns as {name: list}, one item per row: step, qx, qy, qz, qw, deviation_deg,
+        settled, settle_time_s."""
+    def to_pandas(self) -> Any:
+        """The columns of to_dict as a pandas.DataFrame (numbers keep their dtypes: int64,
+        float64, bool). pandas is imported only here; ImportError ("pip install pandas") if it
+        is missing."""
+    def _repr_html_(self) -> str:
+        """An HTML table of the rows (what Jupyter shows), its texts escaped; the repr as its
+        caption; more than 60 rows: the first and last 20."""
 
 @final
 class Wells:
@@ -246,12 +294,23 @@ class Wells:
     @property
     def summary(self) -> dict[str, Any]: ...
     def csv(self) -> str: ...
-    def __len__(self) -> int: ...
+    def __len__(self) -> int:
+        """The number of angles (rows)."""
+    def to_dict(self) -> dict[str, list[Any]]:
+        """The columns as {name: list}, one item per row: angle_deg, torque_nm."""
+    def to_pandas(self) -> Any:
+        """The columns of to_dict as a pandas.DataFrame (numbers keep their dtypes: int64,
+        float64, bool). pandas is imported only here; ImportError ("pip install pandas") if it
+        is missing."""
+    def _repr_html_(self) -> str:
+        """An HTML table of the rows (what Jupyter shows), its texts escaped; the repr as its
+        caption; more than 60 rows: the first and last 20."""
 
 @final
 class Run:
     @property
-    def step(self) -> npt.NDArray[np.uint64]: ...
+    def step(self) -> npt.NDArray[np.int64]:
+        """The step numbers, 0 the initial commutation state (signed)."""
     @property
     def active(self) -> list[list[_Pair]]: ...
     @property
@@ -276,4 +335,28 @@ class Run:
     def summary(self) -> dict[str, Any]:
         """The keys of `spherestep run --json`."""
     def csv(self) -> str: ...
-    def __len__(self) -> int: ...
+    def __len__(self) -> int:
+        """The number of rows: the steps played and row 0, the initial commutation."""
+    def to_dict(self) -> dict[str, list[Any]]:
+        """The columns as {name: list}, one item per row: step, active, replanned, planned_qx,
+        planned_qy, planned_qz, planned_qw, measured_qx .. measured_qw, true_qx .. true_qw,
+        cum_angle_deg, cum_axis_error_deg, error_to_goal_deg, settled, settle_time_s."""
+    def to_pandas(self) -> Any:
+        """The columns of to_dict as a pandas.DataFrame (numbers keep their dtypes: int64,
+        float64, bool). pandas is imported only here; ImportError ("pip install pandas") if it
+        is missing."""
+    def _repr_html_(self) -> str:
+        """An HTML table of the rows (what Jupyter shows), its texts escaped; the repr as its
+        caption; more than 60 rows: the first and last 20."""
+
+def quat_from_axis_angle(axis: _Vector, angle_deg: float) -> Tuple[float, float, float, float]:
+    """The orientation reached by turning angle_deg degrees about axis (x, y, z, any non-zero
+    length; right-handed) from the identity, as (qx, qy, qz, qw) with qw >= 0 like every
+    orientation the package returns (a turn of more than 180 degrees gives the same
+    orientation as the shorter turn the other way). Error (a ValueError) for a zero or
+    non-finite axis or angle."""
+
+def angle_between(q1: _Quaternion, q2: _Quaternion) -> float:
+    """The angle between two orientations [qx, qy, qz, qw] (normalised here), degrees in
+    [0, 180]: the rotation angle of the turn from one to the other (q and -q are the same
+    orientation). Error (a ValueError) for a zero or non-finite quaternion."""

@@ -10,6 +10,8 @@
 mod convert;
 mod motor;
 mod results;
+mod rotations;
+mod table;
 
 use pyo3::prelude::*;
 
@@ -45,6 +47,8 @@ mod module {
     use super::motor::{Motor, Scenario};
     #[pymodule_export]
     use super::results::{Plan, Run, SettleResult, SettleTable, Simulation, Wells};
+    #[pymodule_export]
+    use super::rotations::{angle_between, quat_from_axis_angle};
     #[pymodule_export]
     use super::Error;
 }

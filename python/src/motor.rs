@@ -73,10 +73,11 @@ impl Scenario {
         &self.sc.description
     }
 
-    /// The file it was read from (`<built-in prototype>`, or the `path` of `from_toml`).
+    /// The file it was read from (or the `path` of `from_toml`); None for the built-in
+    /// prototype, which comes from no file.
     #[getter]
-    fn path(&self) -> PathBuf {
-        self.sc.path.clone()
+    fn path(&self) -> Option<PathBuf> {
+        self.file().cloned()
     }
 
     /// Where the rotor's magnets are: unit vectors in the body frame, shape `(magnets, 3)`.
@@ -93,13 +94,94 @@ impl Scenario {
 
     fn __repr__(&self) -> String {
         format!(
-            "Scenario(name={:?}, path={:?}, magnets={}, coils={})",
+            "Scenario(name={:?}, path={}, magnets={}, coils={})",
             self.sc.name,
-            self.sc.path.display().to_string(),
+            match self.file() {
+                Some(p) => format!("{:?}", p.display().to_string()),
+                None => "None".into(),
+            },
             self.sc.rotor.len(),
             self.sc.stator.len()
         )
     }
+}
+
+/// The path the library gives the built-in prototype (`spherestep::Scenario::prototype`).
+const PROTOTYPE_PATH: &str = "<built-in prototype>";
+
+impl Scenario {
+    /// The scenario's file, or None for the built-in prototype.
+    fn file(&self) -> Option<&PathBuf> {
+        Some(&self.sc.path).filter(|p| p.as_os_str() != PROTOTYPE_PATH)
+    }
+}
+
+/// The starts of `settle_many`: one for every set, or one per set.
+enum Starts {
+    One(spherestep::Orientation),
+    PerSet(Vec<spherestep::Orientation>),
+}
+
+/// Whether `q0` is meant as one start per set: a 2-d array, or a sequence whose first item is
+/// itself a sequence (not text); one start is 4 numbers.
+fn one_per_set(q0: &Bound<'_, PyAny>) -> bool {
+    if let Ok(a) = q0.cast::<numpy::PyUntypedArray>() {
+        use numpy::PyUntypedArrayMethods;
+        return a.ndim() == 2;
+    }
+    if q0.is_instance_of::<pyo3::types::PyString>() {
+        return false;
+    }
+    let Ok(mut items) = q0.try_iter() else {
+        return false;
+    };
+    match items.next() {
+        Some(Ok(first)) => {
+            !first.is_instance_of::<pyo3::types::PyString>()
+                && (first.try_iter().is_ok() || first.cast::<numpy::PyUntypedArray>().is_ok())
+        }
+        _ => false,
+    }
+}
+
+/// `settle_many`'s `q0` for `n` sets: None (the identity for all), one orientation for all,
+/// or a sequence of `n` orientations (an array of shape `(n, 4)` too), one per set.
+fn starts(q0: Option<&Bound<'_, PyAny>>, n: usize) -> PyResult<Starts> {
+    let q0 = match q0 {
+        Some(q) if !q.is_none() => q,
+        _ => return Ok(Starts::One(spherestep::Orientation::identity())),
+    };
+    if !one_per_set(q0) {
+        return Ok(Starts::One(convert::orientation(q0, "q0")?));
+    }
+    if let Ok(a) = q0.cast::<numpy::PyUntypedArray>() {
+        use numpy::PyUntypedArrayMethods;
+        if a.shape()[1] != 4 {
+            return Err(arg_err(
+                "q0",
+                format!(
+                    "one start qx,qy,qz,qw for all the sets, or an array of shape ({n}, 4), \
+                     one start per set, got an array of shape ({}, {})",
+                    a.shape()[0],
+                    a.shape()[1]
+                ),
+            ));
+        }
+    }
+    let mut out = Vec::new();
+    for (k, q) in q0.try_iter()?.enumerate() {
+        out.push(convert::orientation(&q?, &format!("q0[{k}]"))?);
+    }
+    if out.len() != n {
+        return Err(arg_err(
+            "q0",
+            format!(
+                "one start for all the sets, or one start per set ({n} sets), got {} starts",
+                out.len()
+            ),
+        ));
+    }
+    Ok(Starts::PerSet(out))
 }
 
 /// A scenario's motor: its torques, body and settle parameters. Its methods are the library's
@@ -254,6 +336,27 @@ fn interruptible<T: Send>(
 /// The most worker threads `settle_many` starts (a pool of its own for the call).
 const MAX_THREADS: i64 = 1024;
 
+/// `settle_many`'s pool of `threads` worker threads (None: rayon's global pool, one per core).
+fn thread_pool(threads: Option<i64>) -> PyResult<Option<rayon::ThreadPool>> {
+    match threads {
+        None => Ok(None),
+        Some(n) if !(1..=MAX_THREADS).contains(&n) => Err(arg_err(
+            "threads",
+            format!("at least 1 and at most {MAX_THREADS} worker threads, got {n}"),
+        )),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n as usize)
+            .build()
+            .map(Some)
+            .map_err(|source| {
+                lib_err(spherestep::Error::Threads {
+                    threads: n as usize,
+                    source,
+                })
+            }),
+    }
+}
+
 /// The sensor noise's seed when none is given (the command line's `--seed` default).
 const DEFAULT_SEED: u64 = 1;
 
@@ -335,8 +438,11 @@ impl Motor {
 
     /// Settles each of `sets` (each an active set as `settle` takes it) from `q0`, in
     /// parallel with the GIL released, on `threads` worker threads (default: one per core);
-    /// the results in the sets' order, the same on any number of threads. The results are
-    /// columns: numpy arrays with one row per set.
+    /// the results in the sets' order, the same on any number of threads. `q0` is one start
+    /// for all the sets (`[qx, qy, qz, qw]`, default identity) or one start per set (a
+    /// sequence of as many orientations as sets, or an array of shape `(sets, 4)`): set k from
+    /// `q0[k]`, as `settle(sets[k], q0[k])`. The results are columns: numpy arrays with one
+    /// row per set.
     #[pyo3(signature = (sets, q0 = None, threads = None))]
     fn settle_many(
         &self,
@@ -364,27 +470,8 @@ impl Motor {
         for (k, set) in items.enumerate() {
             list.push(self.active(&set?, &format!("sets[{k}]"))?);
         }
-        let q0 = convert::orientation_or_identity(q0, "q0")?;
-        let pool = match threads {
-            None => None,
-            Some(n) if !(1..=MAX_THREADS).contains(&n) => {
-                return Err(arg_err(
-                    "threads",
-                    format!("at least 1 and at most {MAX_THREADS} worker threads, got {n}"),
-                ))
-            }
-            Some(n) => Some(
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(n as usize)
-                    .build()
-                    .map_err(|source| {
-                        lib_err(spherestep::Error::Threads {
-                            threads: n as usize,
-                            source,
-                        })
-                    })?,
-            ),
-        };
+        let q0 = starts(q0, list.len())?;
+        let pool = thread_pool(threads)?;
         let sc = &self.sc;
         let cancel = Cancel::new();
         let (rs, holding) = interruptible(py, &cancel, || {
@@ -392,11 +479,25 @@ impl Motor {
             // the same results however the sets are cut).
             let work = || {
                 let mut rs = Vec::with_capacity(list.len());
-                for chunk in list.chunks(SETTLE_CHUNK) {
+                for (k, chunk) in list.chunks(SETTLE_CHUNK).enumerate() {
                     if cancel.is_cancelled() {
                         break;
                     }
-                    rs.extend(self.motor.settle_many(chunk, &q0));
+                    match &q0 {
+                        Starts::One(q) => rs.extend(self.motor.settle_many(chunk, q)),
+                        Starts::PerSet(qs) => {
+                            // each set's settle from its own start, as the library's
+                            // settle_many settles each from the one start
+                            use rayon::prelude::*;
+                            let from = &qs[k * SETTLE_CHUNK..k * SETTLE_CHUNK + chunk.len()];
+                            rs.par_extend(
+                                chunk
+                                    .par_iter()
+                                    .zip(from.par_iter())
+                                    .map(|(set, q)| self.motor.settle(set, q)),
+                            );
+                        }
+                    }
                 }
                 let holding: Vec<_> = list
                     .iter()

@@ -4,10 +4,12 @@
 
 use crate::convert::{column, json_to_py, pair_tuples, q_array, q_rows, summary_dict};
 use crate::lib_err;
+use crate::table::{self, push_q, Columns};
 use numpy::prelude::*;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use pyo3::IntoPyObjectExt;
 use spherestep::io::loopfile::write_loop;
 use spherestep::io::output::{check_not_input, write_atomic};
 use spherestep::io::planfile::write_plan;
@@ -44,6 +46,18 @@ fn text(bytes: Vec<u8>) -> String {
 fn write_out(sc: &spherestep::Scenario, path: PathBuf, bytes: &[u8]) -> PyResult<()> {
     check_not_input(&path, &sc.files).map_err(lib_err)?;
     write_atomic(&path, bytes).map_err(lib_err)
+}
+
+/// How many steps and rows a result of `rows` rows has, as its repr says it: row 0 is the
+/// initial commutation state, so the steps are one fewer (`len()` is the rows).
+pub fn steps_and_rows(rows: usize) -> String {
+    let steps = rows.saturating_sub(1);
+    let s = if steps == 1 { "step" } else { "steps" };
+    match rows {
+        0 => format!("{steps} {s} (no rows)"),
+        1 => format!("{steps} {s} (1 row, row 0 the initial commutation)"),
+        n => format!("{steps} {s} ({n} rows, row 0 the initial commutation)"),
+    }
 }
 
 /// Makes a numpy array read-only (a result's columns are what was computed).
@@ -216,6 +230,35 @@ impl SettleTable {
     }
 }
 
+impl SettleTable {
+    fn columns<'py>(&self, py: Python<'py>) -> PyResult<Columns<'py>> {
+        let mut c: Columns<'py> =
+            vec![("active".into(), self.active.clone().into_bound_py_any(py)?)];
+        push_q(&mut c, "", self.q.bind(py).as_any())?;
+        c.push((
+            "settle_time_s".into(),
+            self.settle_time_s.bind(py).clone().into_any(),
+        ));
+        c.push((
+            "evaluations".into(),
+            self.evaluations.bind(py).clone().into_any(),
+        ));
+        c.push(("steps".into(), self.steps.bind(py).clone().into_any()));
+        c.push(("energy_j".into(), self.energy_j.bind(py).clone().into_any()));
+        c.push((
+            "residual_torque_nm".into(),
+            self.residual_torque_nm.bind(py).clone().into_any(),
+        ));
+        c.push(("settled".into(), self.settled.bind(py).clone().into_any()));
+        c.push((
+            "outcome".into(),
+            self.outcome.clone().into_bound_py_any(py)?,
+        ));
+        c.push(("held".into(), self.held.clone().into_bound_py_any(py)?));
+        Ok(c)
+    }
+}
+
 #[pymethods]
 impl SettleTable {
     fn __len__(&self) -> usize {
@@ -223,6 +266,19 @@ impl SettleTable {
     }
     fn __repr__(&self) -> String {
         format!("SettleTable({} sets)", self.n)
+    }
+    /// The columns as a dict of lists, one row per set: `active`, `qx`, `qy`, `qz`, `qw`,
+    /// `settle_time_s`, `evaluations`, `steps`, `energy_j`, `residual_torque_nm`, `settled`,
+    /// `outcome`, `held`.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        table::to_dict(py, &self.columns(py)?)
+    }
+    /// The columns of `to_dict` as a pandas DataFrame (ImportError without pandas).
+    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        table::to_pandas(py, "SettleTable", &self.columns(py)?)
+    }
+    fn _repr_html_(&self, py: Python<'_>) -> PyResult<String> {
+        table::to_html(&self.__repr__(), &self.columns(py)?)
     }
 }
 
@@ -236,6 +292,30 @@ pub struct Plan {
 }
 
 impl Plan {
+    fn columns<'py>(&self, py: Python<'py>) -> PyResult<Columns<'py>> {
+        let mut c: Columns<'py> = vec![
+            ("step".into(), self.step(py).into_any()),
+            ("pivot".into(), self.pivot().into_bound_py_any(py)?),
+            ("new".into(), self.new_pairs().into_bound_py_any(py)?),
+            ("active".into(), self.active().into_bound_py_any(py)?),
+        ];
+        push_q(&mut c, "", self.q(py)?.as_any())?;
+        for (name, f) in [
+            (
+                "step_angle_deg",
+                Plan::step_angle_deg as fn(&Plan, Python<'py>) -> _,
+            ),
+            ("step_axis_error_deg", Plan::step_axis_error_deg),
+            ("cum_angle_deg", Plan::cum_angle_deg),
+            ("cum_axis_error_deg", Plan::cum_axis_error_deg),
+            ("settle_time_s", Plan::settle_time_s),
+        ] {
+            c.push((name.into(), f(self, py).into_any()));
+        }
+        c.push(("settled".into(), self.settled(py).into_any()));
+        Ok(c)
+    }
+
     fn numbers<'py>(
         &self,
         py: Python<'py>,
@@ -249,8 +329,8 @@ impl Plan {
 impl Plan {
     /// The step numbers: 0 (the initial commutation), 1, 2, ...
     #[getter]
-    fn step<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u64>> {
-        column(py, self.plan.rows.iter().map(|r| r.step as u64).collect())
+    fn step<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        column(py, self.plan.rows.iter().map(|r| r.step as i64).collect())
     }
     /// The pair held through each step, `(coil, magnet)` (None for step 0).
     #[getter]
@@ -354,15 +434,30 @@ impl Plan {
         write_plan(&self.plan.rows, &mut buf).map_err(lib_err)?;
         write_out(&self.sc, path, &buf)
     }
+    /// The rows: row 0 the initial commutation state, then one per step (`summary["steps"]`
+    /// is one fewer).
     fn __len__(&self) -> usize {
         self.plan.rows.len()
+    }
+    /// The columns as a dict of lists, one per row: `step`, `pivot`, `new`, `active`, `qx`,
+    /// `qy`, `qz`, `qw`, `step_angle_deg`, `step_axis_error_deg`, `cum_angle_deg`,
+    /// `cum_axis_error_deg`, `settle_time_s`, `settled`.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        table::to_dict(py, &self.columns(py)?)
+    }
+    /// The columns of `to_dict` as a pandas DataFrame (ImportError without pandas).
+    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        table::to_pandas(py, "Plan", &self.columns(py)?)
+    }
+    fn _repr_html_(&self, py: Python<'_>) -> PyResult<String> {
+        table::to_html(&self.__repr__(), &self.columns(py)?)
     }
     fn __repr__(&self) -> String {
         let s = self.plan.summary(&self.settings);
         format!(
-            "Plan({} steps, final angle {:.2} deg, worst axis error {:.2} deg, path deviation \
+            "Plan({}, final angle {:.2} deg, worst axis error {:.2} deg, path deviation \
              {:.2} deg, {})",
-            s.steps,
+            steps_and_rows(self.plan.rows.len()),
             s.final_angle_deg,
             s.max_axis_error_deg,
             s.max_path_deviation_deg,
@@ -378,12 +473,23 @@ pub struct Simulation {
     pub(crate) rows: Vec<SimRow>,
 }
 
+impl Simulation {
+    fn columns<'py>(&self, py: Python<'py>) -> PyResult<Columns<'py>> {
+        let mut c: Columns<'py> = vec![("step".into(), self.step(py).into_any())];
+        push_q(&mut c, "", self.q(py)?.as_any())?;
+        c.push(("deviation_deg".into(), self.deviation_deg(py).into_any()));
+        c.push(("settled".into(), self.settled(py).into_any()));
+        c.push(("settle_time_s".into(), self.settle_time_s(py).into_any()));
+        Ok(c)
+    }
+}
+
 #[pymethods]
 impl Simulation {
     /// The plan's step numbers.
     #[getter]
-    fn step<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u64>> {
-        column(py, self.rows.iter().map(|r| r.step as u64).collect())
+    fn step<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        column(py, self.rows.iter().map(|r| r.step as i64).collect())
     }
     /// Where the ball settled at each step, shape `(rows, 4)`: `[qx, qy, qz, qw]`.
     #[getter]
@@ -416,14 +522,28 @@ impl Simulation {
         write_sim(&self.rows, &mut buf).map_err(lib_err)?;
         Ok(text(buf))
     }
+    /// The rows: row 0 the initial commutation state, then one per step.
     fn __len__(&self) -> usize {
         self.rows.len()
+    }
+    /// The columns as a dict of lists, one per row: `step`, `qx`, `qy`, `qz`, `qw`,
+    /// `deviation_deg`, `settled`, `settle_time_s`.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        table::to_dict(py, &self.columns(py)?)
+    }
+    /// The columns of `to_dict` as a pandas DataFrame (ImportError without pandas).
+    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        table::to_pandas(py, "Simulation", &self.columns(py)?)
+    }
+    fn _repr_html_(&self, py: Python<'_>) -> PyResult<String> {
+        table::to_html(&self.__repr__(), &self.columns(py)?)
     }
     fn __repr__(&self) -> String {
         let s = sim_summary(&self.rows);
         format!(
-            "Simulation({} steps, max deviation {:.4} deg)",
-            s.steps, s.max_deviation_deg
+            "Simulation({}, max deviation {:.4} deg)",
+            steps_and_rows(self.rows.len()),
+            s.max_deviation_deg
         )
     }
 }
@@ -434,6 +554,15 @@ impl Simulation {
 pub struct Wells {
     pub(crate) curve: Vec<(f64, f64)>,
     pub(crate) summary: WellSummary,
+}
+
+impl Wells {
+    fn columns<'py>(&self, py: Python<'py>) -> PyResult<Columns<'py>> {
+        Ok(vec![
+            ("angle_deg".into(), self.angle_deg(py).into_any()),
+            ("torque_nm".into(), self.torque_nm(py).into_any()),
+        ])
+    }
 }
 
 #[pymethods]
@@ -469,6 +598,17 @@ impl Wells {
     fn __len__(&self) -> usize {
         self.curve.len()
     }
+    /// The columns as a dict of lists: `angle_deg`, `torque_nm`.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        table::to_dict(py, &self.columns(py)?)
+    }
+    /// The columns of `to_dict` as a pandas DataFrame (ImportError without pandas).
+    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        table::to_pandas(py, "Wells", &self.columns(py)?)
+    }
+    fn _repr_html_(&self, py: Python<'_>) -> PyResult<String> {
+        table::to_html(&self.__repr__(), &self.columns(py)?)
+    }
     fn __repr__(&self) -> String {
         format!(
             "Wells({} rows, peak {:.4} N m at {:.2} deg)",
@@ -489,6 +629,30 @@ pub struct Run {
 }
 
 impl Run {
+    fn columns<'py>(&self, py: Python<'py>) -> PyResult<Columns<'py>> {
+        let mut c: Columns<'py> = vec![
+            ("step".into(), self.step(py).into_any()),
+            ("active".into(), self.active().into_bound_py_any(py)?),
+            ("replanned".into(), self.replanned(py).into_any()),
+        ];
+        push_q(&mut c, "planned_", self.planned_q(py)?.as_any())?;
+        push_q(&mut c, "measured_", self.measured_q(py)?.as_any())?;
+        push_q(&mut c, "true_", self.true_q(py)?.as_any())?;
+        for (name, f) in [
+            (
+                "cum_angle_deg",
+                Run::cum_angle_deg as fn(&Run, Python<'py>) -> _,
+            ),
+            ("cum_axis_error_deg", Run::cum_axis_error_deg),
+            ("error_to_goal_deg", Run::error_to_goal_deg),
+        ] {
+            c.push((name.into(), f(self, py).into_any()));
+        }
+        c.push(("settled".into(), self.settled(py).into_any()));
+        c.push(("settle_time_s".into(), self.settle_time_s(py).into_any()));
+        Ok(c)
+    }
+
     fn numbers<'py>(
         &self,
         py: Python<'py>,
@@ -502,8 +666,8 @@ impl Run {
 impl Run {
     /// The step numbers (0: the initial commutation state).
     #[getter]
-    fn step<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u64>> {
-        column(py, self.run.rows.iter().map(|r| r.step as u64).collect())
+    fn step<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        column(py, self.run.rows.iter().map(|r| r.step as i64).collect())
     }
     /// What was on at each step, as `(coil, magnet)` pairs.
     #[getter]
@@ -582,15 +746,29 @@ impl Run {
         write_loop(&self.run.rows, &mut buf).map_err(lib_err)?;
         Ok(text(buf))
     }
+    /// The rows: row 0 the initial commutation state, then one per step played.
     fn __len__(&self) -> usize {
         self.run.rows.len()
+    }
+    /// The columns as a dict of lists, one per row: `step`, `active`, `replanned`,
+    /// `planned_qx` .. `planned_qw`, `measured_qx` .. `measured_qw`, `true_qx` .. `true_qw`,
+    /// `cum_angle_deg`, `cum_axis_error_deg`, `error_to_goal_deg`, `settled`, `settle_time_s`.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        table::to_dict(py, &self.columns(py)?)
+    }
+    /// The columns of `to_dict` as a pandas DataFrame (ImportError without pandas).
+    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        table::to_pandas(py, "Run", &self.columns(py)?)
+    }
+    fn _repr_html_(&self, py: Python<'_>) -> PyResult<String> {
+        table::to_html(&self.__repr__(), &self.columns(py)?)
     }
     fn __repr__(&self) -> String {
         let s = &self.run.summary;
         format!(
-            "Run({} loop, {} steps, {} replans, {:.2} deg from the goal, {})",
+            "Run({} loop, {}, {} replans, {:.2} deg from the goal, {})",
             if self.closed_loop { "closed" } else { "open" },
-            s.steps,
+            steps_and_rows(self.run.rows.len()),
             s.replans,
             s.final_error_deg,
             if s.reached { "reached" } else { "NOT reached" }
