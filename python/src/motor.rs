@@ -151,6 +151,21 @@ fn starts(q0: Option<&Bound<'_, PyAny>>, n: usize) -> PyResult<Starts> {
         Some(q) if !q.is_none() => q,
         _ => return Ok(Starts::One(spherestep::Orientation::identity())),
     };
+    // A sequence once in a list: a one-shot iterator (a generator) is looked at twice below.
+    let listed;
+    let q0 = match q0.try_iter() {
+        Ok(items)
+            if !q0.is_instance_of::<pyo3::types::PyString>()
+                && q0.cast::<numpy::PyUntypedArray>().is_err() =>
+        {
+            let items = items.collect::<PyResult<Vec<_>>>().map_err(|_| {
+                arg_err("q0", format!("orientations qx,qy,qz,qw, got {}", shown(q0)))
+            })?;
+            listed = pyo3::types::PyList::new(q0.py(), items)?.into_any();
+            &listed
+        }
+        _ => q0,
+    };
     if !one_per_set(q0) {
         return Ok(Starts::One(convert::orientation(q0, "q0")?));
     }

@@ -271,6 +271,11 @@ def test_settle_many_with_one_start_still_settles_all_from_it(motor):
     u = motor.settle_many(SETS, q0=[q0] * len(SETS))
     np.testing.assert_array_equal(t.q, u.q)
     assert t.q[2].tolist() == motor.settle(SETS[2], q0=q0).q.tolist()
+    # any iterable, a generator too
+    w = motor.settle_many(SETS, q0=(x for x in q0))
+    np.testing.assert_array_equal(w.q, t.q)
+    g = motor.settle_many(SETS, q0=(q for q in STARTS))
+    np.testing.assert_array_equal(g.q, motor.settle_many(SETS, q0=STARTS).q)
     # four sets and four numbers: one start, not a start per set
     v = motor.settle_many(SETS, q0=np.array(q0))
     np.testing.assert_array_equal(v.q, t.q)
