@@ -151,11 +151,11 @@ fn starts(q0: Option<&Bound<'_, PyAny>>, n: usize) -> PyResult<Starts> {
         Some(q) if !q.is_none() => q,
         _ => return Ok(Starts::One(spherestep::Orientation::identity())),
     };
-    // A sequence once in a list: a one-shot iterator (a generator) is looked at twice below.
+    // A one-shot iterator (a generator) once in a list: it is looked at twice below.
     let listed;
     let q0 = match q0.try_iter() {
         Ok(items)
-            if !q0.is_instance_of::<pyo3::types::PyString>()
+            if q0.cast::<pyo3::types::PySequence>().is_err()
                 && q0.cast::<numpy::PyUntypedArray>().is_err() =>
         {
             let items = items.collect::<PyResult<Vec<_>>>().map_err(|_| {
