@@ -16,7 +16,7 @@ use crate::planning::commutation::{
     predicted_orientation, CommutationState, Motor, PairsPerStep, Step, StepLimits,
 };
 use crate::planning::plan::PlanSettings;
-use crate::planning::search::{predicted_rank, weighed, Frontier, StepSource};
+use crate::planning::search::{predicted_rank, weighed, Frontier, StepSource, ONWARD};
 use rayon::prelude::*;
 
 /// How many of a state's candidate sets that the weighing left unheld are followed again (as
@@ -258,6 +258,7 @@ impl StepSource for CoilSets<'_> {
             worst: 0.0,
             cum: 0.0,
             tired: &[],
+            ranking: ONWARD,
         };
         self.weigh(&at, &self.ranked_sets(&at)).1
     }

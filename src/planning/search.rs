@@ -28,6 +28,47 @@ pub struct Frontier<'a> {
     /// The coils on that could not stay on through another step as long as the last within
     /// the on-time limit (none without one): a step model need not propose keeping them.
     pub tired: &'a [CoilId],
+    /// How the search ranks partial plans now ([`predicted_rank`] ranks proposals with it).
+    pub ranking: Ranking,
+}
+
+/// How the best-first search ranks its partial plans (smaller first): the worst it has strayed
+/// so far, plus `centre` times how far its last row lies from the straight way (a plan that
+/// drifts off its path costs before its worst grows, so the search keeps near the path), less
+/// `credit` times its progress about the axis (none past the target).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ranking {
+    /// The credit for progress (per radian turned).
+    pub credit: f64,
+    /// The weight of the last row's departure from the straight way.
+    pub centre: f64,
+}
+
+/// The best-first search's ranking (and its step models' ranking of proposals): centred, a
+/// degree off the path now weighing as a degree strayed, with a plan 4 degrees further on
+/// allowed 1 degree more. Without the centring a plan drifts off its path until the drift is
+/// its worst (the worst is a maximum: below it a step costs nothing), and the landing pulls it
+/// back at the end (on the 500 random motions: path deviation 2.81 degrees at the median
+/// without, 2.66 with).
+pub const CENTRED: Ranking = Ranking {
+    credit: PROGRESS_CREDIT,
+    centre: 1.0,
+};
+
+/// The ranking once half the budget is spent without a solution of the search's own: onward,
+/// no centring, so that a long turn is completed within the budget (a search that weighs the
+/// path more than progress can spend its budget near the start).
+pub const ONWARD: Ranking = Ranking {
+    credit: PROGRESS_CREDIT,
+    centre: 0.0,
+};
+
+impl Ranking {
+    /// The rank of a partial plan that has strayed `worst` (rad), whose last row lies `here`
+    /// (rad) from the straight way, `cum` (rad) along a turn of `target`.
+    pub fn rank(&self, worst: f64, here: f64, cum: f64, target: f64) -> f64 {
+        worst + self.centre * here - self.credit * cum.min(target)
+    }
 }
 
 /// A step model as the searches see it.
@@ -165,8 +206,9 @@ impl Node {
                 .all(|(c, h)| o.on.get(c).is_some_and(|x| h.on <= x.on))
     }
 
-    fn frontier<'b>(&'b self, tired: &'b [CoilId]) -> Frontier<'b> {
+    fn frontier<'b>(&'b self, tired: &'b [CoilId], ranking: Ranking) -> Frontier<'b> {
         Frontier {
+            ranking,
             state: &self.state,
             q0: self.rows[0].q,
             worst: self.worst,
@@ -515,12 +557,6 @@ const PROGRESS_CREDIT: f64 = 0.25;
 /// Two settled states with the same key and orientations closer than this are one state.
 pub const SAME_STATE_RAD: f64 = 1e-3;
 
-/// A partial plan's rank in the best-first search (smaller first): its worst cumulative axis
-/// error so far, less a credit for progress (none past the target).
-pub fn rank(worst: f64, cum: f64, target: f64) -> f64 {
-    worst - PROGRESS_CREDIT * cum.min(target)
-}
-
 /// The rank a partial plan at `at` would have after a step predicted to end at `qp` (`None`
 /// when the prediction does not advance about the axis): how step models order the proposals
 /// they weigh.
@@ -530,8 +566,9 @@ pub fn predicted_rank(at: &Frontier, qp: &Orientation, s: &PlanSettings) -> Opti
         return None;
     }
     let (ca, ce) = cumulative_from(&at.q0, qp, &s.axis, at.cum);
-    Some(rank(
+    Some(at.ranking.rank(
         at.worst.max(strayed(qp, &at.q0, ce.0, s)),
+        departure(qp, &at.q0, s),
         ca.0,
         s.angle.0,
     ))
@@ -599,15 +636,36 @@ struct Frontiers {
     open: std::collections::BinaryHeap<Open>,
     states: StateIndex,
     deepest: Node,
+    /// How the open list is ranked now.
+    ranking: Ranking,
 }
 
 impl Frontiers {
-    fn push(&mut self, root: usize, p: Node, target: f64) {
+    fn push(&mut self, root: usize, p: Node, s: &PlanSettings) {
         self.open.push(Open {
-            rank: rank(p.worst, p.cum, target),
+            rank: self.rank_of(&p, s),
             node: self.nodes.len(),
         });
         self.nodes.push((root, p));
+    }
+
+    /// A partial plan's rank by the ranking in force.
+    fn rank_of(&self, p: &Node, s: &PlanSettings) -> f64 {
+        let here = departure(&p.state.q, &p.rows[0].q, s);
+        self.ranking.rank(p.worst, here, p.cum, s.angle.0)
+    }
+
+    /// Ranks the open list by `ranking` from now on.
+    fn rerank(&mut self, ranking: Ranking, s: &PlanSettings) {
+        self.ranking = ranking;
+        let open = std::mem::take(&mut self.open).into_vec();
+        self.open = open
+            .into_iter()
+            .map(|o| Open {
+                rank: self.rank_of(&self.nodes[o.node].1, s),
+                node: o.node,
+            })
+            .collect();
     }
 
     /// Whether `node` is still the best partial plan into its state.
@@ -623,7 +681,7 @@ impl Frontiers {
     /// Files a new partial plan under its state, unless a plan at least as good ends there
     /// (no worse an axis error and no coil on longer: [`Node::dominates`]); the plans it is
     /// at least as good as are dropped.
-    fn admit(&mut self, src: &dyn StepSource, root: usize, c: Node, target: f64) {
+    fn admit(&mut self, src: &dyn StepSource, root: usize, c: Node, s: &PlanSettings) {
         let id = self.nodes.len();
         let nodes = &self.nodes;
         let list = self.states.entry((root, src.key(&c.state))).or_default();
@@ -639,7 +697,7 @@ impl Frontiers {
         if c.cum > self.deepest.cum {
             self.deepest = c.clone();
         }
-        self.push(root, c, target);
+        self.push(root, c, s);
     }
 }
 
@@ -661,15 +719,21 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
         open: std::collections::BinaryHeap::new(),
         states: StateIndex::new(),
         deepest: root,
+        ranking: CENTRED,
     };
     for (k, r) in roots.into_iter().enumerate() {
-        f.push(k, r, s.angle.0);
+        f.push(k, r, s);
     }
     let mut spent = 0usize;
     let mut over: Option<OverTime> = None;
     // the other complete plans, which the landing may carry on too
     let mut solutions: Vec<Node> = Vec::new();
+    // whether the search has completed a plan of its own (the greedy plans are not its own)
+    let mut own = false;
     while spent < s.settle_budget {
+        if !own && f.ranking != ONWARD && 2 * spent >= s.settle_budget {
+            f.rerank(ONWARD, s);
+        }
         let Some(Open { node, .. }) = f.open.pop() else {
             break;
         };
@@ -683,7 +747,7 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
         if !f.current(src, node) {
             continue; // a better plan reached this state since
         }
-        let (settles, steps) = expand_fresh(src, &path, s);
+        let (settles, steps) = expand_fresh(src, &path, s, f.ranking);
         spent += settles;
         let q0 = path.rows[0].q;
         for st in &steps {
@@ -698,18 +762,35 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
                 continue;
             }
             if reached(&c, s) {
-                if better_landing(&c, best.as_ref(), s) {
-                    if let Some(b) = best.replace(c) {
-                        solutions.push(b);
-                    }
-                } else {
-                    solutions.push(c);
-                }
+                own = true;
+                file_solution(c, &mut best, &mut solutions, s);
                 continue;
             }
-            f.admit(src, root_id, c, s.angle.0);
+            f.admit(src, root_id, c, s);
         }
     }
+    let (best, landing) = land_best(src, s, best, solutions);
+    spent += landing;
+    let mut plan = outcome(best, f.deepest, unreached_why(over, s.settle_budget));
+    plan.settles = spent;
+    plan
+}
+
+/// Files a complete plan the search found: the best so far if [`better_landing`] says so (the
+/// best before it then among the other solutions), else among the other solutions.
+fn file_solution(c: Node, best: &mut Option<Node>, solutions: &mut Vec<Node>, s: &PlanSettings) {
+    if better_landing(&c, best.as_ref(), s) {
+        if let Some(b) = best.replace(c) {
+            solutions.push(b);
+        }
+    } else {
+        solutions.push(c);
+    }
+}
+
+/// Why the best-first search found no plan within `budget` settles (`over`: a step it refused
+/// for the on-time limit).
+fn unreached_why(over: Option<OverTime>, budget: usize) -> String {
     let refused = match over {
         Some(o) => format!(
             "; steps that would keep a coil on past the on-time limit were not taken (e.g. {})",
@@ -717,25 +798,21 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
         ),
         None => String::new(),
     };
-    let (best, landing) = land_best(src, s, best, solutions);
-    spent += landing;
-    let mut plan = outcome(
-        best,
-        f.deepest,
-        format!(
-            "the search found no sequence that reaches the target within its budget of {} \
-             settles{refused}",
-            s.settle_budget
-        ),
-    );
-    plan.settles = spent;
-    plan
+    format!(
+        "the search found no sequence that reaches the target within its budget of {budget} \
+         settles{refused}"
+    )
 }
 
 /// The search's expansion of `path`: the steps its step model proposes, none keeping on a coil
 /// that could not stay on through another step as long as the last ([`tired_coils`]).
-fn expand_fresh(src: &dyn StepSource, path: &Node, s: &PlanSettings) -> (usize, Vec<Step>) {
-    src.expand(&path.frontier(&tired_after_last(path, s)))
+fn expand_fresh(
+    src: &dyn StepSource,
+    path: &Node,
+    s: &PlanSettings,
+    ranking: Ranking,
+) -> (usize, Vec<Step>) {
+    src.expand(&path.frontier(&tired_after_last(path, s), ranking))
 }
 
 /// The search's best plan carried on by the landing (with the other complete plans it found,
@@ -930,7 +1007,7 @@ fn expand_rested(
     let mut avoid = tired_after_last(at, s);
     let (mut spent, mut steps) = (0usize, Vec::new());
     loop {
-        let (settles, found) = src.expand_towards(&at.frontier(&avoid), goal);
+        let (settles, found) = src.expand_towards(&at.frontier(&avoid, ONWARD), goal);
         spent += settles;
         // the on-time check of `Node::extend`, without building the plan
         let over = |st: &Step| {
