@@ -566,9 +566,10 @@ pub fn predicted_rank(at: &Frontier, qp: &Orientation, s: &PlanSettings) -> Opti
         return None;
     }
     let (ca, ce) = cumulative_from(&at.q0, qp, &s.axis, at.cum);
+    let here = departure(qp, &at.q0, s);
     Some(at.ranking.rank(
-        at.worst.max(strayed(qp, &at.q0, ce.0, s)),
-        departure(qp, &at.q0, s),
+        at.worst.max(strayed_by(here, ce.0, s)),
+        here,
         ca.0,
         s.angle.0,
     ))
@@ -595,10 +596,15 @@ pub fn departure(q: &Orientation, q0: &Orientation, s: &PlanSettings) -> f64 {
 /// row 0 differs from the start, not how the ball strays); the axis error alone for the pivot
 /// model (the paper's measure).
 fn strayed(q: &Orientation, q0: &Orientation, ce: f64, s: &PlanSettings) -> f64 {
+    strayed_by(departure(q, q0, s), ce, s)
+}
+
+/// [`strayed`] of a plan whose [`departure`] is `here` (rad).
+fn strayed_by(here: f64, ce: f64, s: &PlanSettings) -> f64 {
     match (s.model, s.target) {
         (StepModel::Pivot, _) => ce,
-        (_, Some(_)) => departure(q, q0, s),
-        (_, None) => ce.max(departure(q, q0, s)),
+        (_, Some(_)) => here,
+        (_, None) => ce.max(here),
     }
 }
 
