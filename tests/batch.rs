@@ -36,18 +36,10 @@ use common::batch;
 /// Every file below `dir` (relative path -> bytes), timing.csv left out (wall time).
 fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
     let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let rel = p.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
-                if rel != "timing.csv" {
-                    out.insert(rel, std::fs::read(&p).unwrap());
-                }
-            }
+    for p in common::files_below(dir) {
+        let rel = p.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
+        if rel != "timing.csv" {
+            out.insert(rel, std::fs::read(&p).unwrap());
         }
     }
     out

@@ -13,6 +13,8 @@
 //! - the scenario reference (`docs/scenario-format.md`) lists exactly the keys the scenario
 //!   parser's structs accept.
 
+mod common;
+
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -489,19 +491,10 @@ fn the_built_book_shows_every_picture_and_resolves_every_link() {
         "{}",
         String::from_utf8_lossy(&built.stderr)
     );
-    let mut pages = Vec::new();
-    let mut dirs = vec![out.clone()];
-    while let Some(d) = dirs.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                dirs.push(p);
-            } else if p.extension().is_some_and(|x| x == "html") {
-                pages.push(p);
-            }
-        }
-    }
-    pages.sort();
+    let pages: Vec<PathBuf> = common::files_below(&out)
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|x| x == "html"))
+        .collect();
     // every chapter of the summary is a page
     assert!(pages.len() > 30, "{} pages", pages.len());
     let mut dead = Vec::new();
