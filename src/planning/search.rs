@@ -501,7 +501,7 @@ fn search(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan {
 /// progress, ties by what is on and then by the whole sequence), one per end state, at most
 /// `width`.
 fn beam_of(mut next: Vec<Node>, width: usize) -> Vec<Node> {
-    let credit = 0.25;
+    let credit = PROGRESS_CREDIT;
     next.sort_by(|a, b| {
         let sa = a.worst - credit * a.cum;
         let sb = b.worst - credit * b.cum;
