@@ -213,16 +213,33 @@ pub fn xyzw(q: &Orientation) -> [f64; 4] {
 }
 
 /// The angle (rotation angle, like `Orientation::angle_to`) from `q` to the nearest point of
-/// the geodesic (the slerp) from `a` to `b`: 0 on the path, the distance to the nearer end
-/// beyond it. `q` and `-q` (the same orientation) give the same answer, and so do `a`, `b` and
-/// their negatives; for `a` == `b` it is the distance from `q` to `a`.
+/// the geodesic (the slerp) from `a` to `b` ([`nearest_on_geodesic`]): 0 on the path, the
+/// distance to the nearer end beyond it. `q` and `-q` (the same orientation) give the same
+/// answer, and so do `a`, `b` and their negatives; for `a` == `b` it is the distance from `q`
+/// to `a`.
+pub fn distance_to_geodesic(q: &Orientation, a: &Orientation, b: &Orientation) -> Radians {
+    let qv = q.quaternion().coords;
+    let nearest = nearest_coords(q, a, b);
+    // the angle between q and the nearest point in R^4, doubled (a rotation angle), from
+    // atan2 so that it is accurate near 0
+    let m = qv.dot(&nearest);
+    let off = (qv - nearest * m).norm();
+    Radians(2.0 * off.atan2(m.abs()))
+}
+
+/// The point of the geodesic (the slerp) from `a` to `b` nearest to `q` (`a` for `a` == `b`).
 ///
 /// With `b` signed so that <a, b> >= 0 and `c` the unit component of `b` orthogonal to `a`
 /// (in R^4), the path is p(phi) = cos(phi) a + sin(phi) c for phi in [0, theta], theta the
 /// angle between `a` and `b`; the nearest point maximises |<q, p(phi)>| = |A cos(phi) +
 /// B sin(phi)| (A = <q, a>, B = <q, c>), found among the ends and the stationary points
 /// atan2(B, A) and atan2(-B, -A) inside [0, theta].
-pub fn distance_to_geodesic(q: &Orientation, a: &Orientation, b: &Orientation) -> Radians {
+pub fn nearest_on_geodesic(q: &Orientation, a: &Orientation, b: &Orientation) -> Orientation {
+    Orientation::new_normalize(Quaternion::from(nearest_coords(q, a, b)))
+}
+
+/// [`nearest_on_geodesic`] as the quaternion's coordinates (unit to rounding).
+fn nearest_coords(q: &Orientation, a: &Orientation, b: &Orientation) -> nalgebra::Vector4<f64> {
     let (qv, av) = (q.quaternion().coords, a.quaternion().coords);
     let mut bv = b.quaternion().coords;
     if av.dot(&bv) < 0.0 {
@@ -230,7 +247,7 @@ pub fn distance_to_geodesic(q: &Orientation, a: &Orientation, b: &Orientation) -
     }
     let along = av.dot(&bv);
     let ortho = bv - av * along;
-    let nearest = match ortho.norm() {
+    match ortho.norm() {
         // a == b (to rounding): the path is a point
         n if n < 1e-12 => av,
         n => {
@@ -248,12 +265,7 @@ pub fn distance_to_geodesic(q: &Orientation, a: &Orientation, b: &Orientation) -
                 );
             at(best.0)
         }
-    };
-    // the angle between q and the nearest point in R^4, doubled (a rotation angle), from
-    // atan2 so that it is accurate near 0
-    let m = qv.dot(&nearest);
-    let off = (qv - nearest * m).norm();
-    Radians(2.0 * off.atan2(m.abs()))
+    }
 }
 
 /// Unit vector from spherical coordinates: azimuth phi, polar angle theta (paper 3.1).
@@ -272,6 +284,24 @@ mod tests {
 
     fn v(x: f64, y: f64, z: f64) -> UnitVec {
         unit(Vector3::new(x, y, z)).unwrap()
+    }
+
+    #[test]
+    fn the_nearest_point_of_a_geodesic_lies_on_it_at_the_distance_measured() {
+        // 120 degrees about Z from a tilted start; a point 7 degrees off the path, a third of
+        // the way along: its nearest point is the path's point a third of the way along
+        let a = rot_q(&v(1.0, 0.0, 0.0), Radians(0.3));
+        let b = rot_q(&v(0.0, 0.0, 1.0), Radians(120f64.to_radians())) * a;
+        let on = rot_q(&v(0.0, 0.0, 1.0), Radians(40f64.to_radians())) * a;
+        let axis_off = unit(on * Vector3::new(1.0, 0.0, 0.0)).unwrap();
+        let q = rot_q(&axis_off, Radians(7f64.to_radians())) * on;
+        let p = nearest_on_geodesic(&q, &a, &b);
+        assert!(p.angle_to(&on) < 1e-9, "{}", p.angle_to(&on));
+        let d = distance_to_geodesic(&q, &a, &b).0;
+        assert!((p.angle_to(&q) - d).abs() < 1e-12);
+        // beyond the end: the end itself
+        let past = rot_q(&v(0.0, 0.0, 1.0), Radians(150f64.to_radians())) * a;
+        assert!(nearest_on_geodesic(&past, &a, &b).angle_to(&b) < 1e-9);
     }
 
     #[test]

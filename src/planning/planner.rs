@@ -6,18 +6,21 @@
 //! schemes, a beam search and a best-first branch and bound). The settings and the plan are in
 //! `plan` (re-exported here).
 
-use crate::model::geometry::{rotation_axis, CoilId, Orientation, Pair};
+use crate::model::geometry::{rotation_axis, CoilId, MagnetId, Orientation, Pair, Radians};
 use crate::physics::dynamics::settle;
+use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::CoilSets;
 use crate::planning::commutation::{
-    admissible, candidate_steps, evaluate_proposals, initial_states, predicted_orientation,
-    proposals_within, settled_states, CommutationState, Motor, Proposal, Step, StepLimits,
-    StepModel, PIVOT_CAPTURE,
+    admissible, candidate_steps, evaluate_proposals, fits_supply, initial_states, pair_gap,
+    predicted_orientation, proposals_within, settled_states, CommutationState, Motor, Proposal,
+    Step, StepLimits, StepModel, PIVOT_CAPTURE,
 };
 use crate::planning::landing::{landing_proposals, Finals};
 use crate::planning::on_time::OnTimes;
 use crate::planning::plan::PlanRow;
-use crate::planning::search::{self, predicted_rank, weighed, wide_limits, Frontier, StepSource};
+use crate::planning::search::{
+    self, predicted_rank, sorted, weighed, wide_limits, Frontier, StepSource,
+};
 use rayon::prelude::*;
 
 pub use crate::planning::plan::{
@@ -175,6 +178,19 @@ impl StepSource for FromState<'_> {
         self.inner.key(state)
     }
 
+    fn bridges(
+        &self,
+        from: &CommutationState,
+        next: &PlanRow,
+        aim: &Orientation,
+    ) -> (usize, Vec<Step>) {
+        self.inner.bridges(from, next, aim)
+    }
+
+    fn step_to(&self, from: &CommutationState, row: &PlanRow) -> Option<Step> {
+        self.inner.step_to(from, row)
+    }
+
     fn initial_on_times(&self) -> Option<OnTimes<CoilId>> {
         self.held.clone()
     }
@@ -263,6 +279,70 @@ impl StepSource for PairSteps<'_> {
         (spent, steps)
     }
 
+    fn step_to(&self, from: &CommutationState, row: &PlanRow) -> Option<Step> {
+        let s = self.s;
+        let held = |p: &Pair| from.active.contains(p);
+        let new: Vec<Pair> = row.active.iter().filter(|p| !held(p)).copied().collect();
+        if s.model != StepModel::Dynamic || !fits_supply(&from.active, &new, s.limits.max_coils_on)
+        {
+            return None;
+        }
+        let to = settled_states(self.motor, vec![row.active.clone()], &from.q)
+            .pop()
+            .flatten()?;
+        // held as the landing's steps are (every magnet within its coil's reach)
+        let capture = self.motor.torques.well.max_attraction();
+        let landing = s.limits.landing();
+        let (to, angle, axis_error) =
+            admissible(&self.motor.torques, &from.q, to, &s.axis, &landing, capture)?;
+        // a row replayed after the same set keeps its pivot and new pairs
+        let (pivot, new) = match row.pivot.filter(held) {
+            Some(p) if row.new.iter().all(|n| !held(n)) => (Some(p), row.new.clone()),
+            _ => (row.active.iter().copied().find(held), new),
+        };
+        Some(Step {
+            pivot,
+            new,
+            to,
+            angle,
+            axis_error,
+        })
+    }
+
+    fn bridges(
+        &self,
+        from: &CommutationState,
+        next: &PlanRow,
+        aim: &Orientation,
+    ) -> (usize, Vec<Step>) {
+        let s = self.s;
+        if s.model != StepModel::Dynamic {
+            return (0, Vec::new());
+        }
+        let t = &self.motor.torques;
+        let capture = s.limits.capture_for(s.model, &t.well);
+        let sets = bridge_sets(t, from, next, aim, capture, s);
+        let outcomes = settled_states(self.motor, sets.clone(), &from.q);
+        let landing = s.limits.landing();
+        let steps = sets
+            .iter()
+            .zip(outcomes)
+            .filter_map(|(set, to)| {
+                let (to, angle, axis_error) =
+                    admissible(t, &from.q, to?, &s.axis, &landing, capture)?;
+                let held = |p: &&Pair| from.active.contains(p);
+                Some(Step {
+                    pivot: set.iter().find(held).copied(),
+                    new: set.iter().filter(|p| !held(p)).copied().collect(),
+                    to,
+                    angle,
+                    axis_error,
+                })
+            })
+            .collect();
+        (sets.len(), steps)
+    }
+
     fn expand_towards(&self, at: &Frontier, goal: &Orientation) -> (usize, Vec<Step>) {
         let s = self.s;
         let Some(towards) = rotation_axis(&(goal * at.state.q.inverse())) else {
@@ -302,6 +382,76 @@ impl StepSource for PairSteps<'_> {
             })
             .collect();
         (spent, steps)
+    }
+}
+
+/// The sets a step from `from` may switch on so that the set of `next` can be switched on
+/// after it (the supply powering both switches, make before break): the coils of `next`, each
+/// with at most one magnet within `capture` of it at `aim`, `s.pairs` pairs at a time, in a
+/// deterministic order; neither `from`'s set nor `next`'s.
+fn bridge_sets(
+    t: &MagnetTorques,
+    from: &CommutationState,
+    next: &PlanRow,
+    aim: &Orientation,
+    capture: Radians,
+    s: &PlanSettings,
+) -> Vec<Vec<Pair>> {
+    let r = aim.to_rotation_matrix();
+    let mut coils: Vec<CoilId> = next.active.iter().map(|p| p.coil).collect();
+    coils.sort();
+    coils.dedup();
+    let per_coil: Vec<Vec<Pair>> = coils
+        .iter()
+        .map(|&coil| {
+            (0..t.rotor.len())
+                .map(|m| Pair {
+                    coil,
+                    magnet: MagnetId(m),
+                })
+                .filter(|p| pair_gap(t, &r, *p).0 <= capture.0)
+                .collect()
+        })
+        .collect();
+    let mut sets = Vec::new();
+    let mut set = Vec::new();
+    choose_per_coil(&per_coil, &mut set, &mut sets);
+    let max = s.limits.max_coils_on;
+    let (same_from, same_next) = (sorted(&from.active), sorted(&next.active));
+    sets.retain(|set: &Vec<Pair>| {
+        let key = sorted(set);
+        let new: Vec<Pair> = set
+            .iter()
+            .filter(|p| !from.active.contains(p))
+            .copied()
+            .collect();
+        let then: Vec<Pair> = (next.active.iter())
+            .filter(|p| !set.contains(p))
+            .copied()
+            .collect();
+        (s.pairs.min..=s.pairs.max).contains(&set.len())
+            && key != same_from
+            && key != same_next
+            && fits_supply(&from.active, &new, max)
+            && fits_supply(set, &then, max)
+    });
+    sets
+}
+
+/// Every choice of at most one pair from each of `per_coil`, appended to `out` (`set`: the
+/// choice so far).
+fn choose_per_coil(per_coil: &[Vec<Pair>], set: &mut Vec<Pair>, out: &mut Vec<Vec<Pair>>) {
+    let Some((first, rest)) = per_coil.split_first() else {
+        if !set.is_empty() {
+            out.push(set.clone());
+        }
+        return;
+    };
+    choose_per_coil(rest, set, out);
+    for p in first {
+        set.push(*p);
+        choose_per_coil(rest, set, out);
+        set.pop();
     }
 }
 

@@ -13,6 +13,8 @@ use crate::planning::plan::PlanRow;
 use crate::planning::plan::{Plan, PlanSettings, Scheme};
 use rayon::prelude::*;
 
+mod straighten;
+
 /// Where a partial plan stands, as a step model needs it to rank the steps it proposes.
 #[derive(Debug, Clone, Copy)]
 pub struct Frontier<'a> {
@@ -101,6 +103,28 @@ pub trait StepSource: Sync {
     /// [`SAME_STATE_RAD`]): by default what is on, sorted.
     fn key(&self, state: &CommutationState) -> Vec<Pair> {
         sorted(&state.active)
+    }
+
+    /// The step that switches on the set of `row` (a row of a plan) from `from`: the pairs
+    /// of the set already on kept, the others switched on, every other pair off; with where
+    /// the ball settles and the step's measures about the turn that remains, when the supply
+    /// can switch it and the set holds the ball there (any way the ball turns). How a plan's
+    /// later steps are replayed from a changed row (see [`straighten`]); `None` by default:
+    /// the step model's plans are not straightened.
+    fn step_to(&self, _from: &CommutationState, _row: &PlanRow) -> Option<Step> {
+        None
+    }
+
+    /// The steps from `from` after which the set of `next` (a plan's row) can be switched on,
+    /// towards `aim`: the settles spent and the admissible steps (any way the ball turns).
+    /// How [`straighten`] finds a way between two rows of a plan; none by default.
+    fn bridges(
+        &self,
+        _from: &CommutationState,
+        _next: &PlanRow,
+        _aim: &Orientation,
+    ) -> (usize, Vec<Step>) {
+        (0, Vec::new())
     }
 
     /// How long each coil on in the initial state has been on when the plan starts, its dwell
@@ -777,6 +801,11 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
     }
     let (best, landing) = land_best(src, s, best, solutions);
     spent += landing;
+    let best = best.map(|b| {
+        let (b, straightening) = straighten::straighten(src, s, b);
+        spent += straightening;
+        b
+    });
     let mut plan = outcome(best, f.deepest, unreached_why(over, s.settle_budget));
     plan.settles = spent;
     plan
