@@ -13,6 +13,8 @@
 //!    `sensor` (the same level): orientation sensors read over a port (quat-csv, BNO055);
 //!    `rehearse` (above them): the virtual motor, their far ends on pseudo-terminals driving
 //!    a simulated ball;
+//!    `rig` (above them and `planning`): the closed loop on the hardware, the boards switched
+//!    and the sensor read as the closed loop's plant;
 //! 5. `io`: the files: scenarios (TOML), plans and results (CSV), atomic writes;
 //! 6. `figures`: the pictures, the 3-D page and the batch report;
 //! 7. `commands`: one function per command of the binary, and batches of scenarios.
@@ -76,6 +78,8 @@ pub mod planning;
 pub mod rehearse;
 #[doc(hidden)]
 pub mod relay;
+#[doc(hidden)]
+pub mod rig;
 #[doc(hidden)]
 pub mod sensor;
 #[doc(hidden)]

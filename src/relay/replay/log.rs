@@ -11,18 +11,18 @@ use std::path::{Path, PathBuf};
 /// dwell completed and a `start` row per run; flushed after every step. A closed-loop replay's
 /// log has the measurement's columns after those (`LOG_SENSOR_COLUMNS`), empty in the other
 /// rows.
-pub(in crate::relay) struct Log {
+pub(crate) struct Log {
     path: PathBuf,
     file: std::io::BufWriter<std::fs::File>,
     /// The board column is written.
-    pub(in crate::relay) listed: bool,
+    pub(crate) listed: bool,
     /// How many columns a row has (shorter rows are padded with empty ones).
     columns: usize,
 }
 
 /// Which replay a log is of: its columns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(in crate::relay) enum LogKind {
+pub(crate) enum LogKind {
     Replay,
     /// With the measurement's columns (`LOG_SENSOR_COLUMNS`).
     ClosedLoop,
@@ -37,7 +37,7 @@ pub const LOG_HEADER_BOARDS: &str = "t_s,step,action,coil,board,channel,bytes";
 pub const LOG_SENSOR_COLUMNS: &str = "qw,qx,qy,qz,goal_deg,raw";
 
 /// The log's header for one board or several (`listed`), of a replay or a closed loop.
-pub(in crate::relay) fn log_header(listed: bool, kind: LogKind) -> String {
+pub(crate) fn log_header(listed: bool, kind: LogKind) -> String {
     let base = if listed {
         LOG_HEADER_BOARDS
     } else {
@@ -211,7 +211,7 @@ impl Log {
     }
 
     /// One row: `cols`, then empty columns up to the header's count.
-    pub(in crate::relay) fn row(&mut self, cols: &[&str]) -> Result<(), RelayError> {
+    pub(crate) fn row(&mut self, cols: &[&str]) -> Result<(), RelayError> {
         let pad = self.columns.saturating_sub(cols.len());
         writeln!(self.file, "{}{}", cols.join(","), ",".repeat(pad)).map_err(|e| RelayError::Log {
             path: self.path.clone(),
@@ -221,16 +221,11 @@ impl Log {
 
     /// A `start` or `done` row (or another marker): time, step, action, the other columns
     /// empty.
-    pub(in crate::relay) fn marker(
-        &mut self,
-        t: &str,
-        step: &str,
-        action: &str,
-    ) -> Result<(), RelayError> {
+    pub(crate) fn marker(&mut self, t: &str, step: &str, action: &str) -> Result<(), RelayError> {
         self.row(&[t, step, action])
     }
 
-    pub(in crate::relay) fn flush(&mut self) -> Result<(), RelayError> {
+    pub(crate) fn flush(&mut self) -> Result<(), RelayError> {
         self.file.flush().map_err(|e| RelayError::Log {
             path: self.path.clone(),
             cause: e,

@@ -1,5 +1,5 @@
 //! Closed loop on the hardware (`spherestep replay PLAN SCENARIO --sensor DEV ...`): the
-//! replay of `replay/` (the same boards, switching, dwells, guards and all-off endings), and
+//! replay of `relay::replay` (the same boards, switching, dwells, guards and all-off endings), and
 //! after each step's dwell the ball's orientation read from an orientation sensor and handed to
 //! the closed loop's [`Controller`]: the plan in force goes on, or is replaced by one replanned
 //! from the measurement, or the ball is at the goal, or nothing more can be done. A replanned
@@ -11,21 +11,21 @@
 //! While the sensor is awaited and the controller decides (fitting the wells, replanning:
 //! seconds, with a large search), the coils of the step stay on. That phase runs on a worker
 //! thread; this thread watches the stop flag (a signal) and the runner's guard every
-//! [`POLL`](super::replay::POLL). When either fires it switches every coil off at once, before
+//! [`POLL`](crate::relay::replay::POLL). When either fires it switches every coil off at once, before
 //! a coil reaches its limit ([`guard_margin`](crate::planning::on_time::guard_margin) ahead of it), then abandons the reading
 //! and the computation through the [`Cancel`] token they were given, and ends the replay.
 
-use super::replay::{
-    check_on_time, entries_from, stdout_error, Drive, Entry, LogKind, Mode, Prepared, Resume,
-    Runner,
-};
-use super::{Link, RelayError, Setting};
 use crate::model::geometry::Orientation;
 use crate::planning::cancel::Cancel;
 use crate::planning::closed_loop::{
     drive, Controller, Decide, Decision, Ending, LoopSettings, Plant,
 };
 use crate::planning::plan::PlanRow;
+use crate::relay::replay::{
+    check_on_time, entries_from, stdout_error, Drive, Entry, LogKind, Mode, Prepared, Resume,
+    Runner, POLL,
+};
+use crate::relay::{Link, RelayError, Setting};
 use crate::sensor::frame::{axis_angle_text, Tared};
 use crate::sensor::{OrientationSensor, Reading, SensorError};
 use std::io::Write;
@@ -86,6 +86,14 @@ pub struct ClosedSummary {
     pub replans: usize,
     /// The last measurement's angle from the goal, degrees.
     pub distance_deg: f64,
+}
+
+impl From<SensorError> for RelayError {
+    /// A sensor's error in a closed-loop replay (the relay layer knows no sensor: its
+    /// [`RelayError::Sensor`] holds it as it is).
+    fn from(e: SensorError) -> RelayError {
+        RelayError::Sensor(Box::new(e))
+    }
 }
 
 /// Refuses the replay options a closed loop cannot honour: a dry run (nothing would measure the
@@ -264,7 +272,7 @@ impl Hardware<'_, '_, '_> {
                     message: format!("cannot start the thread that reads the sensor: {e}"),
                 })?;
             let outcome = loop {
-                match rx.recv_timeout(super::replay::POLL) {
+                match rx.recv_timeout(POLL) {
                     Ok(Ok(Worked::Decided(q, d))) => break Ok((q, d)),
                     Ok(Ok(Worked::Read(reading))) => {
                         match measured(r, step, &reading, planned, &goal) {
