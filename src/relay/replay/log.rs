@@ -15,7 +15,7 @@ pub(crate) struct Log {
     path: PathBuf,
     file: std::io::BufWriter<std::fs::File>,
     /// The board column is written.
-    pub(crate) listed: bool,
+    pub(super) listed: bool,
     /// How many columns a row has (shorter rows are padded with empty ones).
     columns: usize,
 }
@@ -219,6 +219,30 @@ impl Log {
         })
     }
 
+    /// A closed loop's row of a measurement (`sensor`) or of the tare (`tare`): time, step,
+    /// action, the frame's columns empty, then `LOG_SENSOR_COLUMNS`: the quaternion `q` (w, x,
+    /// y, z), its angle from the goal (`goal_deg`, empty for none) and what the sensor sent
+    /// (`raw`, quoted).
+    pub(crate) fn measurement(
+        &mut self,
+        t: &str,
+        step: &str,
+        action: &str,
+        q: [f64; 4],
+        goal_deg: Option<f64>,
+        raw: &str,
+    ) -> Result<(), RelayError> {
+        let q = q.map(|c| c.to_string());
+        let goal = goal_deg.map(|d| format!("{d:.4}")).unwrap_or_default();
+        let raw = csv_field(raw);
+        let frame = log_header(self.listed, LogKind::Replay).split(',').count();
+        let mut cols = vec![t, step, action];
+        cols.resize(frame, "");
+        cols.extend(q.iter().map(String::as_str));
+        cols.extend([goal.as_str(), raw.as_str()]);
+        self.row(&cols)
+    }
+
     /// A `start` or `done` row (or another marker): time, step, action, the other columns
     /// empty.
     pub(crate) fn marker(&mut self, t: &str, step: &str, action: &str) -> Result<(), RelayError> {
@@ -230,5 +254,21 @@ impl Log {
             path: self.path.clone(),
             cause: e,
         })
+    }
+}
+
+/// A CSV field: quoted, its quotes doubled.
+fn csv_field(s: &str) -> String {
+    format!("\"{}\"", s.replace('"', "\"\""))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closed_csv_fields_are_quoted() {
+        assert_eq!(csv_field("1,0,0,0"), "\"1,0,0,0\"");
+        assert_eq!(csv_field("a\"b"), "\"a\"\"b\"");
     }
 }

@@ -257,28 +257,28 @@ pub(crate) struct Driven {
 /// A replay in progress: the boards' drivers, the output, the log, the clock and what is on.
 pub(crate) struct Runner<'a> {
     /// The boards, in order (every switch's board is one of them: checked by `execute_on`).
-    pub(crate) boards: Vec<Driven>,
+    boards: Vec<Driven>,
     /// `[[relay.boards]]`: the board column is printed and errors name their board.
-    pub(crate) listed: bool,
-    pub(crate) out: &'a mut dyn Write,
-    pub(crate) log: Option<Log>,
-    pub(crate) start: Instant,
+    listed: bool,
+    out: &'a mut dyn Write,
+    log: Option<Log>,
+    start: Instant,
     /// The stop flag and the earliest coil deadline, watched by every link's waits.
     watch: Arc<Watch>,
-    pub(crate) virtual_t: Duration,
-    pub(crate) dry_run: bool,
-    pub(crate) stop: Arc<AtomicBool>,
-    pub(crate) input: Option<Receiver<String>>,
-    pub(crate) mode: Mode,
-    pub(crate) max_on_time: Duration,
+    virtual_t: Duration,
+    dry_run: bool,
+    stop: Arc<AtomicBool>,
+    input: Option<Receiver<String>>,
+    mode: Mode,
+    max_on_time: Duration,
     /// Relays on, with their coil, since when (the moment their frame went out) and since
     /// which step. Changed only through `switched_on`/`switched_off`/`all_off`, which keep
     /// the watch's deadline.
     on_since: BTreeMap<Slot, (CoilId, Duration, usize)>,
     /// The on-time each relay had when its board's all-off went out (the first all-off).
     off_at: BTreeMap<Slot, Duration>,
-    pub(crate) next_step: usize,
-    pub(crate) steps_done: usize,
+    next_step: usize,
+    steps_done: usize,
     /// How its own lines name the replay's settings ([`Prepared::wording`]).
     wording: &'static dyn crate::relay::Wording,
 }
@@ -788,6 +788,48 @@ impl Runner<'_> {
         Ok(())
     }
 
+    /// Plays one entry: switches it, reads the relays back (`verify`), dwells (realtime), runs
+    /// `then` (where the rig's closed loop reads the sensor and decides, under its watch) and
+    /// marks the step done. The one step sequence of the open-loop replay and of the closed
+    /// loop.
+    pub(crate) fn play<T>(
+        &mut self,
+        e: &Entry,
+        then: impl FnOnce(&mut Self) -> Result<T, RelayError>,
+    ) -> Result<T, RelayError> {
+        self.next_step = if e.hold { e.step + 1 } else { e.step };
+        self.switch(e)?;
+        self.verify_entry(e)?;
+        if self.mode == Mode::Realtime {
+            self.dwell(e)?;
+        }
+        let done = then(self)?;
+        self.mark(e.step, "done")?;
+        if !e.hold {
+            self.steps_done += 1;
+        }
+        self.next_step = e.step + 1;
+        Ok(done)
+    }
+
+    /// Logs a closed loop's measurement (or tare) row at `t` for `step` and flushes the log
+    /// (see `Log::measurement`); nothing without a log.
+    pub(crate) fn log_measurement(
+        &mut self,
+        t: &str,
+        step: usize,
+        action: &str,
+        q: [f64; 4],
+        goal_deg: Option<f64>,
+        raw: &str,
+    ) -> Result<(), RelayError> {
+        let Some(log) = self.log.as_mut() else {
+            return Ok(());
+        };
+        log.measurement(t, &step.to_string(), action, q, goal_deg, raw)?;
+        log.flush()
+    }
+
     /// The replay proper; returns whether the user quit. The caller switches all off after.
     fn drive(&mut self, s: &Schedule) -> Result<bool, RelayError> {
         self.start_off()?;
@@ -804,16 +846,7 @@ impl Runner<'_> {
                     return Ok(true);
                 }
             }
-            self.switch(e)?;
-            self.verify_entry(e)?;
-            if self.mode == Mode::Realtime {
-                self.dwell(e)?;
-            }
-            self.mark(e.step, "done")?;
-            if !e.hold {
-                self.steps_done += 1;
-            }
-            self.next_step = e.step + 1;
+            self.play(e, |_| Ok(()))?;
         }
         if self.mode == Mode::Step {
             // Enter or q: either way everything goes off now.
