@@ -19,7 +19,8 @@
 //! 6. `figures`: the pictures, the 3-D page and the batch report;
 //! 7. `commands`: one function per command of the binary, and batches of scenarios.
 //!
-//! [`error`] is shared by all layers.
+//! [`error`] gathers the layers' errors into the crate's one [`Error`]; [`text`] (how messages
+//! show numbers and text) is shared by all layers and imports none.
 //!
 //! The few types most uses need are re-exported here; the layers' modules hold the rest.
 //! Plan a motion on the built-in prototype (its `[plan]` defaults: 90 degrees about Z) and
@@ -84,6 +85,7 @@ pub mod rig;
 pub mod sensor;
 #[doc(hidden)]
 pub mod serial;
+pub mod text;
 
 /// The Rust blocks of the README and the book, compiled and run as doc tests (`tests/docs.rs`
 /// runs their shell blocks and checks their links).

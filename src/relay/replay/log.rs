@@ -149,7 +149,7 @@ fn inspect_log(
     if let Some(message) = other_log_kind(line, &header, kind) {
         return Err(refuse(message));
     }
-    let text = crate::error::printable(&String::from_utf8_lossy(line));
+    let text = crate::text::printable(&String::from_utf8_lossy(line));
     let shown = match text.char_indices().nth(80) {
         Some((k, _)) => format!("{}...", &text[..k]),
         None => text,
