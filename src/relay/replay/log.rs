@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 /// dwell completed and a `start` row per run; flushed after every step. A closed-loop replay's
 /// log has the measurement's columns after those (`LOG_SENSOR_COLUMNS`), empty in the other
 /// rows.
-pub(crate) struct Log {
+pub(super) struct Log {
     path: PathBuf,
     file: std::io::BufWriter<std::fs::File>,
     /// The board column is written.
@@ -37,7 +37,7 @@ pub const LOG_HEADER_BOARDS: &str = "t_s,step,action,coil,board,channel,bytes";
 pub const LOG_SENSOR_COLUMNS: &str = "qw,qx,qy,qz,goal_deg,raw";
 
 /// The log's header for one board or several (`listed`), of a replay or a closed loop.
-pub(crate) fn log_header(listed: bool, kind: LogKind) -> String {
+fn log_header(listed: bool, kind: LogKind) -> String {
     let base = if listed {
         LOG_HEADER_BOARDS
     } else {
@@ -211,7 +211,7 @@ impl Log {
     }
 
     /// One row: `cols`, then empty columns up to the header's count.
-    pub(crate) fn row(&mut self, cols: &[&str]) -> Result<(), RelayError> {
+    pub(super) fn row(&mut self, cols: &[&str]) -> Result<(), RelayError> {
         let pad = self.columns.saturating_sub(cols.len());
         writeln!(self.file, "{}{}", cols.join(","), ",".repeat(pad)).map_err(|e| RelayError::Log {
             path: self.path.clone(),
@@ -223,7 +223,7 @@ impl Log {
     /// action, the frame's columns empty, then `LOG_SENSOR_COLUMNS`: the quaternion `q` (w, x,
     /// y, z), its angle from the goal (`goal_deg`, empty for none) and what the sensor sent
     /// (`raw`, quoted).
-    pub(crate) fn measurement(
+    pub(super) fn measurement(
         &mut self,
         t: &str,
         step: &str,
@@ -245,11 +245,11 @@ impl Log {
 
     /// A `start` or `done` row (or another marker): time, step, action, the other columns
     /// empty.
-    pub(crate) fn marker(&mut self, t: &str, step: &str, action: &str) -> Result<(), RelayError> {
+    pub(super) fn marker(&mut self, t: &str, step: &str, action: &str) -> Result<(), RelayError> {
         self.row(&[t, step, action])
     }
 
-    pub(crate) fn flush(&mut self) -> Result<(), RelayError> {
+    pub(super) fn flush(&mut self) -> Result<(), RelayError> {
         self.file.flush().map_err(|e| RelayError::Log {
             path: self.path.clone(),
             cause: e,

@@ -246,7 +246,7 @@ fn print_header(
 
 /// One board of the replay: its driver, its port (as messages name it) and whether `--verify`
 /// reads it back.
-pub(crate) struct Driven {
+struct Driven {
     driver: Box<dyn RelayBoard>,
     port: String,
     verify: bool,
@@ -318,7 +318,7 @@ impl Runner<'_> {
     }
 
     /// Prints and logs the frames board `board` sent since the last call.
-    pub(crate) fn emit(
+    fn emit(
         &mut self,
         board: usize,
         step: Option<usize>,
@@ -370,7 +370,7 @@ impl Runner<'_> {
         Ok(())
     }
 
-    pub(crate) fn flush_log(&mut self) -> Result<(), RelayError> {
+    fn flush_log(&mut self) -> Result<(), RelayError> {
         match self.log.as_mut() {
             Some(l) => l.flush(),
             None => Ok(()),
@@ -488,14 +488,14 @@ impl Runner<'_> {
     }
 
     /// The coil on longest now (with its slot, the step since which it is on, and how long).
-    pub(crate) fn longest_on(&self) -> Option<(Slot, CoilId, usize, Duration)> {
+    fn longest_on(&self) -> Option<(Slot, CoilId, usize, Duration)> {
         (self.on_times(self.now()).into_iter())
             .map(|(slot, (coil, step, on))| (slot, coil, step, on))
             .max_by_key(|&(_, _, _, on)| on)
     }
 
     /// Waits `d` (simulated in a dry run), watching the stop flag and the on-time limit.
-    pub(crate) fn wait(&mut self, d: Duration, step: usize) -> Result<(), RelayError> {
+    fn wait(&mut self, d: Duration, step: usize) -> Result<(), RelayError> {
         if self.dry_run {
             self.virtual_t += d;
             return Ok(());
@@ -538,7 +538,7 @@ impl Runner<'_> {
     /// Sends an entry's switching in order, each on its board, recording what went out even
     /// when the board then failed to answer. A coil counts as on from the moment its frame
     /// goes out.
-    pub(crate) fn switch(&mut self, e: &Entry) -> Result<(), RelayError> {
+    fn switch(&mut self, e: &Entry) -> Result<(), RelayError> {
         for sw in &e.switches {
             self.check_stop()?;
             self.check_on_time(|| format!("the replay switched step {}", e.step))?;
@@ -569,7 +569,7 @@ impl Runner<'_> {
 
     /// Reads the relays back (the boards `--verify` reads) and compares them with what the
     /// entry leaves on each.
-    pub(crate) fn verify_entry(&mut self, e: &Entry) -> Result<(), RelayError> {
+    fn verify_entry(&mut self, e: &Entry) -> Result<(), RelayError> {
         for i in 0..self.boards.len() {
             if !self.boards[i].verify {
                 continue;
@@ -669,7 +669,7 @@ impl Runner<'_> {
 
     /// The error of a replay that ended (with `cause`, or finished) with an all-off that
     /// failed on the `failed` boards.
-    pub(crate) fn off_failed(
+    fn off_failed(
         &self,
         cause: Option<RelayError>,
         mut failed: Vec<(usize, RelayError)>,
@@ -734,7 +734,7 @@ impl Runner<'_> {
     }
 
     /// Says and waits an entry's dwell.
-    pub(crate) fn dwell(&mut self, e: &Entry) -> Result<(), RelayError> {
+    fn dwell(&mut self, e: &Entry) -> Result<(), RelayError> {
         let t = format!("{:.3}", self.now().as_secs_f64());
         let ms = e.dwell.as_millis();
         let why = match e.unsettled {
