@@ -13,11 +13,14 @@
 //!    `sensor` (the same level): orientation sensors read over a port (quat-csv, BNO055);
 //!    `rehearse` (above them): the virtual motor, their far ends on pseudo-terminals driving
 //!    a simulated ball;
+//!    `rig` (above them and `planning`): the closed loop on the hardware, the boards switched
+//!    and the sensor read as the closed loop's plant;
 //! 5. `io`: the files: scenarios (TOML), plans and results (CSV), atomic writes;
 //! 6. `figures`: the pictures, the 3-D page and the batch report;
 //! 7. `commands`: one function per command of the binary, and batches of scenarios.
 //!
-//! [`error`] is shared by all layers.
+//! [`error`] gathers the layers' errors into the crate's one [`Error`]; [`text`] (how messages
+//! show numbers and text) is shared by all layers and imports none.
 //!
 //! The few types most uses need are re-exported here; the layers' modules hold the rest.
 //! Plan a motion on the built-in prototype (its `[plan]` defaults: 90 degrees about Z) and
@@ -77,9 +80,12 @@ pub mod rehearse;
 #[doc(hidden)]
 pub mod relay;
 #[doc(hidden)]
+pub mod rig;
+#[doc(hidden)]
 pub mod sensor;
 #[doc(hidden)]
 pub mod serial;
+pub mod text;
 
 /// The Rust blocks of the README and the book, compiled and run as doc tests (`tests/docs.rs`
 /// runs their shell blocks and checks their links).

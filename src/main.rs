@@ -13,7 +13,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // what files and devices hold is in the message: never sent to the terminal raw
-            let message = spherestep::error::printable_lines(&format!("{e:#}"));
+            let message = spherestep::text::printable_lines(&format!("{e:#}"));
             eprintln!("spherestep: error: {message}");
             ExitCode::FAILURE
         }

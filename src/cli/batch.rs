@@ -2,7 +2,7 @@
 //! summary.csv.
 
 use anyhow::Result;
-use spherestep::error::{printable, printable_lines};
+use spherestep::text::{printable, printable_lines};
 use std::io::Write;
 use std::path::PathBuf;
 

@@ -2,7 +2,7 @@
 //! closed loop) and `spherestep simulate PLAN --plant P --closed-loop` (the same from a plan
 //! file): the per-step CSV and the summary.
 
-use crate::error::{printable, Error, Result};
+use crate::error::{Error, Result};
 use crate::io::loopfile::write_loop;
 use crate::io::output::emit_csv;
 use crate::io::planfile::read_plan;
@@ -13,6 +13,7 @@ use crate::planning::options::LoopNames;
 pub use crate::planning::options::{default_max_steps, LoopOptions, MAX_SENSOR_NOISE_DEG};
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
 use crate::planning::planner::plan;
+use crate::text::printable;
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;

@@ -2,7 +2,7 @@
 //! what `replay` reads and prepares the same checked schedule, builds the controller as
 //! `simulate --closed-loop` does from a plan file (the scenario's motor and plan settings with
 //! the plan file's own target, its last row the goal), opens the sensor and then the boards,
-//! and hands them to the relay layer (`crate::relay::closed`).
+//! and hands them to the rig (`crate::rig`).
 
 use super::closed_loop::{loop_settings, plan_file_loop, LoopOptions};
 use super::replay::{inputs, Flags, ReplayOptions};
@@ -13,9 +13,9 @@ use crate::planning::cancel::Cancel;
 use crate::planning::closed_loop::{Controller, LoopSettings};
 use crate::planning::commutation::Motor;
 use crate::planning::plan::{Plan, PlanSettings};
-use crate::relay::closed::{execute_closed, refuse_options, ClosedSummary, Sensing};
 use crate::relay::replay::{check_log, open_ports, Prepared};
 use crate::relay::Link;
+use crate::rig::{execute_closed, refuse_options, ClosedSummary, Sensing};
 use crate::sensor::bno055::FusionMode;
 use crate::sensor::{self, OrientationSensor, SensorFormat};
 use std::io::Write;
@@ -141,7 +141,7 @@ pub const MAX_SENSOR_TIMEOUT: Duration = Duration::from_secs(60);
 
 /// The sensor is awaited with the step's coils on: its timeout must leave them room under the
 /// on-time limit (the replay also switches everything off before the limit whatever the
-/// timeout, see `relay::closed`), and is at most [`MAX_SENSOR_TIMEOUT`].
+/// timeout, see `rig`), and is at most [`MAX_SENSOR_TIMEOUT`].
 fn check_sensor_timeout(so: &SensorOptions, max_on_time: Duration) -> Result<()> {
     let t = so.timeout();
     let bound = max_on_time.min(MAX_SENSOR_TIMEOUT);
@@ -202,7 +202,7 @@ pub fn execute(
     stop: Arc<AtomicBool>,
     out: &mut dyn Write,
 ) -> Result<ClosedSummary> {
-    // the replans can be abandoned when the coils must go off (relay::closed)
+    // the replans can be abandoned when the coils must go off (rig)
     let cancel = Cancel::new();
     let motor = Motor {
         cancel: cancel.clone(),

@@ -10,7 +10,7 @@ pub mod replay;
 pub mod waypoints;
 pub mod wells;
 
-use crate::error::{printable, Error, Result};
+use crate::error::{Error, Result};
 use crate::io::output::emit_csv;
 use crate::io::pairs::parse_pairs;
 use crate::io::planfile::{read_plan, write_plan};
@@ -23,6 +23,7 @@ pub use crate::planning::holding::Holding;
 use crate::planning::plan::PlanRow;
 use crate::planning::planner::{plan, Plan, PlanSettings};
 use crate::planning::simulate::{simulate, SimRow};
+use crate::text::printable;
 use args::{parse_axis, parse_orientation};
 use std::io::Write;
 use std::path::Path;
@@ -399,7 +400,7 @@ pub fn unsettled_warning(steps: &[usize], t_max: f64) -> Option<String> {
     Some(format!(
         "warning: {list} never settled within t_max ({} s): the settle time written is t_max, \
          not a settle time (settled = false in the CSV); `simulate` shows where the ball goes",
-        crate::error::shown(t_max)
+        crate::text::shown(t_max)
     ))
 }
 

@@ -205,7 +205,7 @@ fn check_numbers(o: &VirtualOptions) -> Result<Option<Duration>> {
             "--speed",
             format!(
                 "a number > 0 and <= {MAX_SPEED}, got {}",
-                crate::error::shown(o.speed)
+                crate::text::shown(o.speed)
             ),
         ));
     }
@@ -214,7 +214,7 @@ fn check_numbers(o: &VirtualOptions) -> Result<Option<Duration>> {
             "--sensor-noise-deg",
             format!(
                 "degrees from 0 to 10, got {}",
-                crate::error::shown(o.sensor_noise_deg)
+                crate::text::shown(o.sensor_noise_deg)
             ),
         ));
     }
@@ -223,7 +223,7 @@ fn check_numbers(o: &VirtualOptions) -> Result<Option<Duration>> {
             "--sensor-garble",
             format!(
                 "a fraction from 0 to 1, got {}",
-                crate::error::shown(o.sensor_garble)
+                crate::text::shown(o.sensor_garble)
             ),
         ));
     }
@@ -251,7 +251,7 @@ fn check_numbers(o: &VirtualOptions) -> Result<Option<Duration>> {
         Some(s) if s.is_finite() && s > 0.0 && s <= 1e6 => Ok(Some(Duration::from_secs_f64(s))),
         Some(s) => Err(arg(
             "--max-seconds",
-            format!("seconds > 0 and <= 1000000, got {}", crate::error::shown(s)),
+            format!("seconds > 0 and <= 1000000, got {}", crate::text::shown(s)),
         )),
     }
 }

@@ -2,7 +2,7 @@
 //! the waypoint columns and a summary), and the check `simulate` makes of such a plan: where
 //! the simulated ball ends against each waypoint.
 
-use crate::error::{printable, Error, Result};
+use crate::error::{Error, Result};
 use crate::io::output::emit_csv;
 use crate::io::planfile::{waypoint_ends, write_waypoint_plan, Serves};
 use crate::io::scenario::Scenario;
@@ -10,6 +10,7 @@ use crate::io::waypoints::read_waypoints;
 use crate::planning::plan::PlanSettings;
 use crate::planning::simulate::SimRow;
 use crate::planning::waypoints::{plan_waypoints_with, WaypointPlan};
+use crate::text::printable;
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
@@ -34,7 +35,7 @@ pub fn check_tolerance(deg: f64) -> Result<f64> {
             arg: "--tolerance-deg".into(),
             expected: format!(
                 "a tolerance in (0, 90] degrees, got {}",
-                crate::error::shown(deg)
+                crate::text::shown(deg)
             ),
         }),
     }

@@ -4,7 +4,7 @@
 //! compared with and a `shape = "table"` scenario reads back, with its picture and a summary.
 
 use crate::commands::args::{as_flag, check_out};
-use crate::error::{printable, Error, Input, Result};
+use crate::error::{Error, Input, Result};
 use crate::figures::{write_figure, WellPlot};
 use crate::io::output::emit_csv;
 use crate::io::scenario::Scenario;
@@ -13,6 +13,7 @@ use crate::physics::torque::Well;
 pub use crate::physics::well_curve::{
     summarise, well_curve, WellSummary, DEFAULT_STEP_DEG, MAX_STEP_DEG, MIN_STEP_DEG,
 };
+use crate::text::printable;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

@@ -48,7 +48,7 @@ pub fn parse_sweep_column(text: &str, path: &Path, value: &str) -> Result<Vec<Sw
         if !(value.is_nan() || (0.0..=180.0 + 1e-9).contains(&value)) {
             return Err(r.error(format!(
                 "column `max_axis_error_deg`: expected an angle from 0 to 180 degrees (or NaN: no result), got {}",
-                crate::error::shown(value)
+                crate::text::shown(value)
             )));
         }
         let scheme = scheme_col.map(|k| r.get(k).to_string());

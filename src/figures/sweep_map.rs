@@ -122,8 +122,8 @@ impl SweepMap {
         if !(hi - lo).is_finite() || lo.abs().max(hi.abs()) > 1e12 {
             return Err(DrawError(format!(
                 "sweep map: expected values within +-1e12, got {} to {}",
-                crate::error::shown(lo),
-                crate::error::shown(hi)
+                crate::text::shown(lo),
+                crate::text::shown(hi)
             )));
         }
         Ok(())

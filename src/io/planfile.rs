@@ -221,7 +221,7 @@ fn plan_row(r: &Row, idx: &[usize], settled: Option<usize>) -> Result<PlanRow> {
     if settle_time_s < 0.0 {
         return Err(r.error(format!(
             "column `settle_time_s`: expected a time >= 0 s, got {}",
-            crate::error::shown(settle_time_s)
+            crate::text::shown(settle_time_s)
         )));
     }
     Ok(PlanRow {

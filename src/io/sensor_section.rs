@@ -16,8 +16,9 @@
 //! non-zero (it is normalised), the angle finite. The two forms exclude each other. Every
 //! error names the file and the field.
 
-use crate::error::{shown, Error, Result};
+use crate::error::{Error, Result};
 use crate::model::geometry::{orientation_from_xyzw, unit, Orientation};
+use crate::text::shown;
 use nalgebra::Vector3;
 use serde::Deserialize;
 use std::path::Path;

@@ -454,7 +454,7 @@ impl DipoleParts {
         if !self.coil_turns_amps.is_finite() {
             return Err(format!(
                 "coil_turns_amps: expected finite ampere-turns N I (A), got {}",
-                crate::error::shown(self.coil_turns_amps)
+                crate::text::shown(self.coil_turns_amps)
             ));
         }
         positive(
@@ -465,13 +465,13 @@ impl DipoleParts {
         if !(self.gap_m >= 0.0 && self.gap_m.is_finite()) {
             return Err(format!(
                 "gap_m: expected a finite gap >= 0 (m), got {}",
-                crate::error::shown(self.gap_m)
+                crate::text::shown(self.gap_m)
             ));
         }
         if !(self.core_gain >= 1.0 && self.core_gain.is_finite()) {
             return Err(format!(
                 "core_gain: expected a finite gain >= 1, got {}",
-                crate::error::shown(self.core_gain)
+                crate::text::shown(self.core_gain)
             ));
         }
         Ok(())
@@ -496,7 +496,7 @@ fn positive(name: &str, value: f64, expected: &str) -> Result<(), String> {
     } else {
         Err(format!(
             "{name}: expected {expected}, got {}",
-            crate::error::shown(value)
+            crate::text::shown(value)
         ))
     }
 }
@@ -551,7 +551,7 @@ impl DipoleWell {
         if parts.coil_turns_amps <= 0.0 {
             return Err(format!(
                 "coil_turns_amps: expected > 0 for a well (an attracting coil), got {}",
-                crate::error::shown(parts.coil_turns_amps)
+                crate::text::shown(parts.coil_turns_amps)
             ));
         }
         // the well's angular scale: the closest the magnets come to the wire, seen from the
@@ -571,7 +571,7 @@ impl DipoleWell {
             return Err(format!(
                 "parts whose coil attracts a magnet somewhere, got a largest pull of {} N m \
                  (they attract nowhere): check their values",
-                crate::error::shown(g)
+                crate::text::shown(g)
             ));
         }
         well.peak_d = d;

@@ -213,7 +213,7 @@ impl TorqueTable {
         if rows[0].0 != 0.0 {
             return Err(format!(
                 "row 1: expected the first angle to be 0 degrees, got {}",
-                crate::error::shown(rows[0].0)
+                crate::text::shown(rows[0].0)
             ));
         }
         for (i, &(d, g)) in rows.iter().enumerate() {
@@ -224,8 +224,8 @@ impl TorqueTable {
                 return Err(format!(
                     "row {}: expected angles strictly increasing, got {} after {}",
                     i + 1,
-                    crate::error::shown(d),
-                    crate::error::shown(rows[i - 1].0)
+                    crate::text::shown(d),
+                    crate::text::shown(rows[i - 1].0)
                 ));
             }
             if d > 180.0 {

@@ -3,8 +3,9 @@
 //! (the peak pull, the width, the stiffness). What `spherestep wells` and
 //! [`crate::Motor::wells`] compute.
 
-use crate::error::{shown, Error, Input, Result};
+use crate::error::{Error, Input, Result};
 use crate::physics::torque::Well;
+use crate::text::shown;
 use serde::Serialize;
 
 /// The default angle step of the curve, degrees: read back as a table (linear interpolation),

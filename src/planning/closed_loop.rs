@@ -654,7 +654,7 @@ impl<'a> Controller<'a> {
 
 /// The decision the loop makes from a measurement: [`Controller::observe`], handed to the
 /// plant so that it can run it where it must (the hardware runs it under its watch of the
-/// coils' on-time and of signals, see `relay::closed`).
+/// coils' on-time and of signals, see `crate::rig`).
 pub type Decide<'a> = dyn FnMut(&Orientation) -> Decision + Send + 'a;
 
 /// What a closed loop plays its rows on: a simulated motor and sensor, or the hardware's

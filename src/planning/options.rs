@@ -3,9 +3,10 @@
 //! settings in one place for every front end: a refusal names the option as the front end
 //! calls it ([`LoopNames`]).
 
-use crate::error::{shown, Error, Result};
+use crate::error::{Error, Result};
 use crate::model::geometry::Radians;
 use crate::planning::closed_loop::LoopSettings;
+use crate::text::shown;
 
 /// How to play a plan on the plant.
 #[derive(Debug, Clone, Copy, PartialEq)]

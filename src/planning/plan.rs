@@ -141,7 +141,7 @@ pub fn target_angle(deg: f64, start: &str) -> std::result::Result<Radians, Strin
         };
         Err(format!(
             "a target angle in (0, {MAX_TARGET_DEG}] degrees, got {}{longer}",
-            crate::error::shown(deg)
+            crate::text::shown(deg)
         ))
     }
 }

@@ -3,8 +3,9 @@
 //! durations within their bounds, coil keys. Shared by the single-board settings
 //! (`config`) and the board list (`boards`).
 
-use crate::error::{shown, Error, Result};
+use crate::error::{Error, Result};
 use crate::model::geometry::CoilId;
+use crate::text::shown;
 use std::path::Path;
 use std::time::Duration;
 

@@ -2,11 +2,12 @@
 //! (`RelayBoard`, in the spirit of the crelay project), the serial link they talk over, the
 //! coil-to-channel map and replay settings (`[relay]` in a scenario, or a `--map` file; one
 //! board, or several as `[[relay.boards]]`), and the hardware replay of a plan (`replay`), which
-//! drives one driver per board, open loop or closed through an orientation sensor (`closed`). Channels are numbered from 1, as printed on the boards; each
-//! driver converts to its own wire numbering. Boards are numbered from 0, in list order.
+//! drives one driver per board, open loop (the closed loop through an orientation sensor is
+//! the rig's, `crate::rig`, above this layer). Channels are numbered from 1, as printed on the
+//! boards; each driver converts to its own wire numbering. Boards are numbered from 0, in list
+//! order.
 
 pub mod boards;
-pub mod closed;
 pub mod config;
 mod fields;
 pub mod kmtronic;
@@ -309,9 +310,10 @@ pub enum RelayError {
         resume: usize,
     },
     /// The orientation sensor of a closed-loop replay failed (its message names the sensor
-    /// and its port).
+    /// and its port): a `sensor::SensorError`, put here by the rig (`crate::rig`), since this
+    /// layer knows no sensor.
     #[error(transparent)]
-    Sensor(#[from] crate::sensor::SensorError),
+    Sensor(Box<dyn std::error::Error + Send + Sync>),
     /// The closed loop cannot go on (the controller found no plan from the measurement, or the
     /// plan in force ran out).
     #[error("closed loop stuck after step {step}: {message}")]

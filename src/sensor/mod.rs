@@ -18,10 +18,10 @@ pub mod bno055;
 pub mod frame;
 pub mod quat_csv;
 
-use crate::error::printable;
 use crate::model::geometry::Orientation;
 pub use crate::planning::cancel::Cancel;
 pub use crate::serial::Port;
+use crate::text::printable;
 use std::fmt;
 use std::io::ErrorKind;
 use std::str::FromStr;

@@ -4,7 +4,7 @@
 
 use super::progress::{append_progress, start_progress};
 use super::{BatchOptions, Job, SWEEP_HEADER};
-use crate::error::{printable, Error, Result};
+use crate::error::{Error, Result};
 use crate::io::output::write_atomic;
 use crate::io::planfile::write_plan;
 use crate::io::scenario::Scenario;
@@ -12,6 +12,7 @@ use crate::physics::torque::MagnetTorques;
 use crate::planning::commutation::{pivot_floor, StepModel};
 use crate::planning::plan::{final_orientation_error_deg, max_path_deviation_deg, PlanRow};
 use crate::planning::planner::{max_axis_error_deg, plan, total_settle_time, PlanSettings};
+use crate::text::printable;
 use rayon::prelude::*;
 use std::path::Path;
 use std::time::Instant;

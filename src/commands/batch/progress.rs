@@ -3,8 +3,9 @@
 //! over, and a row that is not what was written is computed again instead of kept.
 
 use super::{Job, SWEEP_HEADER};
-use crate::error::{printable, Error, Result};
+use crate::error::{Error, Result};
 use crate::io::output::write_atomic;
+use crate::text::printable;
 use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

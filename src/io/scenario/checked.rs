@@ -4,7 +4,7 @@
 
 use super::raw::*;
 use super::*;
-use crate::error::{shown, Error, Result};
+use crate::error::{Error, Result};
 use crate::model::geometry::{orientation_from_xyzw, unit, Degrees, Radians, UnitVec};
 use crate::model::packing::{self, Cap, Packing, SemiRegular};
 use crate::model::symmetry::Group;
@@ -17,6 +17,7 @@ use crate::planning::commutation::{default_step_model, PairsPerStep, StepLimits,
 use crate::planning::planner::{
     target_angle, PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET,
 };
+use crate::text::shown;
 use nalgebra::UnitQuaternion;
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
@@ -328,7 +329,7 @@ impl Checker<'_> {
                 field,
                 format!(
                     "a magnet whose {what} is a finite number > 0, got {} from {parts}",
-                    crate::error::shown(v)
+                    crate::text::shown(v)
                 ),
             ))
         }
@@ -358,8 +359,8 @@ impl Checker<'_> {
                             disc_volume(d, t),
                             format!(
                                 "magnet_diameter_m = {} and magnet_thickness_m = {}",
-                                crate::error::shown(d),
-                                crate::error::shown(t)
+                                crate::text::shown(d),
+                                crate::text::shown(t)
                             ),
                         )?;
                         (v, "magnets.magnet_diameter_m")
@@ -371,8 +372,8 @@ impl Checker<'_> {
                     magnet_moment_from_remanence(br, volume),
                     format!(
                         "remanence_t = {} and a volume of {} m^3",
-                        crate::error::shown(br),
-                        crate::error::shown(volume)
+                        crate::text::shown(br),
+                        crate::text::shown(volume)
                     ),
                 )?
             }
@@ -403,7 +404,7 @@ impl Checker<'_> {
                             "magnets.coil_current_a",
                             format!(
                                 "a finite current > 0 (A; a well is a coil that attracts), got {}",
-                                crate::error::shown(i)
+                                crate::text::shown(i)
                             ),
                         ));
                     }
@@ -413,9 +414,9 @@ impl Checker<'_> {
                             "magnets.coil_turns",
                             format!(
                                 "coil_turns x coil_current_a finite and > 0, got {} x {} A = {} A",
-                                crate::error::shown(n),
-                                crate::error::shown(i),
-                                crate::error::shown(ni)
+                                crate::text::shown(n),
+                                crate::text::shown(i),
+                                crate::text::shown(ni)
                             ),
                         ));
                     }
@@ -826,8 +827,8 @@ impl Checker<'_> {
                 "a well whose strongest torque (one coil on one magnet, within the cut-off) \
                  is above settle.torque_tol = {} N m, got {} N m: weaker, every orientation \
                  would pass the settle test at once and count as held",
-                crate::error::shown(settle.torque_tol),
-                crate::error::shown(peak)
+                crate::text::shown(settle.torque_tol),
+                crate::text::shown(peak)
             ),
         ))
     }

@@ -13,7 +13,7 @@ pub use changes::{ChangeNames, PlanChanges, RowsFrom};
 use checked::Checker;
 use raw::*;
 
-use crate::error::{printable, shown, Error, Result};
+use crate::error::{Error, Result};
 use crate::model::geometry::{Orientation, Pair, Radians, UnitVec};
 use crate::model::packing::Packing;
 use crate::model::random::SplitMix;
@@ -21,6 +21,7 @@ use crate::physics::dynamics::{Body, SettleParams};
 use crate::physics::torque::MagnetTorques;
 use crate::planning::commutation::{Motor, PairsPerStep, StepModel};
 use crate::planning::planner::{PlanSettings, Scheme};
+use crate::text::{printable, shown};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 

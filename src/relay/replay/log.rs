@@ -11,18 +11,18 @@ use std::path::{Path, PathBuf};
 /// dwell completed and a `start` row per run; flushed after every step. A closed-loop replay's
 /// log has the measurement's columns after those (`LOG_SENSOR_COLUMNS`), empty in the other
 /// rows.
-pub(in crate::relay) struct Log {
+pub(super) struct Log {
     path: PathBuf,
     file: std::io::BufWriter<std::fs::File>,
     /// The board column is written.
-    pub(in crate::relay) listed: bool,
+    pub(super) listed: bool,
     /// How many columns a row has (shorter rows are padded with empty ones).
     columns: usize,
 }
 
 /// Which replay a log is of: its columns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(in crate::relay) enum LogKind {
+pub(crate) enum LogKind {
     Replay,
     /// With the measurement's columns (`LOG_SENSOR_COLUMNS`).
     ClosedLoop,
@@ -37,7 +37,7 @@ pub const LOG_HEADER_BOARDS: &str = "t_s,step,action,coil,board,channel,bytes";
 pub const LOG_SENSOR_COLUMNS: &str = "qw,qx,qy,qz,goal_deg,raw";
 
 /// The log's header for one board or several (`listed`), of a replay or a closed loop.
-pub(in crate::relay) fn log_header(listed: bool, kind: LogKind) -> String {
+fn log_header(listed: bool, kind: LogKind) -> String {
     let base = if listed {
         LOG_HEADER_BOARDS
     } else {
@@ -149,7 +149,7 @@ fn inspect_log(
     if let Some(message) = other_log_kind(line, &header, kind) {
         return Err(refuse(message));
     }
-    let text = crate::error::printable(&String::from_utf8_lossy(line));
+    let text = crate::text::printable(&String::from_utf8_lossy(line));
     let shown = match text.char_indices().nth(80) {
         Some((k, _)) => format!("{}...", &text[..k]),
         None => text,
@@ -211,7 +211,7 @@ impl Log {
     }
 
     /// One row: `cols`, then empty columns up to the header's count.
-    pub(in crate::relay) fn row(&mut self, cols: &[&str]) -> Result<(), RelayError> {
+    pub(super) fn row(&mut self, cols: &[&str]) -> Result<(), RelayError> {
         let pad = self.columns.saturating_sub(cols.len());
         writeln!(self.file, "{}{}", cols.join(","), ",".repeat(pad)).map_err(|e| RelayError::Log {
             path: self.path.clone(),
@@ -219,21 +219,56 @@ impl Log {
         })
     }
 
-    /// A `start` or `done` row (or another marker): time, step, action, the other columns
-    /// empty.
-    pub(in crate::relay) fn marker(
+    /// A closed loop's row of a measurement (`sensor`) or of the tare (`tare`): time, step,
+    /// action, the frame's columns empty, then `LOG_SENSOR_COLUMNS`: the quaternion `q` (w, x,
+    /// y, z), its angle from the goal (`goal_deg`, empty for none) and what the sensor sent
+    /// (`raw`, quoted).
+    pub(super) fn measurement(
         &mut self,
         t: &str,
         step: &str,
         action: &str,
+        q: [f64; 4],
+        goal_deg: Option<f64>,
+        raw: &str,
     ) -> Result<(), RelayError> {
+        let q = q.map(|c| c.to_string());
+        let goal = goal_deg.map(|d| format!("{d:.4}")).unwrap_or_default();
+        let raw = csv_field(raw);
+        let frame = log_header(self.listed, LogKind::Replay).split(',').count();
+        let mut cols = vec![t, step, action];
+        cols.resize(frame, "");
+        cols.extend(q.iter().map(String::as_str));
+        cols.extend([goal.as_str(), raw.as_str()]);
+        self.row(&cols)
+    }
+
+    /// A `start` or `done` row (or another marker): time, step, action, the other columns
+    /// empty.
+    pub(super) fn marker(&mut self, t: &str, step: &str, action: &str) -> Result<(), RelayError> {
         self.row(&[t, step, action])
     }
 
-    pub(in crate::relay) fn flush(&mut self) -> Result<(), RelayError> {
+    pub(super) fn flush(&mut self) -> Result<(), RelayError> {
         self.file.flush().map_err(|e| RelayError::Log {
             path: self.path.clone(),
             cause: e,
         })
+    }
+}
+
+/// A CSV field: quoted, its quotes doubled.
+fn csv_field(s: &str) -> String {
+    format!("\"{}\"", s.replace('"', "\"\""))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closed_csv_fields_are_quoted() {
+        assert_eq!(csv_field("1,0,0,0"), "\"1,0,0,0\"");
+        assert_eq!(csv_field("a\"b"), "\"a\"\"b\"");
     }
 }

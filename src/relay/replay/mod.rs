@@ -33,6 +33,6 @@ pub use runner::{execute, execute_on, Summary};
 pub use schedule::{dwell, schedule, schedule_on, Entry, Mode, Schedule, Switch};
 pub use stdin::stdin_lines;
 
-pub(in crate::relay) use log::LogKind;
-pub(in crate::relay) use runner::{stdout_error, Runner, POLL};
-pub(in crate::relay) use schedule::{check_on_time, entries_from, Resume};
+pub(crate) use log::LogKind;
+pub(crate) use runner::{stdout_error, Runner, POLL};
+pub(crate) use schedule::{check_on_time, entries_from, Resume};

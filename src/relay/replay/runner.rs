@@ -60,7 +60,7 @@ impl<'a> Runner<'a> {
     /// Connects a driver per board over `links` (one per board, in order), picks the boards
     /// `--verify` reads back, opens the log (`kind` says its columns) and prints the header.
     /// Nothing is sent to a board yet.
-    pub(in crate::relay) fn start(
+    pub(crate) fn start(
         prep: &Prepared,
         links: Vec<Link>,
         stop: Arc<AtomicBool>,
@@ -153,7 +153,7 @@ fn choose_verified(boards: &mut [Driven], listed: bool) -> Result<(), RelayError
 }
 
 /// A failed write of the replay's report.
-pub(in crate::relay) fn stdout_error(cause: std::io::Error) -> RelayError {
+pub(crate) fn stdout_error(cause: std::io::Error) -> RelayError {
     RelayError::Log {
         path: "<stdout>".into(),
         cause,
@@ -246,7 +246,7 @@ fn print_header(
 
 /// One board of the replay: its driver, its port (as messages name it) and whether `--verify`
 /// reads it back.
-pub(in crate::relay) struct Driven {
+struct Driven {
     driver: Box<dyn RelayBoard>,
     port: String,
     verify: bool,
@@ -255,36 +255,36 @@ pub(in crate::relay) struct Driven {
 }
 
 /// A replay in progress: the boards' drivers, the output, the log, the clock and what is on.
-pub(in crate::relay) struct Runner<'a> {
+pub(crate) struct Runner<'a> {
     /// The boards, in order (every switch's board is one of them: checked by `execute_on`).
-    pub(in crate::relay) boards: Vec<Driven>,
+    boards: Vec<Driven>,
     /// `[[relay.boards]]`: the board column is printed and errors name their board.
-    pub(in crate::relay) listed: bool,
-    pub(in crate::relay) out: &'a mut dyn Write,
-    pub(in crate::relay) log: Option<Log>,
-    pub(in crate::relay) start: Instant,
+    listed: bool,
+    out: &'a mut dyn Write,
+    log: Option<Log>,
+    start: Instant,
     /// The stop flag and the earliest coil deadline, watched by every link's waits.
     watch: Arc<Watch>,
-    pub(in crate::relay) virtual_t: Duration,
-    pub(in crate::relay) dry_run: bool,
-    pub(in crate::relay) stop: Arc<AtomicBool>,
-    pub(in crate::relay) input: Option<Receiver<String>>,
-    pub(in crate::relay) mode: Mode,
-    pub(in crate::relay) max_on_time: Duration,
+    virtual_t: Duration,
+    dry_run: bool,
+    stop: Arc<AtomicBool>,
+    input: Option<Receiver<String>>,
+    mode: Mode,
+    max_on_time: Duration,
     /// Relays on, with their coil, since when (the moment their frame went out) and since
     /// which step. Changed only through `switched_on`/`switched_off`/`all_off`, which keep
     /// the watch's deadline.
     on_since: BTreeMap<Slot, (CoilId, Duration, usize)>,
     /// The on-time each relay had when its board's all-off went out (the first all-off).
     off_at: BTreeMap<Slot, Duration>,
-    pub(in crate::relay) next_step: usize,
-    pub(in crate::relay) steps_done: usize,
+    next_step: usize,
+    steps_done: usize,
     /// How its own lines name the replay's settings ([`Prepared::wording`]).
     wording: &'static dyn crate::relay::Wording,
 }
 
 /// How often waits look at the stop flag and the on-time limit.
-pub(in crate::relay) const POLL: Duration = Duration::from_millis(10);
+pub(crate) const POLL: Duration = Duration::from_millis(10);
 
 /// Blank for `-` (the listing's "nothing"), for the log's columns.
 fn blank(s: &str) -> &str {
@@ -296,7 +296,7 @@ fn blank(s: &str) -> &str {
 }
 
 impl Runner<'_> {
-    pub(in crate::relay) fn now(&self) -> Duration {
+    pub(crate) fn now(&self) -> Duration {
         if self.dry_run {
             self.virtual_t
         } else {
@@ -304,7 +304,7 @@ impl Runner<'_> {
         }
     }
 
-    pub(in crate::relay) fn say(&mut self, line: &str) -> Result<(), RelayError> {
+    pub(crate) fn say(&mut self, line: &str) -> Result<(), RelayError> {
         writeln!(self.out, "{line}").map_err(stdout_error)
     }
 
@@ -318,7 +318,7 @@ impl Runner<'_> {
     }
 
     /// Prints and logs the frames board `board` sent since the last call.
-    pub(in crate::relay) fn emit(
+    fn emit(
         &mut self,
         board: usize,
         step: Option<usize>,
@@ -361,7 +361,7 @@ impl Runner<'_> {
         Ok(())
     }
 
-    pub(in crate::relay) fn log_start(&mut self, from: usize) -> Result<(), RelayError> {
+    pub(crate) fn log_start(&mut self, from: usize) -> Result<(), RelayError> {
         let t = format!("{:.3}", self.now().as_secs_f64());
         if let Some(log) = self.log.as_mut() {
             log.marker(&t, &from.to_string(), "start")?;
@@ -370,14 +370,14 @@ impl Runner<'_> {
         Ok(())
     }
 
-    pub(in crate::relay) fn flush_log(&mut self) -> Result<(), RelayError> {
+    fn flush_log(&mut self) -> Result<(), RelayError> {
         match self.log.as_mut() {
             Some(l) => l.flush(),
             None => Ok(()),
         }
     }
 
-    pub(in crate::relay) fn check_stop(&self) -> Result<(), RelayError> {
+    pub(crate) fn check_stop(&self) -> Result<(), RelayError> {
         if self.stop.load(Ordering::SeqCst) {
             return Err(RelayError::Interrupted);
         }
@@ -412,10 +412,7 @@ impl Runner<'_> {
 
     /// The runtime guard: `Err` ([`RelayError::OnTimeReached`], while `phase`) when a coil has
     /// reached its limit less the guard's margin.
-    pub(in crate::relay) fn check_on_time(
-        &self,
-        phase: impl FnOnce() -> String,
-    ) -> Result<(), RelayError> {
+    pub(crate) fn check_on_time(&self, phase: impl FnOnce() -> String) -> Result<(), RelayError> {
         let now = self.now();
         let hit = (self.on_since.iter())
             .filter(|(_, &(_, since, _))| now >= self.guard_at(since))
@@ -483,7 +480,7 @@ impl Runner<'_> {
     }
 
     /// Every relay on at `now`: its coil, the step since which it is on, and for how long.
-    pub(in crate::relay) fn on_times(&self, now: Duration) -> OnTimes {
+    pub(crate) fn on_times(&self, now: Duration) -> OnTimes {
         self.on_since
             .iter()
             .map(|(&slot, &(coil, since, step))| (slot, (coil, step, now.saturating_sub(since))))
@@ -491,14 +488,14 @@ impl Runner<'_> {
     }
 
     /// The coil on longest now (with its slot, the step since which it is on, and how long).
-    pub(in crate::relay) fn longest_on(&self) -> Option<(Slot, CoilId, usize, Duration)> {
+    fn longest_on(&self) -> Option<(Slot, CoilId, usize, Duration)> {
         (self.on_times(self.now()).into_iter())
             .map(|(slot, (coil, step, on))| (slot, coil, step, on))
             .max_by_key(|&(_, _, _, on)| on)
     }
 
     /// Waits `d` (simulated in a dry run), watching the stop flag and the on-time limit.
-    pub(in crate::relay) fn wait(&mut self, d: Duration, step: usize) -> Result<(), RelayError> {
+    fn wait(&mut self, d: Duration, step: usize) -> Result<(), RelayError> {
         if self.dry_run {
             self.virtual_t += d;
             return Ok(());
@@ -541,7 +538,7 @@ impl Runner<'_> {
     /// Sends an entry's switching in order, each on its board, recording what went out even
     /// when the board then failed to answer. A coil counts as on from the moment its frame
     /// goes out.
-    pub(in crate::relay) fn switch(&mut self, e: &Entry) -> Result<(), RelayError> {
+    fn switch(&mut self, e: &Entry) -> Result<(), RelayError> {
         for sw in &e.switches {
             self.check_stop()?;
             self.check_on_time(|| format!("the replay switched step {}", e.step))?;
@@ -572,7 +569,7 @@ impl Runner<'_> {
 
     /// Reads the relays back (the boards `--verify` reads) and compares them with what the
     /// entry leaves on each.
-    pub(in crate::relay) fn verify_entry(&mut self, e: &Entry) -> Result<(), RelayError> {
+    fn verify_entry(&mut self, e: &Entry) -> Result<(), RelayError> {
         for i in 0..self.boards.len() {
             if !self.boards[i].verify {
                 continue;
@@ -614,9 +611,7 @@ impl Runner<'_> {
     /// short, and records what went out (even of an all-off that failed half way) and each
     /// relay's on-time when its board's all-off went out. Returns the boards that failed, and
     /// the first failure to print or log.
-    pub(in crate::relay) fn all_off(
-        &mut self,
-    ) -> (Vec<(usize, RelayError)>, Result<(), RelayError>) {
+    pub(crate) fn all_off(&mut self) -> (Vec<(usize, RelayError)>, Result<(), RelayError>) {
         let mut failed = Vec::new();
         let mut shown = Ok(());
         let mut order: Vec<usize> = (0..self.boards.len()).collect();
@@ -674,7 +669,7 @@ impl Runner<'_> {
 
     /// The error of a replay that ended (with `cause`, or finished) with an all-off that
     /// failed on the `failed` boards.
-    pub(in crate::relay) fn off_failed(
+    fn off_failed(
         &self,
         cause: Option<RelayError>,
         mut failed: Vec<(usize, RelayError)>,
@@ -739,7 +734,7 @@ impl Runner<'_> {
     }
 
     /// Says and waits an entry's dwell.
-    pub(in crate::relay) fn dwell(&mut self, e: &Entry) -> Result<(), RelayError> {
+    fn dwell(&mut self, e: &Entry) -> Result<(), RelayError> {
         let t = format!("{:.3}", self.now().as_secs_f64());
         let ms = e.dwell.as_millis();
         let why = match e.unsettled {
@@ -751,7 +746,7 @@ impl Runner<'_> {
     }
 
     /// Logs a marker row (`done`, ...) for `step` now, and flushes the log.
-    pub(in crate::relay) fn mark(&mut self, step: usize, action: &str) -> Result<(), RelayError> {
+    pub(crate) fn mark(&mut self, step: usize, action: &str) -> Result<(), RelayError> {
         let t = format!("{:.3}", self.now().as_secs_f64());
         if let Some(log) = self.log.as_mut() {
             log.marker(&t, &step.to_string(), action)?;
@@ -763,7 +758,7 @@ impl Runner<'_> {
     /// Switches every board all off (tried whatever happened) and records it, then: `Err`
     /// when that failed on a board (the error says so, with `result`'s error as its cause) or
     /// could not be printed or logged after a `result` that succeeded; else `Ok(result)`.
-    pub(in crate::relay) fn close<T>(
+    pub(crate) fn close<T>(
         &mut self,
         result: Result<T, RelayError>,
     ) -> Result<Result<T, RelayError>, RelayError> {
@@ -782,7 +777,7 @@ impl Runner<'_> {
 
     /// The all-off before the first step (the boards' state is unknown), stopping at a board
     /// that fails.
-    pub(in crate::relay) fn start_off(&mut self) -> Result<(), RelayError> {
+    pub(crate) fn start_off(&mut self) -> Result<(), RelayError> {
         self.check_stop()?;
         let (mut failed, shown) = self.all_off();
         shown?;
@@ -791,6 +786,48 @@ impl Runner<'_> {
             return Err(self.on(i, e));
         }
         Ok(())
+    }
+
+    /// Plays one entry: switches it, reads the relays back (`verify`), dwells (realtime), runs
+    /// `then` (where the rig's closed loop reads the sensor and decides, under its watch) and
+    /// marks the step done. The one step sequence of the open-loop replay and of the closed
+    /// loop.
+    pub(crate) fn play<T>(
+        &mut self,
+        e: &Entry,
+        then: impl FnOnce(&mut Self) -> Result<T, RelayError>,
+    ) -> Result<T, RelayError> {
+        self.next_step = if e.hold { e.step + 1 } else { e.step };
+        self.switch(e)?;
+        self.verify_entry(e)?;
+        if self.mode == Mode::Realtime {
+            self.dwell(e)?;
+        }
+        let done = then(self)?;
+        self.mark(e.step, "done")?;
+        if !e.hold {
+            self.steps_done += 1;
+        }
+        self.next_step = e.step + 1;
+        Ok(done)
+    }
+
+    /// Logs a closed loop's measurement (or tare) row at `t` for `step` and flushes the log
+    /// (see `Log::measurement`); nothing without a log.
+    pub(crate) fn log_measurement(
+        &mut self,
+        t: &str,
+        step: usize,
+        action: &str,
+        q: [f64; 4],
+        goal_deg: Option<f64>,
+        raw: &str,
+    ) -> Result<(), RelayError> {
+        let Some(log) = self.log.as_mut() else {
+            return Ok(());
+        };
+        log.measurement(t, &step.to_string(), action, q, goal_deg, raw)?;
+        log.flush()
     }
 
     /// The replay proper; returns whether the user quit. The caller switches all off after.
@@ -809,16 +846,7 @@ impl Runner<'_> {
                     return Ok(true);
                 }
             }
-            self.switch(e)?;
-            self.verify_entry(e)?;
-            if self.mode == Mode::Realtime {
-                self.dwell(e)?;
-            }
-            self.mark(e.step, "done")?;
-            if !e.hold {
-                self.steps_done += 1;
-            }
-            self.next_step = e.step + 1;
+            self.play(e, |_| Ok(()))?;
         }
         if self.mode == Mode::Step {
             // Enter or q: either way everything goes off now.

@@ -167,7 +167,7 @@ pub fn schedule_on(
 /// Where a run of entries starts from: what is on before it, and whether its first entry
 /// re-energises a step (a resume) rather than switches one.
 #[derive(Debug, Clone, Default)]
-pub(in crate::relay) struct Resume {
+pub(crate) struct Resume {
     pub on: BTreeMap<Slot, CoilId>,
     pub hold_first: bool,
 }
@@ -175,7 +175,7 @@ pub(in crate::relay) struct Resume {
 /// The entries of `rows`, in order, switching from what `from` says is on: every coil on the
 /// stator and driven by a channel of a board, never more than `max_coils_on` coils on (all
 /// boards together, counting the transitions).
-pub(in crate::relay) fn entries_from(
+pub(crate) fn entries_from(
     rows: &[PlanRow],
     settings: &RelaySettings,
     boards: &[BoardSpec],
@@ -336,12 +336,12 @@ fn single_channel(slot: Slot, board: BoardKind, channels: u16) -> Result<Slot, S
 
 /// What is on before a run of entries, for the on-time check: by board and channel, the coil,
 /// the step it went on in and how long it has been on.
-pub(in crate::relay) type OnTimes = BTreeMap<Slot, (CoilId, usize, Duration)>;
+pub(crate) type OnTimes = BTreeMap<Slot, (CoilId, usize, Duration)>;
 
 /// Simulates the schedule: a coil's continuous on-time is the sum of the dwells while it stays
 /// on, after the time it has been on already (`on`, empty for a schedule switched from all
 /// off). `listed`: name the board in the error.
-pub(in crate::relay) fn check_on_time(
+pub(crate) fn check_on_time(
     entries: &[Entry],
     max: Duration,
     listed: bool,

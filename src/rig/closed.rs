@@ -1,5 +1,5 @@
 //! Closed loop on the hardware (`spherestep replay PLAN SCENARIO --sensor DEV ...`): the
-//! replay of `replay/` (the same boards, switching, dwells, guards and all-off endings), and
+//! replay of `relay::replay` (the same boards, switching, dwells, guards and all-off endings), and
 //! after each step's dwell the ball's orientation read from an orientation sensor and handed to
 //! the closed loop's [`Controller`]: the plan in force goes on, or is replaced by one replanned
 //! from the measurement, or the ball is at the goal, or nothing more can be done. A replanned
@@ -11,21 +11,21 @@
 //! While the sensor is awaited and the controller decides (fitting the wells, replanning:
 //! seconds, with a large search), the coils of the step stay on. That phase runs on a worker
 //! thread; this thread watches the stop flag (a signal) and the runner's guard every
-//! [`POLL`](super::replay::POLL). When either fires it switches every coil off at once, before
+//! [`POLL`](crate::relay::replay::POLL). When either fires it switches every coil off at once, before
 //! a coil reaches its limit ([`guard_margin`](crate::planning::on_time::guard_margin) ahead of it), then abandons the reading
 //! and the computation through the [`Cancel`] token they were given, and ends the replay.
 
-use super::replay::{
-    check_on_time, entries_from, stdout_error, Drive, Entry, LogKind, Mode, Prepared, Resume,
-    Runner,
-};
-use super::{Link, RelayError, Setting};
 use crate::model::geometry::Orientation;
 use crate::planning::cancel::Cancel;
 use crate::planning::closed_loop::{
     drive, Controller, Decide, Decision, Ending, LoopSettings, Plant,
 };
 use crate::planning::plan::PlanRow;
+use crate::relay::replay::{
+    check_on_time, entries_from, stdout_error, Drive, Entry, LogKind, Mode, Prepared, Resume,
+    Runner, POLL,
+};
+use crate::relay::{Link, RelayError, Setting};
 use crate::sensor::frame::{axis_angle_text, Tared};
 use crate::sensor::{OrientationSensor, Reading, SensorError};
 use std::io::Write;
@@ -86,6 +86,14 @@ pub struct ClosedSummary {
     pub replans: usize,
     /// The last measurement's angle from the goal, degrees.
     pub distance_deg: f64,
+}
+
+impl From<SensorError> for RelayError {
+    /// A sensor's error in a closed-loop replay (the relay layer knows no sensor: its
+    /// [`RelayError::Sensor`] holds it as it is).
+    fn from(e: SensorError) -> RelayError {
+        RelayError::Sensor(Box::new(e))
+    }
 }
 
 /// Refuses the replay options a closed loop cannot honour: a dry run (nothing would measure the
@@ -182,15 +190,17 @@ pub fn execute_closed(
         index: 0,
         current: None,
         steps: 0,
-        last: None,
-        goal: controller.goal(),
-        sensor: Box::new(sensor),
-        cancel,
+        senses: Senses {
+            sensor: Box::new(sensor),
+            cancel,
+            goal: controller.goal(),
+            last: None,
+        },
         stator_coils,
         r: &mut r,
     };
     let result = hw.run(&mut controller);
-    let (steps, last) = (hw.steps, hw.last);
+    let (steps, last) = (hw.steps, hw.senses.last);
     finish(&mut r, result, steps, last, controller.replans())
 }
 
@@ -205,13 +215,19 @@ struct Hardware<'p, 'r, 'w> {
     current: Option<Entry>,
     /// The last step switched (or being switched).
     steps: usize,
-    /// The last measurement's angle from the goal, degrees.
-    last: Option<f64>,
-    goal: Orientation,
-    sensor: Box<dyn OrientationSensor>,
-    cancel: Cancel,
+    senses: Senses,
     stator_coils: usize,
     r: &'r mut Runner<'w>,
+}
+
+/// The sensor's side of the hardware: the sensor, the token that abandons its reading and the
+/// decision, the goal and how far the last measurement was from it.
+struct Senses {
+    sensor: Box<dyn OrientationSensor>,
+    cancel: Cancel,
+    goal: Orientation,
+    /// The last measurement's angle from the goal, degrees.
+    last: Option<f64>,
 }
 
 impl Hardware<'_, '_, '_> {
@@ -221,7 +237,7 @@ impl Hardware<'_, '_, '_> {
         self.r.start_off()?;
         let (ending, step) = drive(ctl, self)?;
         match ending {
-            Ending::Done => match self.last {
+            Ending::Done => match self.senses.last {
                 // the loop decided on its estimate: the measurement must agree
                 Some(d) if d > ctl.goal_tolerance_deg() => Err(RelayError::Stuck {
                     step,
@@ -233,23 +249,25 @@ impl Hardware<'_, '_, '_> {
             Ending::MaxSteps => Err(RelayError::MaxSteps {
                 steps: step,
                 max: ctl.max_steps(),
-                distance_deg: self.last.unwrap_or(f64::NAN),
+                distance_deg: self.senses.last.unwrap_or(f64::NAN),
             }),
         }
     }
+}
 
+impl Senses {
     /// Reads the sensor and has the controller decide on a worker thread, while this one
     /// watches the stop flag and the on-time limit (see the module comment): the reading and
     /// the decision, or why the coils were switched off first. The reading is printed and logged as soon as it arrives (the decision may take long).
     fn sense_and_decide(
         &mut self,
+        r: &mut Runner,
         step: usize,
         planned: &Orientation,
         decide: &mut Decide<'_>,
     ) -> Result<(Orientation, Decision), RelayError> {
         let cancel = self.cancel.clone();
         let phase = AtomicU8::new(WAITING);
-        let r = &mut *self.r;
         let goal = self.goal;
         let last = &mut self.last;
         let sensor = &mut self.sensor;
@@ -264,7 +282,7 @@ impl Hardware<'_, '_, '_> {
                     message: format!("cannot start the thread that reads the sensor: {e}"),
                 })?;
             let outcome = loop {
-                match rx.recv_timeout(super::replay::POLL) {
+                match rx.recv_timeout(POLL) {
                     Ok(Ok(Worked::Decided(q, d))) => break Ok((q, d)),
                     Ok(Ok(Worked::Read(reading))) => {
                         match measured(r, step, &reading, planned, &goal) {
@@ -313,14 +331,14 @@ impl Plant for Hardware<'_, '_, '_> {
                 message: "the plan in force has no step left".into(),
             });
         };
-        self.r.next_step = e.step;
         self.steps = e.step;
-        self.r.switch(&e)?;
-        self.r.verify_entry(&e)?;
-        self.r.dwell(&e)?;
-        let (q, decision) = self.sense_and_decide(e.step, &row.q, decide)?;
-        self.r.check_stop()?;
-        self.r.mark(e.step, "done")?;
+        let senses = &mut self.senses;
+        // switch, verify, dwell (always realtime: `refuse_options`), then read and decide
+        let (q, decision) = self.r.play(&e, |r| {
+            let decided = senses.sense_and_decide(r, e.step, &row.q, decide)?;
+            r.check_stop()?;
+            Ok(decided)
+        })?;
         if decision == Decision::Continue {
             self.index += 1;
         }
@@ -414,12 +432,10 @@ fn finish(
     match r.close(result)? {
         Ok(()) => {
             let d = last.unwrap_or(f64::NAN);
-            writeln!(
-                r.out,
+            r.say(&format!(
                 "closed loop done: at the goal after {} step(s), {replans} replan(s); the last measurement {d:.2} deg from the goal; all coils off",
                 steps
-            )
-            .map_err(stdout_error)?;
+            ))?;
             Ok(ClosedSummary {
                 steps,
                 replans,
@@ -457,28 +473,8 @@ fn measured(
         q.k,
         raw.escape_debug()
     ))?;
-    let Some(log) = r.log.as_mut() else {
-        return Ok(to_goal);
-    };
-    let (w, x, y, z) = (
-        q.w.to_string(),
-        q.i.to_string(),
-        q.j.to_string(),
-        q.k.to_string(),
-    );
-    let goal = format!("{to_goal:.4}");
-    let raw = csv_field(&raw);
-    let step = step.to_string();
-    let mut cols = vec![t.as_str(), step.as_str(), "sensor", ""];
-    cols.extend(if log.listed {
-        &["", "", ""][..]
-    } else {
-        &["", ""][..]
-    });
-    cols.extend([w.as_str(), x.as_str(), y.as_str(), z.as_str()]);
-    cols.extend([goal.as_str(), raw.as_str()]);
-    log.row(&cols)?;
-    log.flush()?;
+    let q = [q.w, q.i, q.j, q.k];
+    r.log_measurement(&t, step, "sensor", q, Some(to_goal), &raw)?;
     Ok(to_goal)
 }
 
@@ -486,37 +482,13 @@ fn measured(
 /// the quaternion's columns and the tare reading as the sensor sent it.
 fn log_tare(r: &mut Runner, w: &Orientation, tare: &Reading) -> Result<(), RelayError> {
     let t = format!("{:.3}", r.now().as_secs_f64());
-    let Some(log) = r.log.as_mut() else {
-        return Ok(());
-    };
-    let q = [w.w, w.i, w.j, w.k].map(|c| c.to_string());
-    let raw = csv_field(&tare.raw.to_string());
-    let mut cols = vec![t.as_str(), "0", "tare", ""];
-    cols.extend(if log.listed {
-        &["", "", ""][..]
-    } else {
-        &["", ""][..]
-    });
-    cols.extend(q.iter().map(String::as_str));
-    cols.extend(["", raw.as_str()]);
-    log.row(&cols)?;
-    log.flush()
-}
-
-/// A CSV field: quoted, its quotes doubled.
-fn csv_field(s: &str) -> String {
-    format!("\"{}\"", s.replace('"', "\"\""))
+    let q = [w.w, w.i, w.j, w.k];
+    r.log_measurement(&t, 0, "tare", q, None, &tare.raw.to_string())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn closed_csv_fields_are_quoted() {
-        assert_eq!(csv_field("1,0,0,0"), "\"1,0,0,0\"");
-        assert_eq!(csv_field("a\"b"), "\"a\"\"b\"");
-    }
 
     #[test]
     fn closed_refuses_dry_run_step_mode_and_from_step() {
