@@ -276,7 +276,7 @@ fn rehearse_at(
 /// The coils on in the log's last row (the `end` row).
 fn coils_on_at_end(log: &str) -> String {
     let last = log.lines().last().unwrap_or_default();
-    // t_s,port,"frame","what",coils_on,qw,qx,qy,qz: the fifth field from the end
+    // t_s,port,"frame","what",coils_on,qx,qy,qz,qw: the fifth field from the end
     let fields: Vec<&str> = last.rsplitn(6, ',').collect();
     assert!(last.contains("\"end\""), "{last}");
     fields[4].to_string()
@@ -576,7 +576,7 @@ fn longest_on_in_log(log: &str) -> (f64, String) {
     let mut since: std::collections::BTreeMap<String, f64> = Default::default();
     let mut longest = (0.0, String::new());
     for line in log.lines().skip(1) {
-        // t_s,port,"frame","what",coils_on,qw,qx,qy,qz
+        // t_s,port,"frame","what",coils_on,qx,qy,qz,qw
         let t: f64 = line.split(',').next().unwrap().parse().unwrap();
         let fields: Vec<&str> = line.rsplitn(6, ',').collect();
         let on: Vec<String> = (fields[4].split(';'))
