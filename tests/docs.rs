@@ -791,3 +791,45 @@ fn the_built_book_shows_every_picture_and_resolves_every_link() {
     assert!(images >= 13, "{images} pictures");
     assert!(out.join("_outside/results").is_dir());
 }
+
+/// Every option a synopsis of the book names (a `text` block `spherestep COMMAND ...`) is one
+/// the command has (its `--help` lists it): a synopsis may leave options out, never show one
+/// that is gone or misspelt.
+#[test]
+fn the_synopses_name_options_the_commands_have() {
+    let mut bad = Vec::new();
+    let mut checked = 0;
+    for f in doc_files() {
+        let (blocks, _) = split(&std::fs::read_to_string(&f).unwrap());
+        for b in blocks.iter().filter(|b| b.info == "text") {
+            for line in b.text.lines().filter(|l| l.starts_with("spherestep ")) {
+                let command = line.split_whitespace().nth(1).unwrap_or_default();
+                let out = Command::new(env!("CARGO_BIN_EXE_spherestep"))
+                    .args([command, "--help"])
+                    .output()
+                    .unwrap();
+                let help = String::from_utf8_lossy(&out.stdout);
+                assert!(out.status.success(), "{}:{}: {line}", rel(&f), b.line);
+                // this line and the indented ones after it
+                let rest = b.text[b.text.find(line).unwrap()..].lines().skip(1);
+                let more = rest.take_while(|l| l.starts_with(' '));
+                for l in std::iter::once(line).chain(more) {
+                    for word in l.split(|c: char| !(c.is_ascii_alphanumeric() || c == '-')) {
+                        let Some(name) = word.strip_prefix("--") else {
+                            continue;
+                        };
+                        checked += 1;
+                        if !help.contains(&format!("--{name} "))
+                            && !help.contains(&format!("--{name}\n"))
+                            && !help.contains(&format!("--{name}="))
+                        {
+                            bad.push(format!("{}:{}: {command} has no --{name}", rel(&f), b.line));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 50, "only {checked} options");
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
