@@ -12,6 +12,7 @@
 //! - every sample of the program's output (a `text` block marked `<!-- output: NAME -->`) is
 //!   what the program prints today, but for the parts its marker says vary; every other `text`
 //!   block is a synopsis; `SPHERESTEP_BLESS=1` rewrites the samples;
+//! - every option a synopsis names is one its command's `--help` lists;
 //! - the scenario reference (`docs/scenario-format.md`) lists exactly the keys the scenario
 //!   parser's structs accept.
 

@@ -27,6 +27,25 @@ pub fn holding(sc: &spherestep::Scenario, active: &[Pair], q: &Orientation) -> H
     Holding::of(&sc.torques, active, q)
 }
 
+/// Sets of pairs as a numpy array of shape `(sets, coils)` (`int64`): row k, column c the
+/// magnet set k pairs coil c with, -1 where set k leaves coil c out (a set has each coil once).
+fn magnet_per_coil<'py, 'a>(
+    py: Python<'py>,
+    sets: impl ExactSizeIterator<Item = &'a [Pair]>,
+    coils: usize,
+) -> PyResult<Bound<'py, PyArray2<i64>>> {
+    let n = sets.len();
+    let mut flat = vec![-1i64; n * coils];
+    for (k, set) in sets.enumerate() {
+        for p in set {
+            if let Some(cell) = flat.get_mut(k * coils + p.coil.0) {
+                *cell = p.magnet.0 as i64;
+            }
+        }
+    }
+    PyArray1::from_vec(py, flat).reshape([n, coils])
+}
+
 /// Unit vectors as a numpy array of shape `(n, 3)`.
 pub fn vectors<'py>(
     py: Python<'py>,
@@ -354,6 +373,41 @@ impl Plan {
             .iter()
             .map(|r| pair_tuples(&r.active))
             .collect()
+    }
+    /// The pivot's coil for each row as a signed index (`int64`), -1 for none (row 0): the
+    /// plan CSV's `pivot_coil`.
+    #[getter]
+    fn pivot_coil<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        let c = |r: &spherestep::PlanRow| r.pivot.map_or(-1, |p| p.coil.0 as i64);
+        column(py, self.plan.rows.iter().map(c).collect())
+    }
+    /// The pivot's magnet for each row as a signed index (`int64`), -1 for none (row 0): the
+    /// plan CSV's `pivot_magnet`.
+    #[getter]
+    fn pivot_magnet<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        let m = |r: &spherestep::PlanRow| r.pivot.map_or(-1, |p| p.magnet.0 as i64);
+        column(py, self.plan.rows.iter().map(m).collect())
+    }
+    /// The pairs each step switches on as indices, shape `(rows, coils)` (`int64`): row k,
+    /// column c is the magnet step k pairs coil c with, -1 where step k switches no pair of
+    /// coil c on.
+    #[getter]
+    fn new_magnet<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        magnet_per_coil(
+            py,
+            self.plan.rows.iter().map(|r| &r.new[..]),
+            self.sc.stator.len(),
+        )
+    }
+    /// Everything energised after each step as indices, shape `(rows, coils)` (`int64`): row
+    /// k, column c is the magnet coil c pulls after step k, -1 where coil c is off.
+    #[getter]
+    fn active_magnet<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        magnet_per_coil(
+            py,
+            self.plan.rows.iter().map(|r| &r.active[..]),
+            self.sc.stator.len(),
+        )
     }
     /// The predicted orientation after each step, shape `(rows, 4)`: `[qx, qy, qz, qw]`.
     #[getter]

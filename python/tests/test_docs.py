@@ -1,5 +1,5 @@
 """The book's Python samples against the package: the errors `docs/python.md` shows (its
-`text` block marked `<!-- output: python-errors -->`) are the ones raised today, word for word
+`text` blocks marked `<!-- output: python-errors -->` and `python-replace-errors`) are the ones raised today, word for word
 (`tests/docs.rs` checks the command line's samples)."""
 
 import numpy as np
@@ -18,7 +18,7 @@ def _sample(name):
     return lines[at + 2 : end]
 
 
-@pytest.mark.parametrize("name", ["python-errors"])
+@pytest.mark.parametrize("name", ["python-errors", "python-replace-errors"])
 def test_the_errors_the_book_shows_are_raised(name):
     lines = _sample(name)
     assert len(lines) >= 2 and len(lines) % 2 == 0, lines
