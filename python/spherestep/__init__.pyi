@@ -226,6 +226,9 @@ class SettleTable:
     outcome: list[str]
     held: list[list[_Pair]]
     active: list[list[_Pair]]
+    active_magnet: npt.NDArray[np.int64]
+    """Shape (sets, coils): the magnet each set pairs each coil with, -1 where it leaves the
+    coil out."""
     def __len__(self) -> int:
         """The number of sets (rows)."""
     def to_dict(self) -> dict[str, list[Any]]:
@@ -365,6 +368,9 @@ class Run:
         """The step numbers, 0 the initial commutation state (signed)."""
     @property
     def active(self) -> list[list[_Pair]]: ...
+    @property
+    def active_magnet(self) -> npt.NDArray[np.int64]:
+        """Shape (rows, coils): the magnet each coil pulled at each step, -1 when off."""
     @property
     def replanned(self) -> npt.NDArray[np.bool_]: ...
     @property

@@ -651,7 +651,7 @@ impl Motor {
                 None => work(),
             }
         })?;
-        SettleTable::new(py, list, rs, holding)
+        SettleTable::new(py, list, rs, holding, self.sc.stator.len())
     }
 
     /// Plans a motion: which coil pairs to switch, in which order, to turn the ball by `angle`
@@ -746,6 +746,7 @@ impl Motor {
             sensor_noise_deg,
             seed: seed.unwrap_or(DEFAULT_SEED),
             planned_steps,
+            coils: self.sc.stator.len(),
         }
         .into_bound_py_any(py)
     }
@@ -863,6 +864,7 @@ impl Motor {
             sensor_noise_deg,
             seed: seed.unwrap_or(DEFAULT_SEED),
             planned_steps,
+            coils: self.sc.stator.len(),
         })
     }
 

@@ -217,6 +217,10 @@ pub struct SettleTable {
     /// The sets, as `(coil, magnet)` pairs.
     #[pyo3(get)]
     active: Vec<Vec<(usize, usize)>>,
+    /// The sets as indices, shape `(n, coils)` (`int64`): row k, column c the magnet set k
+    /// pairs coil c with, -1 where set k leaves coil c out.
+    #[pyo3(get)]
+    active_magnet: Py<PyArray2<i64>>,
 }
 
 impl SettleTable {
@@ -225,6 +229,7 @@ impl SettleTable {
         sets: Vec<Vec<Pair>>,
         rs: Vec<spherestep::SettleResult>,
         holding: Vec<Holding>,
+        coils: usize,
     ) -> PyResult<SettleTable> {
         let col = |f: &dyn Fn(&spherestep::SettleResult) -> f64| -> PyResult<Py<PyArray1<f64>>> {
             frozen(column(py, rs.iter().map(f).collect()))
@@ -245,6 +250,7 @@ impl SettleTable {
                 .collect(),
             held: holding.iter().map(|h| pair_tuples(&h.held)).collect(),
             active: sets.iter().map(|s| pair_tuples(s)).collect(),
+            active_magnet: frozen(magnet_per_coil(py, sets.iter().map(|s| &s[..]), coils)?)?,
         })
     }
 }
@@ -680,6 +686,8 @@ pub struct Run {
     pub(crate) sensor_noise_deg: f64,
     pub(crate) seed: u64,
     pub(crate) planned_steps: usize,
+    /// The motor's coils (the width of `active_magnet`).
+    pub(crate) coils: usize,
 }
 
 impl Run {
@@ -731,6 +739,12 @@ impl Run {
             .iter()
             .map(|r| pair_tuples(&r.active))
             .collect()
+    }
+    /// What was on at each step as indices, shape `(rows, coils)` (`int64`): row k, column c
+    /// is the magnet coil c pulled at step k, -1 where coil c was off.
+    #[getter]
+    fn active_magnet<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        magnet_per_coil(py, self.run.rows.iter().map(|r| &r.active[..]), self.coils)
     }
     /// Whether the rest of the motion was replanned after each step's measurement.
     #[getter]

@@ -138,6 +138,16 @@ def test_the_plans_pairs_as_index_arrays_match_the_cli(cli, prototype_toml, tmp_
         assert plan.pivot[k] == (None if plan.pivot_coil[k] < 0 else (plan.pivot_coil[k], plan.pivot_magnet[k]))
 
 
+def test_settle_tables_sets_as_index_arrays(motor):
+    sets = ["0:14,12:26", "3:40,9:12,14:2", "5:5"]
+    t = motor.settle_many(sets)
+    a = t.active_magnet
+    assert a.shape == (3, 16) and a.dtype == np.int64 and not a.flags.writeable
+    for k, s in enumerate(sets):
+        pairs = sorted(tuple(map(int, p.split(":"))) for p in s.split(","))
+        assert [(c, int(m)) for c, m in enumerate(a[k]) if m >= 0] == pairs == sorted(t.active[k])
+
+
 def test_closed_loop_simulation_matches_the_cli(cli, prototype_toml, tmp_path):
     m = spherestep.Scenario.load(prototype_toml).motor()
     plant = spherestep.Scenario.load(PLANT).motor()
@@ -157,6 +167,13 @@ def test_closed_loop_simulation_matches_the_cli(cli, prototype_toml, tmp_path):
     out2 = tmp_path / "loop2.csv"
     cli("simulate", plan_file, prototype_toml, "--plant", PLANT, "--closed-loop", "--model", "pivot", "--out", out2, ok=False)
     assert m.simulate(plan_file, plant, closed_loop=True, model="pivot").csv() == out2.read_text()
+    # what was on, as index arrays beside the tuples (and the CSV's active column)
+    rows = read_csv(out.read_text())
+    assert run.active_magnet.shape == (len(run), 16) and run.active_magnet.dtype == np.int64
+    for k, r in enumerate(rows):
+        on = sorted(tuple(map(int, p.split(":"))) for p in r["active"].split(";") if p)
+        assert [(c, int(m)) for c, m in enumerate(run.active_magnet[k]) if m >= 0] == on
+        assert sorted(run.active[k]) == on
     # open loop it stays a Simulation
     assert isinstance(m.simulate(plan_file, plant), spherestep.Simulation)
 
