@@ -428,6 +428,15 @@ fn a_sensor_that_stalls_stops_the_closed_loop() {
         "{said}"
     );
     assert!(r.summary["sensor_readings"].as_u64().unwrap() >= 40);
+    // the sensor's port says the order of its quaternion: w first, as the device sends it
+    let ports = r.summary["ports"].as_array().unwrap();
+    let sensor = ports
+        .iter()
+        .find_map(|p| p["what"].as_str().filter(|w| w.starts_with("sensor")));
+    assert_eq!(
+        sensor,
+        Some("sensor (quat-csv: lines w,x,y,z, as the device sends them)")
+    );
 }
 
 #[test]
@@ -440,6 +449,14 @@ fn a_garbling_sensor_stops_the_closed_loop() {
         "{said}"
     );
     assert!(r.summary["garbled_readings"].as_u64().unwrap() >= 1);
+    let ports = r.summary["ports"].as_array().unwrap();
+    let sensor = ports
+        .iter()
+        .find_map(|p| p["what"].as_str().filter(|w| w.starts_with("sensor")));
+    assert_eq!(
+        sensor,
+        Some("sensor (bno055: quaternion registers w,x,y,z, as the device has them)")
+    );
 }
 
 #[test]
