@@ -8,8 +8,11 @@
 //!   unmarked block is taken for Rust by the doc tests;
 //! - every relative link points at a file of the repository, and a `#anchor` into a Markdown
 //!   file at one of its headings;
-//! - every `toml` block is a scenario the parser accepts, and the README's main job prints the
-//!   summary the README shows;
+//! - every `toml` block is a scenario the parser accepts;
+//! - every sample of the program's output (a `text` block marked `<!-- output: NAME -->`) is
+//!   what the program prints today, but for the parts its marker says vary; every other `text`
+//!   block is a synopsis; `SPHERESTEP_BLESS=1` rewrites the samples;
+//! - every option a synopsis names is one its command's `--help` lists;
 //! - the scenario reference (`docs/scenario-format.md`) lists exactly the keys the scenario
 //!   parser's structs accept.
 
@@ -409,35 +412,305 @@ fn the_toml_blocks_are_scenarios_the_parser_accepts() {
     assert!(checked >= 3, "only {checked} TOML blocks");
 }
 
-/// The README's main job prints the summary the README shows below it.
-#[test]
-fn the_main_job_prints_what_the_readme_shows() {
-    let md = std::fs::read_to_string(Path::new(ROOT).join("README.md")).unwrap();
-    let (blocks, _) = split(&md);
-    let job = blocks
-        .iter()
-        .position(|b| b.info == "sh")
-        .expect("a sh block");
-    let shown = blocks[job + 1..]
-        .iter()
-        .find(|b| b.info == "text")
-        .expect("its output, in a text block");
-    let dir = scratch();
+/// A sample output's marker: the HTML comment on the line before a `text` block,
+/// `<!-- output: NAME (...); varies: `A{}B`, ... -->`. NAME says what prints it (a generator
+/// below, or `python-errors`, which `python/tests/test_docs.py` checks); each `A{}B` is a part
+/// that differs from run to run (a time, a pseudo-terminal's number): what lies between `A` and
+/// the next `B` on a line is not compared.
+struct Marker {
+    name: String,
+    varies: Vec<String>,
+    /// `; numbers within T`: the numbers may differ by up to T (a ball whose last digits
+    /// depend on the machine's timing).
+    within: f64,
+}
+
+fn marker(md: &str, b: &Block) -> Option<Marker> {
+    let before = md.lines().nth(b.line.checked_sub(2)?)?.trim();
+    let body = before.strip_prefix("<!-- output:")?.strip_suffix("-->")?;
+    let (body, within) = match body.split_once("; numbers within ") {
+        Some((b, t)) => (b, t.trim().parse().expect("; numbers within T: a number")),
+        None => (body, 0.0),
+    };
+    let (head, varies) = match body.split_once("; varies:") {
+        Some((h, v)) => (h, v),
+        None => (body, ""),
+    };
+    let name = head
+        .split_whitespace()
+        .next()
+        .unwrap_or_default()
+        .to_string();
+    let varies = varies
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_string)
+        .collect();
+    Some(Marker {
+        name,
+        varies,
+        within,
+    })
+}
+
+/// A text cut into its numbers and the text between them.
+fn tokens(text: &str) -> Vec<Result<f64, String>> {
+    let mut out: Vec<Result<f64, String>> = Vec::new();
+    let mut rest = text;
+    while !rest.is_empty() {
+        let number = rest
+            .char_indices()
+            .take_while(|&(i, c)| c.is_ascii_digit() || c == '.' || (i == 0 && c == '-'))
+            .last()
+            .map_or(0, |(i, c)| i + c.len_utf8());
+        match rest[..number].parse::<f64>() {
+            Ok(x) if rest[..number].bytes().any(|b| b.is_ascii_digit()) => {
+                out.push(Ok(x));
+                rest = &rest[number..];
+            }
+            _ => {
+                let mut chars = rest.chars();
+                let c = chars.next().unwrap_or_default();
+                match out.last_mut() {
+                    Some(Err(t)) => t.push(c),
+                    _ => out.push(Err(c.to_string())),
+                }
+                rest = chars.as_str();
+            }
+        }
+    }
+    out
+}
+
+/// Whether two texts are the same but for numbers that differ by up to `within`.
+fn same(a: &str, b: &str, within: f64) -> bool {
+    if within == 0.0 {
+        return a == b;
+    }
+    let (a, b) = (tokens(a), tokens(b));
+    a.len() == b.len()
+        && a.iter().zip(&b).all(|(x, y)| match (x, y) {
+            (Ok(x), Ok(y)) => (x - y).abs() <= within,
+            (Err(x), Err(y)) => x == y,
+            _ => false,
+        })
+}
+
+/// `text` with the varying parts `A{}B` of `varies` masked (the text between `A` and the next
+/// `B` on its line made `{}`; an empty `B`: to the end of the line).
+fn mask(text: &str, varies: &[String]) -> String {
+    let mut lines: Vec<String> = text.trim_end().lines().map(str::to_string).collect();
+    for pattern in varies {
+        let (a, b) = pattern.split_once("{}").expect("a varying part A{}B");
+        for line in &mut lines {
+            let mut out = String::new();
+            let mut rest = line.as_str();
+            while let Some(i) = rest.find(a) {
+                out.push_str(&rest[..i + a.len()]);
+                rest = &rest[i + a.len()..];
+                let end = if b.is_empty() {
+                    rest.len()
+                } else {
+                    match rest.find(b) {
+                        Some(j) => j,
+                        None => break,
+                    }
+                };
+                out.push_str("{}");
+                rest = &rest[end..];
+            }
+            out.push_str(rest);
+            *line = out;
+        }
+    }
+    lines.join("\n")
+}
+
+/// Runs a `sh` block's text in `dir` (the docs' prelude first): its standard output.
+fn run_sh(dir: &Path, text: &str) -> String {
     let out = Command::new("bash")
         .arg("-e")
+        .arg("-o")
+        .arg("pipefail")
         .arg("-c")
-        .arg(format!("{PRELUDE}\n{}", blocks[job].text))
-        .current_dir(dir.path())
+        .arg(format!("{PRELUDE}\n{text}"))
+        .current_dir(dir)
         .env("SPHERESTEP_BIN", env!("CARGO_BIN_EXE_spherestep"))
         .output()
         .unwrap();
-    assert!(out.status.success());
-    let printed = String::from_utf8_lossy(&out.stdout);
-    assert_eq!(
-        printed.trim(),
-        shown.text.trim(),
-        "README.md:{}: the main job's summary changed",
-        shown.line
+    assert!(
+        out.status.success(),
+        "{text}\nfailed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The rehearsal of `docs/rehearse.md`'s "Two terminals", as a reader runs it: the main job's
+/// plan, the virtual motor (numato, quat-csv, `--link-dir /tmp/motor`), the open-loop replay
+/// with `--verify` on its port. What the virtual motor prints: its ports (to the `ready:`
+/// line) and its summary. The link folder is a scratch one, shown as `/tmp/motor`.
+fn rehearsal() -> (String, String) {
+    use std::io::{BufRead, BufReader, Read};
+    let dir = scratch();
+    run_sh(
+        dir.path(),
+        "spherestep plan scenarios/prototype.toml --axis 0,1,0 --angle 90 --out plan.csv",
+    );
+    let links = dir.path().join("motor");
+    let links_s = links.display().to_string();
+    let mut v = Command::new(env!("CARGO_BIN_EXE_spherestep"))
+        .args(["virtual", "scenarios/prototype.toml", "--board", "numato"])
+        .args(["--sensor", "quat-csv", "--link-dir", &links_s])
+        .args(["--log", "virtual.csv", "--plan", "plan.csv"])
+        // a bound on the virtual clock: the rehearsal takes about 15 s
+        .args(["--max-seconds", "120"])
+        .current_dir(dir.path())
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(v.stdout.take().unwrap());
+    let mut ports = String::new();
+    while !ports.lines().last().unwrap_or("").starts_with("ready:") {
+        let mut line = String::new();
+        if out.read_line(&mut line).unwrap() == 0 {
+            let _ = v.kill();
+            panic!("the virtual motor ended before it was ready: {ports}");
+        }
+        ports.push_str(&line);
+    }
+    let board = format!("{links_s}/board0");
+    let replay = Command::new(env!("CARGO_BIN_EXE_spherestep"))
+        .args(["replay", "plan.csv", "scenarios/prototype.toml"])
+        .args(["--board", "numato", "--port", &board, "--verify"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let mut summary = String::new();
+    out.read_to_string(&mut summary).unwrap();
+    let status = v.wait().unwrap();
+    assert!(
+        replay.status.success() && status.success(),
+        "the rehearsal failed: {}\n{summary}",
+        String::from_utf8_lossy(&replay.stderr)
+    );
+    let shown = |t: &str| t.replace(&links_s, "/tmp/motor");
+    (shown(&ports), shown(&summary))
+}
+
+/// What the command behind a sample prints today; `blocks` are the file's blocks, the sample
+/// `blocks[k]`. Samples of the same generator in one file share one run (`cache`).
+fn printed(name: &str, blocks: &[Block], k: usize, cache: &mut Option<(String, String)>) -> String {
+    match name {
+        // the stdout of the last `sh` block above the sample (README: the main job)
+        "sh-above" => {
+            let sh = blocks[..k]
+                .iter()
+                .rfind(|b| b.info == "sh")
+                .expect("a sh block above the sample");
+            run_sh(scratch().path(), &sh.text)
+        }
+        // `docs/replay.md`: the dry run of the plan in the `csv` block above
+        "replay-dry-run" => {
+            let csv = blocks[..k]
+                .iter()
+                .rfind(|b| b.info == "csv")
+                .expect("a csv block (the plan) above the sample");
+            let dir = scratch();
+            std::fs::write(dir.path().join("plan.csv"), &csv.text).unwrap();
+            run_sh(
+                dir.path(),
+                "spherestep replay plan.csv --board modbus --dry-run",
+            )
+        }
+        "rehearsal-ports" => cache.get_or_insert_with(rehearsal).0.clone(),
+        "rehearsal-summary" => cache.get_or_insert_with(rehearsal).1.clone(),
+        other => panic!("no generator for the sample output {other:?} (tests/docs.rs)"),
+    }
+}
+
+/// The samples `python/tests/test_docs.py` checks (Python's own errors).
+const CHECKED_BY_PYTHON: &[&str] = &["python-errors", "python-replace-errors"];
+
+/// Every sample of the program's output in the README and the book (a `text` block marked
+/// `<!-- output: NAME -->`) is what the program prints today, but for the parts its marker
+/// says vary. Every other `text` block is a synopsis (`spherestep ...`). With
+/// `SPHERESTEP_BLESS=1` the samples are rewritten with what the program prints instead:
+/// `SPHERESTEP_BLESS=1 cargo test --release --test docs sample_outputs`.
+#[test]
+fn the_sample_outputs_are_what_the_program_prints() {
+    let bless = std::env::var_os("SPHERESTEP_BLESS").is_some_and(|v| v == "1");
+    let (mut differ, mut samples) = (Vec::new(), 0);
+    for f in doc_files() {
+        let md = std::fs::read_to_string(&f).unwrap();
+        let (blocks, _) = split(&md);
+        let mut cache = None;
+        let mut lines: Vec<String> = md.lines().map(str::to_string).collect();
+        let mut rewritten = false;
+        for (k, b) in blocks.iter().enumerate().rev() {
+            if b.info != "text" {
+                continue;
+            }
+            let Some(m) = marker(&md, b) else {
+                assert!(
+                    b.text.starts_with("spherestep "),
+                    "{}:{}: a text block that is neither a synopsis (`spherestep ...`) nor a \
+                     sample marked `<!-- output: NAME -->` (see tests/docs.rs)",
+                    rel(&f),
+                    b.line
+                );
+                continue;
+            };
+            samples += 1;
+            if CHECKED_BY_PYTHON.contains(&m.name.as_str()) {
+                let py = std::fs::read_to_string(Path::new(ROOT).join("python/tests/test_docs.py"))
+                    .unwrap();
+                assert!(
+                    py.contains(&m.name),
+                    "python/tests/test_docs.py checks no {}",
+                    m.name
+                );
+                continue;
+            }
+            let now = printed(&m.name, &blocks, k, &mut cache);
+            // blessed, every sample is what the program prints now, varying parts included
+            if now.trim_end() == b.text.trim_end()
+                || !bless && same(&mask(&now, &m.varies), &mask(&b.text, &m.varies), m.within)
+            {
+                continue;
+            }
+            if bless {
+                let n = b.text.lines().count();
+                lines.splice(
+                    b.line..b.line + n,
+                    now.trim_end().lines().map(str::to_string),
+                );
+                rewritten = true;
+            } else {
+                differ.push(format!(
+                    "{}:{} ({}): the book shows\n{}\nthe program prints\n{}",
+                    rel(&f),
+                    b.line,
+                    m.name,
+                    b.text.trim_end(),
+                    now.trim_end()
+                ));
+            }
+        }
+        if rewritten {
+            std::fs::write(&f, lines.join("\n") + "\n").unwrap();
+            eprintln!("rewrote the samples of {}", rel(&f));
+        }
+    }
+    assert!(samples >= 5, "only {samples} samples");
+    assert!(
+        differ.is_empty(),
+        "samples that differ from what the program prints (rewrite them with \
+         SPHERESTEP_BLESS=1 cargo test --release --test docs sample_outputs):\n\n{}",
+        differ.join("\n\n")
     );
 }
 
@@ -518,4 +791,46 @@ fn the_built_book_shows_every_picture_and_resolves_every_link() {
     // the pictures the chapters show are in it (results/ among them)
     assert!(images >= 13, "{images} pictures");
     assert!(out.join("_outside/results").is_dir());
+}
+
+/// Every option a synopsis of the book names (a `text` block `spherestep COMMAND ...`) is one
+/// the command has (its `--help` lists it): a synopsis may leave options out, never show one
+/// that is gone or misspelt.
+#[test]
+fn the_synopses_name_options_the_commands_have() {
+    let mut bad = Vec::new();
+    let mut checked = 0;
+    for f in doc_files() {
+        let (blocks, _) = split(&std::fs::read_to_string(&f).unwrap());
+        for b in blocks.iter().filter(|b| b.info == "text") {
+            for line in b.text.lines().filter(|l| l.starts_with("spherestep ")) {
+                let command = line.split_whitespace().nth(1).unwrap_or_default();
+                let out = Command::new(env!("CARGO_BIN_EXE_spherestep"))
+                    .args([command, "--help"])
+                    .output()
+                    .unwrap();
+                let help = String::from_utf8_lossy(&out.stdout);
+                assert!(out.status.success(), "{}:{}: {line}", rel(&f), b.line);
+                // this line and the indented ones after it
+                let rest = b.text[b.text.find(line).unwrap()..].lines().skip(1);
+                let more = rest.take_while(|l| l.starts_with(' '));
+                for l in std::iter::once(line).chain(more) {
+                    for word in l.split(|c: char| !(c.is_ascii_alphanumeric() || c == '-')) {
+                        let Some(name) = word.strip_prefix("--") else {
+                            continue;
+                        };
+                        checked += 1;
+                        if !help.contains(&format!("--{name} "))
+                            && !help.contains(&format!("--{name}\n"))
+                            && !help.contains(&format!("--{name}="))
+                        {
+                            bad.push(format!("{}:{}: {command} has no --{name}", rel(&f), b.line));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 50, "only {checked} options");
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
 }

@@ -276,7 +276,7 @@ fn rehearse_at(
 /// The coils on in the log's last row (the `end` row).
 fn coils_on_at_end(log: &str) -> String {
     let last = log.lines().last().unwrap_or_default();
-    // t_s,port,"frame","what",coils_on,qw,qx,qy,qz: the fifth field from the end
+    // t_s,port,"frame","what",coils_on,qx,qy,qz,qw: the fifth field from the end
     let fields: Vec<&str> = last.rsplitn(6, ',').collect();
     assert!(last.contains("\"end\""), "{last}");
     fields[4].to_string()
@@ -428,6 +428,15 @@ fn a_sensor_that_stalls_stops_the_closed_loop() {
         "{said}"
     );
     assert!(r.summary["sensor_readings"].as_u64().unwrap() >= 40);
+    // the sensor's port says the order of its quaternion: w first, as the device sends it
+    let ports = r.summary["ports"].as_array().unwrap();
+    let sensor = ports
+        .iter()
+        .find_map(|p| p["what"].as_str().filter(|w| w.starts_with("sensor")));
+    assert_eq!(
+        sensor,
+        Some("sensor (quat-csv: lines w,x,y,z, as the device sends them)")
+    );
 }
 
 #[test]
@@ -440,6 +449,14 @@ fn a_garbling_sensor_stops_the_closed_loop() {
         "{said}"
     );
     assert!(r.summary["garbled_readings"].as_u64().unwrap() >= 1);
+    let ports = r.summary["ports"].as_array().unwrap();
+    let sensor = ports
+        .iter()
+        .find_map(|p| p["what"].as_str().filter(|w| w.starts_with("sensor")));
+    assert_eq!(
+        sensor,
+        Some("sensor (bno055: quaternion registers w,x,y,z, as the device has them)")
+    );
 }
 
 #[test]
@@ -576,7 +593,7 @@ fn longest_on_in_log(log: &str) -> (f64, String) {
     let mut since: std::collections::BTreeMap<String, f64> = Default::default();
     let mut longest = (0.0, String::new());
     for line in log.lines().skip(1) {
-        // t_s,port,"frame","what",coils_on,qw,qx,qy,qz
+        // t_s,port,"frame","what",coils_on,qx,qy,qz,qw
         let t: f64 = line.split(',').next().unwrap().parse().unwrap();
         let fields: Vec<&str> = line.rsplitn(6, ',').collect();
         let on: Vec<String> = (fields[4].split(';'))

@@ -6,7 +6,7 @@ write them with qw >= 0. Angles are degrees, other units SI. _Pairs are (coil, m
 
 import os
 import pathlib
-from typing import Any, Optional, Sequence, Tuple, Union, final
+from typing import Any, Literal, Optional, Sequence, Tuple, Union, final, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -53,10 +53,17 @@ class Scenario:
     @staticmethod
     def from_toml(text: str, path: Optional[_PathLike] = None) -> Scenario:
         """Parses and checks scenario text; `path` names it in errors and anchors relative
-        paths (default "<string>", in the current folder)."""
+        paths (default: no file, errors say "<string>", relative paths from the current
+        folder)."""
     @staticmethod
     def prototype() -> Scenario:
-        """The built-in prototype with every default."""
+        """The built-in prototype with every default, named as scenarios/prototype.toml."""
+    def replace(
+        self, changes: Optional[dict[str, Any]] = None, /, **kwargs: Any
+    ) -> Scenario:
+        """A copy with values replaced, checked as a file: keys "section.key" or top-level
+        keys, keyword sections as dicts (body={"damping": 0.8}); None restores the default;
+        Error naming the key for an unknown key or a value not allowed."""
     def motor(self) -> Motor:
         """The scenario's motor."""
     @property
@@ -65,8 +72,11 @@ class Scenario:
     def description(self) -> str: ...
     @property
     def path(self) -> Optional[pathlib.Path]:
-        """The file it was read from (or from_toml's `path`, "<string>" by default); None for
-        the built-in prototype, which comes from no file."""
+        """The file it was read from (or from_toml's `path`); None for text that names no
+        file and for the built-in prototype."""
+    @property
+    def toml(self) -> str:
+        """The TOML text it was made from (with replace's changes)."""
     @property
     def rotor(self) -> npt.NDArray[np.float64]:
         """The magnets' unit vectors (body frame), shape (magnets, 3)."""
@@ -112,11 +122,41 @@ class Motor:
         [plan] setting. scheme: min-axis-error, max-angle, weighted or search; model: pivot,
         dynamic or coils; pairs: K or "2-K"; to: a target orientation instead of axis and
         angle."""
+    @overload
     def simulate(
-        self, plan: Union[Plan, _PathLike], plant: Optional[Motor] = None
+        self,
+        plan: Union[Plan, _PathLike],
+        plant: Optional[Motor] = None,
+        *,
+        closed_loop: Literal[False] = False,
+        model: None = None,
+        sensor_noise_deg: float = 0.0,
+        seed: None = None,
+        max_steps: None = None,
+        identify: bool = True,
     ) -> Simulation:
         """Replays a plan (or a plan file) through the dynamics of this motor or of `plant`
         (a motor with the same packings)."""
+    @overload
+    def simulate(
+        self,
+        plan: Union[Plan, _PathLike],
+        plant: Optional[Motor] = None,
+        *,
+        closed_loop: Literal[True],
+        model: Optional[str] = None,
+        sensor_noise_deg: float = 0.0,
+        seed: Optional[int] = None,
+        max_steps: Optional[int] = None,
+        identify: bool = True,
+    ) -> Run:
+        """The plan played closed loop on `plant` (default: this motor), replanning in this
+        motor's physics: `spherestep simulate PLAN SCENARIO --plant PLANT --closed-loop`."""
+    def pairs_within(
+        self, reach_deg: Optional[float] = None, q: Optional[_Quaternion] = None
+    ) -> list[_Pair]:
+        """The (coil, magnet) pairs whose magnet is within reach_deg degrees of its coil at
+        orientation q (default identity); reach_deg defaults to the coil's reach."""
     def wells(self, step_deg: Optional[float] = None) -> Wells:
         """The well's torque curve every step_deg degrees (default 0.02, the command line's)
         from 0 to the cut-off."""
@@ -186,6 +226,9 @@ class SettleTable:
     outcome: list[str]
     held: list[list[_Pair]]
     active: list[list[_Pair]]
+    active_magnet: npt.NDArray[np.int64]
+    """Shape (sets, coils): the magnet each set pairs each coil with, -1 where it leaves the
+    coil out."""
     def __len__(self) -> int:
         """The number of sets (rows)."""
     def to_dict(self) -> dict[str, list[Any]]:
@@ -213,6 +256,18 @@ class Plan:
     def new(self) -> list[list[_Pair]]: ...
     @property
     def active(self) -> list[list[_Pair]]: ...
+    @property
+    def pivot_coil(self) -> npt.NDArray[np.int64]:
+        """The pivot's coil per row, -1 for none (row 0)."""
+    @property
+    def pivot_magnet(self) -> npt.NDArray[np.int64]:
+        """The pivot's magnet per row, -1 for none (row 0)."""
+    @property
+    def new_magnet(self) -> npt.NDArray[np.int64]:
+        """Shape (rows, coils): the magnet each step pairs each coil with, -1 for none."""
+    @property
+    def active_magnet(self) -> npt.NDArray[np.int64]:
+        """Shape (rows, coils): the magnet each coil pulls after each step, -1 when off."""
     @property
     def q(self) -> npt.NDArray[np.float64]:
         """Shape (rows, 4)."""
@@ -313,6 +368,9 @@ class Run:
         """The step numbers, 0 the initial commutation state (signed)."""
     @property
     def active(self) -> list[list[_Pair]]: ...
+    @property
+    def active_magnet(self) -> npt.NDArray[np.int64]:
+        """Shape (rows, coils): the magnet each coil pulled at each step, -1 when off."""
     @property
     def replanned(self) -> npt.NDArray[np.bool_]: ...
     @property

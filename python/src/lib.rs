@@ -9,6 +9,7 @@
 
 mod convert;
 mod motor;
+mod replaced;
 mod results;
 mod rotations;
 mod table;

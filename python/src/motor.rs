@@ -4,25 +4,44 @@
 //! them as it does.
 
 use crate::convert::{self, shown};
+use crate::replaced;
 use crate::results::{self, Plan, Run, SettleResult, SettleTable, Simulation, Wells};
 use crate::{arg_err, lib_err};
 use numpy::PyArray2;
 use pyo3::prelude::*;
+use pyo3::IntoPyObjectExt;
 use spherestep::io::planfile::read_plan;
 use spherestep::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges, RowsFrom};
+use spherestep::planning::closed_loop::target_of;
+use spherestep::planning::commutation::pair_gap;
 use spherestep::planning::options::{LoopNames, LoopOptions};
 use spherestep::Cancel;
 use spherestep::{goal_of, LoopSettings, PairsPerStep, PlanRow, PlanSettings};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use std::time::Duration;
 
 /// A scenario: the motor (rotor and stator packings, magnet wells), the body and damping, the
 /// settle settings and the `[plan]` defaults, read and checked from a TOML file.
 #[pyclass(frozen, module = "spherestep")]
+#[derive(Clone)]
 pub struct Scenario {
     pub(crate) sc: Arc<spherestep::Scenario>,
+    /// The TOML text it was made from (`replace` changes it and checks the result again).
+    text: Arc<str>,
+    /// The file it came from (None: text, or the built-in prototype).
+    file: Option<PathBuf>,
 }
+
+/// What `from_toml` calls text that names no file (in errors, and the folder relative paths
+/// start from: the current one).
+const TEXT_PATH: &str = "<string>";
+
+/// The built-in prototype's name and description, as `scenarios/prototype.toml` (which holds
+/// every default) says them; every other value is the default.
+const PROTOTYPE_TEXT: &str = "name = \"prototype\"\n\
+    description = \"12 inch rotor, 80 magnets (octahedral), 16 coils (icosahedral cap), \
+    gaussian wells\"\n";
 
 #[pymethods]
 impl Scenario {
@@ -30,27 +49,79 @@ impl Scenario {
     /// or holds a value not allowed raises `spherestep.Error` naming the file and the field.
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Scenario> {
-        let sc = spherestep::Scenario::load(&path).map_err(lib_err)?;
-        Ok(Scenario { sc: Arc::new(sc) })
+        let text = spherestep::io::input::text(&path).map_err(lib_err)?;
+        let mut sc = spherestep::Scenario::from_toml(&text, &path).map_err(lib_err)?;
+        sc.files.insert(0, path.clone());
+        Ok(Scenario {
+            sc: Arc::new(sc),
+            text: text.into(),
+            file: Some(path),
+        })
     }
 
     /// Parses and checks scenario text; `path` names it in errors and anchors the relative
-    /// paths it names (point files, torque tables): by default `<string>` in the current
-    /// folder.
+    /// paths it names (point files, torque tables): by default the text names no file (`path`
+    /// is None, errors say `<string>`) and relative paths start from the current folder.
     #[staticmethod]
     #[pyo3(signature = (text, path = None))]
     fn from_toml(text: &str, path: Option<PathBuf>) -> PyResult<Scenario> {
-        let path = path.unwrap_or_else(|| PathBuf::from("<string>"));
-        let sc = spherestep::Scenario::from_toml(text, &path).map_err(lib_err)?;
-        Ok(Scenario { sc: Arc::new(sc) })
+        let named = path.clone().unwrap_or_else(|| PathBuf::from(TEXT_PATH));
+        let sc = spherestep::Scenario::from_toml(text, &named).map_err(lib_err)?;
+        Ok(Scenario {
+            sc: Arc::new(sc),
+            text: text.into(),
+            file: path,
+        })
     }
 
-    /// The built-in prototype with every default (what an empty scenario file gives).
+    /// The built-in prototype with every default (what an empty scenario file gives), named
+    /// and described as `scenarios/prototype.toml` names it.
     #[staticmethod]
-    fn prototype() -> Scenario {
-        Scenario {
-            sc: Arc::new(spherestep::Scenario::prototype()),
+    fn prototype() -> PyResult<Scenario> {
+        let sc = spherestep::Scenario::from_toml(PROTOTYPE_TEXT, Path::new(PROTOTYPE_PATH))
+            .map_err(lib_err)?;
+        Ok(Scenario {
+            sc: Arc::new(sc),
+            text: PROTOTYPE_TEXT.into(),
+            file: None,
+        })
+    }
+
+    /// A copy of the scenario with some of its values replaced, checked as a file would be:
+    /// `changes` maps keys `"section.key"` (`"body.damping"`, `"magnets.sigma_deg"`) or
+    /// top-level keys (`"name"`) to values, and each keyword argument is a top-level key or a
+    /// section given as a dict (`body={"damping": 0.8}`). A value None removes the key (its
+    /// default). An unknown key, or a value not allowed, raises `spherestep.Error` naming the
+    /// key. The copy keeps the scenario's `path` (relative paths still start from it).
+    #[pyo3(signature = (changes = None, /, **kwargs))]
+    fn replace(
+        &self,
+        changes: Option<&Bound<'_, pyo3::types::PyDict>>,
+        kwargs: Option<&Bound<'_, pyo3::types::PyDict>>,
+    ) -> PyResult<Scenario> {
+        let mut list = Vec::new();
+        for d in changes.into_iter().chain(kwargs) {
+            for (k, v) in d.iter() {
+                let key: String = k
+                    .extract()
+                    .map_err(|_| arg_err("changes", format!("keys as text, got {}", shown(&k))))?;
+                replaced::flatten(&key, &v, &mut list)?;
+            }
         }
+        let (text, mut sc) = replaced::apply(&self.text, &self.sc.path, &list)?;
+        // a loaded file stays one of the files an output must not replace
+        if let Some(f) = self
+            .file
+            .as_ref()
+            .filter(|f| self.sc.files.first() == Some(*f))
+        {
+            sc.files.insert(0, f.clone());
+        }
+        Ok(Scenario {
+            sc: Arc::new(sc),
+            text: text.into(),
+            file: self.file.clone(),
+        })
     }
 
     /// The motor of the scenario: its physics, whose methods settle, plan, simulate and run.
@@ -58,6 +129,7 @@ impl Scenario {
         Motor {
             motor: self.sc.motor(),
             sc: self.sc.clone(),
+            scenario: self.clone(),
         }
     }
 
@@ -73,11 +145,17 @@ impl Scenario {
         &self.sc.description
     }
 
-    /// The file it was read from (or the `path` of `from_toml`); None for the built-in
-    /// prototype, which comes from no file.
+    /// The file it was read from (or the `path` of `from_toml`); None for text that names no
+    /// file and for the built-in prototype.
     #[getter]
     fn path(&self) -> Option<PathBuf> {
-        self.file().cloned()
+        self.file.clone()
+    }
+
+    /// The scenario's TOML text (with `replace`'s changes: the values as TOML writes them).
+    #[getter]
+    fn toml(&self) -> &str {
+        &self.text
     }
 
     /// Where the rotor's magnets are: unit vectors in the body frame, shape `(magnets, 3)`.
@@ -96,7 +174,7 @@ impl Scenario {
         format!(
             "Scenario(name={:?}, path={}, magnets={}, coils={})",
             self.sc.name,
-            match self.file() {
+            match &self.file {
                 Some(p) => format!("{:?}", p.display().to_string()),
                 None => "None".into(),
             },
@@ -108,13 +186,6 @@ impl Scenario {
 
 /// The path the library gives the built-in prototype (`spherestep::Scenario::prototype`).
 const PROTOTYPE_PATH: &str = "<built-in prototype>";
-
-impl Scenario {
-    /// The scenario's file, or None for the built-in prototype.
-    fn file(&self) -> Option<&PathBuf> {
-        Some(&self.sc.path).filter(|p| p.as_os_str() != PROTOTYPE_PATH)
-    }
-}
 
 /// The starts of `settle_many`: one for every set, or one per set.
 enum Starts {
@@ -205,6 +276,8 @@ fn starts(q0: Option<&Bound<'_, PyAny>>, n: usize) -> PyResult<Starts> {
 pub struct Motor {
     pub(crate) motor: spherestep::Motor,
     pub(crate) sc: Arc<spherestep::Scenario>,
+    /// The scenario as Python made it (its text and file).
+    scenario: Scenario,
 }
 
 impl Motor {
@@ -413,6 +486,58 @@ fn loop_settings(
     Ok(settings)
 }
 
+/// The loop's seed and step limit as Python gives them (any integers), checked for their type.
+fn loop_numbers(
+    seed: Option<i128>,
+    max_steps: Option<i64>,
+) -> PyResult<(Option<u64>, Option<usize>)> {
+    let seed = match seed {
+        None => None,
+        Some(n) => Some(
+            u64::try_from(n)
+                .map_err(|_| arg_err("seed", format!("a whole number in [0, 2^64), got {n}")))?,
+        ),
+    };
+    let max_steps = match max_steps {
+        None => None,
+        Some(n) => Some(
+            usize::try_from(n)
+                .map_err(|_| arg_err("max_steps", format!("a whole number >= 1, got {n}")))?,
+        ),
+    };
+    Ok((seed, max_steps))
+}
+
+/// A plan's rows as the closed loop plays them (`spherestep simulate PLAN --closed-loop`): the
+/// settings aimed at the plan's own target (the rotation from its row 0 to its last row, from
+/// row 0's orientation), the plan as the open-loop one, and its last orientation the goal.
+fn plan_as_loop(
+    settings: PlanSettings,
+    rows: Vec<PlanRow>,
+) -> PyResult<(PlanSettings, spherestep::Plan, spherestep::Orientation)> {
+    let (axis, angle) = target_of(&rows).ok_or_else(|| {
+        arg_err(
+            "plan",
+            "a plan that turns the ball (its last row is where its first is)",
+        )
+    })?;
+    let settings = PlanSettings {
+        axis,
+        angle,
+        start: rows[0].q,
+        target: None,
+        ..settings
+    };
+    let goal = rows[rows.len() - 1].q;
+    let plan = spherestep::Plan {
+        rows,
+        reached: true,
+        message: None,
+        settles: 0,
+    };
+    Ok((settings, plan, goal))
+}
+
 /// The rows to simulate: a `Plan` (made by a motor with these packings) or the path of a plan
 /// file (as `spherestep plan --out` writes it), its pairs checked against the scenario.
 fn plan_rows(sc: &spherestep::Scenario, plan: &Bound<'_, PyAny>) -> PyResult<Vec<PlanRow>> {
@@ -526,7 +651,7 @@ impl Motor {
                 None => work(),
             }
         })?;
-        SettleTable::new(py, list, rs, holding)
+        SettleTable::new(py, list, rs, holding, self.sc.stator.len())
     }
 
     /// Plans a motion: which coil pairs to switch, in which order, to turn the ball by `angle`
@@ -561,17 +686,103 @@ impl Motor {
     /// Replays a plan (a `Plan`, or the path of a plan file) through the dynamics: where the
     /// ball really settles at each step, in this motor's physics or in `plant`'s (a motor with
     /// the same packings: the model error of a plan made for one physics and run on another).
-    #[pyo3(signature = (plan, plant = None))]
-    fn simulate(
+    /// A `Simulation`; with `closed_loop=True` the plan played closed loop on `plant` (default:
+    /// this motor) as `spherestep simulate PLAN SCENARIO --plant PLANT --closed-loop` does,
+    /// aimed at the plan's last orientation and replanning in this motor's physics (with the
+    /// step model `model`, default the scenario's) from a simulated sensor: a `Run`, the
+    /// options those of `run`.
+    #[pyo3(signature = (plan, plant = None, *, closed_loop = false, model = None, sensor_noise_deg = 0.0, seed = None, max_steps = None, identify = true))]
+    #[allow(clippy::too_many_arguments)]
+    fn simulate<'py>(
         &self,
-        py: Python<'_>,
-        plan: &Bound<'_, PyAny>,
-        plant: Option<PyRef<'_, Motor>>,
-    ) -> PyResult<Simulation> {
+        py: Python<'py>,
+        plan: &Bound<'py, PyAny>,
+        plant: Option<PyRef<'py, Motor>>,
+        closed_loop: bool,
+        model: Option<&str>,
+        sensor_noise_deg: f64,
+        seed: Option<i128>,
+        max_steps: Option<i64>,
+        identify: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (seed, max_steps) = loop_numbers(seed, max_steps)?;
         let rows = plan_rows(&self.sc, plan)?;
         let physics = self.physics(plant.as_deref())?;
-        let sim = py.detach(|| physics.motor.simulate(&rows));
-        Ok(Simulation { rows: sim })
+        // the options checked before anything is computed, as the command line does
+        loop_settings(closed_loop, sensor_noise_deg, seed, max_steps, identify, 0)?;
+        if !closed_loop {
+            if model.is_some() {
+                return Err(arg_err(
+                    "model",
+                    "closed_loop=True with model (the model of the replans; the open loop \
+                     plays the plan as it is)",
+                ));
+            }
+            let sim = py.detach(|| physics.motor.simulate(&rows));
+            return Simulation { rows: sim }.into_bound_py_any(py);
+        }
+        let settings = plan_settings(&self.sc, None, None, None, model, None, None, None)?;
+        let (settings, open, goal) = plan_as_loop(settings, rows)?;
+        let planned_steps = open.rows.len() - 1;
+        let cl = loop_settings(
+            true,
+            sensor_noise_deg,
+            seed,
+            max_steps,
+            identify,
+            planned_steps,
+        )?;
+        let model = cancellable(&self.motor);
+        let plant = spherestep::Motor {
+            cancel: model.cancel.clone(),
+            ..physics.motor.clone()
+        };
+        let run = interruptible(py, &model.cancel, || {
+            model.run(&plant, &settings, &open, goal, &cl)
+        })?;
+        Run {
+            run,
+            closed_loop: true,
+            sensor_noise_deg,
+            seed: seed.unwrap_or(DEFAULT_SEED),
+            planned_steps,
+            coils: self.sc.stator.len(),
+        }
+        .into_bound_py_any(py)
+    }
+
+    /// The pairs `(coil, magnet)` whose magnet lies within `reach_deg` degrees of its coil at
+    /// the orientation `q` (`[qx, qy, qz, qw]`, default identity), in coil then magnet order:
+    /// the pairs a set may use there. `reach_deg` defaults to the coil's reach, the well's
+    /// maximum attraction distance (what `settle` counts as holding).
+    #[pyo3(signature = (reach_deg = None, q = None))]
+    fn pairs_within(
+        &self,
+        reach_deg: Option<f64>,
+        q: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Vec<(usize, usize)>> {
+        let reach = match reach_deg {
+            None => self.sc.torques.well.max_attraction().0,
+            Some(d) if d.is_finite() && (0.0..=180.0).contains(&d) => d.to_radians(),
+            Some(d) => {
+                return Err(arg_err(
+                    "reach_deg",
+                    format!("an angle in [0, 180] degrees, got {d}"),
+                ))
+            }
+        };
+        let q = convert::orientation_or_identity(q, "q")?;
+        let r = q.to_rotation_matrix();
+        let t = &self.sc.torques;
+        let mut out = Vec::new();
+        for coil in 0..t.stator.len() {
+            for magnet in 0..t.rotor.len() {
+                if pair_gap(t, &r, spherestep::Pair::new(coil, magnet)).0 <= reach {
+                    out.push((coil, magnet));
+                }
+            }
+        }
+        Ok(out)
     }
 
     /// The motor's well as a bench would measure it (`spherestep wells`): the torque on one
@@ -609,20 +820,7 @@ impl Motor {
         max_steps: Option<i64>,
         identify: bool,
     ) -> PyResult<Run> {
-        let seed =
-            match seed {
-                None => None,
-                Some(n) => Some(u64::try_from(n).map_err(|_| {
-                    arg_err("seed", format!("a whole number in [0, 2^64), got {n}"))
-                })?),
-            };
-        let max_steps = match max_steps {
-            None => None,
-            Some(n) => Some(
-                usize::try_from(n)
-                    .map_err(|_| arg_err("max_steps", format!("a whole number >= 1, got {n}")))?,
-            ),
-        };
+        let (seed, max_steps) = loop_numbers(seed, max_steps)?;
         let physics = self.physics(plant.as_deref())?;
         let settings = plan_settings(&self.sc, axis, angle, scheme, model, pairs, start, to)?;
         // The options checked before anything is computed, as the command line does.
@@ -666,6 +864,7 @@ impl Motor {
             sensor_noise_deg,
             seed: seed.unwrap_or(DEFAULT_SEED),
             planned_steps,
+            coils: self.sc.stator.len(),
         })
     }
 
@@ -684,9 +883,7 @@ impl Motor {
     /// The scenario this motor was made from.
     #[getter]
     fn scenario(&self) -> Scenario {
-        Scenario {
-            sc: self.sc.clone(),
-        }
+        self.scenario.clone()
     }
 
     fn __repr__(&self) -> String {

@@ -27,6 +27,25 @@ pub fn holding(sc: &spherestep::Scenario, active: &[Pair], q: &Orientation) -> H
     Holding::of(&sc.torques, active, q)
 }
 
+/// Sets of pairs as a numpy array of shape `(sets, coils)` (`int64`): row k, column c the
+/// magnet set k pairs coil c with, -1 where set k leaves coil c out (a set has each coil once).
+fn magnet_per_coil<'py, 'a>(
+    py: Python<'py>,
+    sets: impl ExactSizeIterator<Item = &'a [Pair]>,
+    coils: usize,
+) -> PyResult<Bound<'py, PyArray2<i64>>> {
+    let n = sets.len();
+    let mut flat = vec![-1i64; n * coils];
+    for (k, set) in sets.enumerate() {
+        for p in set {
+            if let Some(cell) = flat.get_mut(k * coils + p.coil.0) {
+                *cell = p.magnet.0 as i64;
+            }
+        }
+    }
+    PyArray1::from_vec(py, flat).reshape([n, coils])
+}
+
 /// Unit vectors as a numpy array of shape `(n, 3)`.
 pub fn vectors<'py>(
     py: Python<'py>,
@@ -198,6 +217,10 @@ pub struct SettleTable {
     /// The sets, as `(coil, magnet)` pairs.
     #[pyo3(get)]
     active: Vec<Vec<(usize, usize)>>,
+    /// The sets as indices, shape `(n, coils)` (`int64`): row k, column c the magnet set k
+    /// pairs coil c with, -1 where set k leaves coil c out.
+    #[pyo3(get)]
+    active_magnet: Py<PyArray2<i64>>,
 }
 
 impl SettleTable {
@@ -206,6 +229,7 @@ impl SettleTable {
         sets: Vec<Vec<Pair>>,
         rs: Vec<spherestep::SettleResult>,
         holding: Vec<Holding>,
+        coils: usize,
     ) -> PyResult<SettleTable> {
         let col = |f: &dyn Fn(&spherestep::SettleResult) -> f64| -> PyResult<Py<PyArray1<f64>>> {
             frozen(column(py, rs.iter().map(f).collect()))
@@ -226,6 +250,7 @@ impl SettleTable {
                 .collect(),
             held: holding.iter().map(|h| pair_tuples(&h.held)).collect(),
             active: sets.iter().map(|s| pair_tuples(s)).collect(),
+            active_magnet: frozen(magnet_per_coil(py, sets.iter().map(|s| &s[..]), coils)?)?,
         })
     }
 }
@@ -354,6 +379,41 @@ impl Plan {
             .iter()
             .map(|r| pair_tuples(&r.active))
             .collect()
+    }
+    /// The pivot's coil for each row as a signed index (`int64`), -1 for none (row 0): the
+    /// plan CSV's `pivot_coil`.
+    #[getter]
+    fn pivot_coil<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        let c = |r: &spherestep::PlanRow| r.pivot.map_or(-1, |p| p.coil.0 as i64);
+        column(py, self.plan.rows.iter().map(c).collect())
+    }
+    /// The pivot's magnet for each row as a signed index (`int64`), -1 for none (row 0): the
+    /// plan CSV's `pivot_magnet`.
+    #[getter]
+    fn pivot_magnet<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        let m = |r: &spherestep::PlanRow| r.pivot.map_or(-1, |p| p.magnet.0 as i64);
+        column(py, self.plan.rows.iter().map(m).collect())
+    }
+    /// The pairs each step switches on as indices, shape `(rows, coils)` (`int64`): row k,
+    /// column c is the magnet step k pairs coil c with, -1 where step k switches no pair of
+    /// coil c on.
+    #[getter]
+    fn new_magnet<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        magnet_per_coil(
+            py,
+            self.plan.rows.iter().map(|r| &r.new[..]),
+            self.sc.stator.len(),
+        )
+    }
+    /// Everything energised after each step as indices, shape `(rows, coils)` (`int64`): row
+    /// k, column c is the magnet coil c pulls after step k, -1 where coil c is off.
+    #[getter]
+    fn active_magnet<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        magnet_per_coil(
+            py,
+            self.plan.rows.iter().map(|r| &r.active[..]),
+            self.sc.stator.len(),
+        )
     }
     /// The predicted orientation after each step, shape `(rows, 4)`: `[qx, qy, qz, qw]`.
     #[getter]
@@ -626,6 +686,8 @@ pub struct Run {
     pub(crate) sensor_noise_deg: f64,
     pub(crate) seed: u64,
     pub(crate) planned_steps: usize,
+    /// The motor's coils (the width of `active_magnet`).
+    pub(crate) coils: usize,
 }
 
 impl Run {
@@ -677,6 +739,12 @@ impl Run {
             .iter()
             .map(|r| pair_tuples(&r.active))
             .collect()
+    }
+    /// What was on at each step as indices, shape `(rows, coils)` (`int64`): row k, column c
+    /// is the magnet coil c pulled at step k, -1 where coil c was off.
+    #[getter]
+    fn active_magnet<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        magnet_per_coil(py, self.run.rows.iter().map(|r| &r.active[..]), self.coils)
     }
     /// Whether the rest of the motion was replanned after each step's measurement.
     #[getter]

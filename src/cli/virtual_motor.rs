@@ -37,7 +37,8 @@ pub struct Args {
     /// Make stable names for the ports: DIR/board0, DIR/board1, ..., DIR/sensor.
     #[arg(long)]
     pub link_dir: Option<PathBuf>,
-    /// Write a CSV of every frame and event: t_s,port,frame,what,coils_on,qw,qx,qy,qz.
+    /// Write a CSV of every frame and event: t_s,port,frame,what,coils_on,qx,qy,qz,qw
+    /// (the ball, in the summary's order; the sensor sends w,x,y,z, as the device).
     #[arg(long)]
     pub log: Option<PathBuf>,
     /// Print the summary as JSON.

@@ -255,10 +255,10 @@ impl World {
             frame.replace('"', "'"),
             what.replace('"', "'"),
             coils.join(";"),
-            c.w,
             c.i,
             c.j,
-            c.k
+            c.k,
+            c.w
         );
         let Some(log) = self.log.as_mut() else {
             return;
@@ -479,7 +479,7 @@ pub fn run(
     let sensor = match opts.sensor {
         None => None,
         Some(f) => {
-            let (m, info) = make_port(opts, "sensor", format!("sensor ({f})"), &mut links)?;
+            let (m, info) = make_port(opts, "sensor", sensor_port(f), &mut links)?;
             infos.push(info);
             Some((f, m))
         }
@@ -500,6 +500,18 @@ pub fn run(
     Ok(w.finish(infos, ended_by))
 }
 
+/// What the sensor's port is, with the order of its quaternion: w first, as the devices send
+/// it (a quat-csv sketch's lines, the BNO055's registers 0x20..0x27), where the summary and the
+/// log write the ball as the library does, x,y,z,w.
+fn sensor_port(f: SensorFormat) -> String {
+    match f {
+        SensorFormat::QuatCsv => format!("sensor ({f}: lines w,x,y,z, as the device sends them)"),
+        SensorFormat::Bno055 => {
+            format!("sensor ({f}: quaternion registers w,x,y,z, as the device has them)")
+        }
+    }
+}
+
 /// The log CSV, its header written (none without `opts.log`).
 fn open_log(opts: &Options) -> Result<Option<std::io::BufWriter<std::fs::File>>, RehearseError> {
     let Some(p) = &opts.log else {
@@ -510,7 +522,9 @@ fn open_log(opts: &Options) -> Result<Option<std::io::BufWriter<std::fs::File>>,
         reason: e.to_string(),
     };
     let mut f = std::fs::File::create(p).map_err(err)?;
-    f.write_all(b"t_s,port,frame,what,coils_on,qw,qx,qy,qz\n")
+    // the ball in the library's order, as the summary (the sensor's lines and registers are
+    // w first, as the devices send them)
+    f.write_all(b"t_s,port,frame,what,coils_on,qx,qy,qz,qw\n")
         .map_err(err)?;
     Ok(Some(std::io::BufWriter::new(f)))
 }

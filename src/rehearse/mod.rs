@@ -115,8 +115,13 @@ impl Summary {
         let frames: Vec<String> = (self.frames.iter().enumerate())
             .map(|(k, n)| format!("board {k}: {n}"))
             .collect();
+        // both sensors send the quaternion w first, as the devices do; the ball below is x,y,z,w
+        let order = match self.sensor_readings {
+            0 => "",
+            _ => "; each w,x,y,z, as the device sends it",
+        };
         s.push_str(&format!(
-            "frames received: {}; not understood: {}; sensor readings: {} ({} garbled); most relays on at once: {}\n",
+            "frames received: {}; not understood: {}; sensor readings: {} ({} garbled{order}); most relays on at once: {}\n",
             frames.join(", "),
             self.unknown_frames,
             self.sensor_readings,
@@ -162,4 +167,45 @@ pub enum RehearseError {
     LinkDir { path: PathBuf, reason: String },
     #[error("the virtual motor's log {}: {reason}", path.display())]
     Log { path: PathBuf, reason: String },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn summary(readings: usize) -> Summary {
+        Summary {
+            #[cfg(all(feature = "hardware", unix))]
+            ports: Vec::new(),
+            ended_by: "a test".into(),
+            virtual_time_s: 1.5,
+            frames: vec![3],
+            unknown_frames: 0,
+            sensor_readings: readings,
+            garbled_readings: 0,
+            most_relays_on: 2,
+            relays_on_at_end: Vec::new(),
+            coils_on_at_end: Vec::new(),
+            final_orientation: [0.1, 0.2, 0.3, 0.9],
+            violations: Vec::new(),
+            violations_total: 0,
+            log: None,
+            log_error: None,
+        }
+    }
+
+    #[test]
+    fn the_summary_says_the_sensors_order_and_writes_the_ball_x_first() {
+        let with = summary(12).text();
+        assert!(
+            with.contains("sensor readings: 12 (0 garbled; each w,x,y,z, as the device sends it)"),
+            "{with}"
+        );
+        assert!(with.contains("ball at the end: qx,qy,qz,qw = 0.100000,0.200000,0.300000,0.900000"));
+        let without = summary(0).text();
+        assert!(
+            without.contains("sensor readings: 0 (0 garbled);"),
+            "{without}"
+        );
+    }
 }
