@@ -1,0 +1,130 @@
+//! The "coils" interaction restricted to the magnets near the active coils at one orientation:
+//! the same torques to the bit as the whole model's while the ball stays within a skin of it,
+//! with the far magnets' terms skipped.
+
+use super::*;
+
+/// The "coils" interaction for one active set near one orientation R0: each energised coil
+/// with the magnets (in the rotor's order) within the cut-off plus [`NEAR_SKIN`] of it at R0.
+/// While R stays within [`NEAR_SKIN`] of R0 no other magnet can come within reach (the angle
+/// between R m and s changes by at most the angle of R0^T R), so the sums have the same
+/// non-zero terms in the same order as the whole model's: the same torques to the bit. Beyond
+/// the skin, or for another active set, it is the whole model.
+#[derive(Debug, Clone)]
+pub struct NearbyMagnets<'a> {
+    full: &'a MagnetTorques,
+    active: Vec<Pair>,
+    r0: Matrix3<f64>,
+    /// tr(R0^T R) = 1 + 2 cos(angle) at least this: R is within the skin.
+    trace_min: f64,
+    /// The energised coils' world axes, in the order of [`MagnetTorques::coils`] ...
+    coils: Vec<Vector3<f64>>,
+    /// ... and their nearby magnets (body frame): those of coil k at `starts[k]..starts[k + 1]`.
+    pub(super) magnets: Vec<Vector3<f64>>,
+    starts: Vec<usize>,
+}
+
+impl<'a> NearbyMagnets<'a> {
+    pub(super) fn new(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &[Pair]) -> Self {
+        let cos_list = cos_within(full.well.max_attraction.0 + NEAR_SKIN + MARGIN_CAP);
+        let (mut coils, mut magnets, mut starts) = (Vec::new(), Vec::new(), vec![0]);
+        for c in MagnetTorques::coils(active) {
+            let s = r0.tr_mul(&full.stator[c]);
+            coils.push(full.stator[c]);
+            magnets.extend(full.rotor.iter().filter(|m| m.dot(&s) >= cos_list));
+            starts.push(magnets.len());
+        }
+        NearbyMagnets {
+            full,
+            active: active.to_vec(),
+            r0: *r0,
+            trace_min: 1.0 + 2.0 * NEAR_SKIN.cos(),
+            coils,
+            magnets,
+            starts,
+        }
+    }
+
+    /// Whether the lists hold every magnet in reach at `r` with `active` on (and every magnet
+    /// within the margin's cap beyond it).
+    #[inline]
+    fn covers(&self, r: &Matrix3<f64>, active: &[Pair]) -> bool {
+        self.r0.component_mul(r).sum() >= self.trace_min && active == self.active.as_slice()
+    }
+
+    /// Coil k's body-frame axis at `r` and its nearby magnets.
+    fn coil(&self, k: usize, r: &Matrix3<f64>) -> (Vector3<f64>, &[Vector3<f64>]) {
+        (
+            r.tr_mul(&self.coils[k]),
+            &self.magnets[self.starts[k]..self.starts[k + 1]],
+        )
+    }
+}
+
+impl TorqueModel for NearbyMagnets<'_> {
+    fn torque_energy(&self, r: &Matrix3<f64>, active: &[Pair]) -> (Vector3<f64>, f64) {
+        // the energy counts every magnet (the well is constant, not zero, beyond its cut-off)
+        self.full.torque_energy(r, active)
+    }
+
+    fn torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
+        r * self.body_torque(r, active)
+    }
+
+    fn body_torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
+        if !self.covers(r, active) {
+            return self.full.body_torque(r, active);
+        }
+        let cos_cutoff = self.full.well.cos_cutoff;
+        let mut tau = Vector3::zeros();
+        for k in 0..self.coils.len() {
+            let (s, magnets) = self.coil(k, r);
+            for m in magnets {
+                tau += self.full.well.pair_torque(m, &s, cos_cutoff);
+            }
+        }
+        tau
+    }
+
+    fn linearize(&self, r: &Matrix3<f64>, active: &[Pair]) -> Option<Linearization> {
+        if !self.covers(r, active) {
+            return self.full.linearize(r, active);
+        }
+        let mut lin = MagnetTorques::no_linearization();
+        let cos_far = self.full.well.cos_far;
+        for k in 0..self.coils.len() {
+            let (s, magnets) = self.coil(k, r);
+            for m in magnets {
+                self.full.pair_linearization(m, &s, cos_far, &mut lin)?;
+            }
+        }
+        Some(lin)
+    }
+
+    fn stiffness_scale(&self) -> Option<f64> {
+        self.full.stiffness_scale()
+    }
+
+    /// Every energised coil's nearby magnets, in the lists' order; none beyond the skin (where
+    /// other magnets may come within reach).
+    fn cutoff_margins(
+        &self,
+        r: &Matrix3<f64>,
+        w: &Vector3<f64>,
+        active: &[Pair],
+        out: &mut Vec<(f64, f64)>,
+    ) -> bool {
+        if !self.covers(r, active) || !self.full.well.cutoff_jump {
+            return false;
+        }
+        for k in 0..self.coils.len() {
+            let (s, magnets) = self.coil(k, r);
+            out.extend(
+                magnets
+                    .iter()
+                    .map(|m| self.full.well.cutoff_margin(m, &s, w)),
+            );
+        }
+        true
+    }
+}
