@@ -13,7 +13,7 @@ use pyo3::IntoPyObjectExt;
 use spherestep::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges, PlanInput};
 use spherestep::planning::commutation::pair_gap;
 use spherestep::planning::holding::Holding;
-use spherestep::planning::options::{LoopNames, LoopOptions, LoopPlan, RowsFrom};
+use spherestep::planning::options::{LoopNames, LoopOptions, LoopPlan, RowsFrom, DEFAULT_SEED};
 use spherestep::Cancel;
 use spherestep::{PairsPerStep, PlanRow};
 use std::path::{Path, PathBuf};
@@ -441,9 +441,6 @@ fn thread_pool(threads: Option<i64>) -> PyResult<Option<rayon::ThreadPool>> {
             }),
     }
 }
-
-/// The sensor noise's seed when none is given (the command line's `--seed` default).
-const DEFAULT_SEED: u64 = 1;
 
 /// What the Python arguments are called in a refusal of the loop's options.
 const LOOP_ARGUMENT_NAMES: LoopNames = LoopNames {

@@ -46,6 +46,10 @@ pub enum RowsFrom<'a> {
     Argument(&'a str),
 }
 
+/// The sensor noise's seed when none is given (the command line's `--seed` default, Python's
+/// `seed=None`).
+pub const DEFAULT_SEED: u64 = 1;
+
 /// The largest sensor noise accepted, degrees. The loop's thresholds grow with the noise
 /// (replan beyond three times it, done within twice it): at 10 degrees of noise a run counts as
 /// reached within 20 degrees of the goal, and a noisier sensor cannot tell a step from the
