@@ -10,13 +10,12 @@ use crate::{arg_err, lib_err};
 use numpy::PyArray2;
 use pyo3::prelude::*;
 use pyo3::IntoPyObjectExt;
-use spherestep::io::planfile::read_plan;
-use spherestep::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges, RowsFrom};
-use spherestep::planning::closed_loop::target_of;
+use spherestep::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges, PlanInput};
 use spherestep::planning::commutation::pair_gap;
-use spherestep::planning::options::{LoopNames, LoopOptions};
+use spherestep::planning::holding::Holding;
+use spherestep::planning::options::{LoopNames, LoopOptions, LoopPlan, RowsFrom, DEFAULT_SEED};
 use spherestep::Cancel;
-use spherestep::{goal_of, LoopSettings, PairsPerStep, PlanRow, PlanSettings};
+use spherestep::{PairsPerStep, PlanRow};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use std::time::Duration;
@@ -313,21 +312,20 @@ const ARGUMENT_NAMES: ChangeNames = ChangeNames {
     to: "to",
 };
 
-/// What to plan: the scenario's `[plan]` section with the arguments given instead, each read
-/// as its type here and the changes checked as the command line checks `plan`'s options
-/// (`Scenario::plan_with`).
+/// The changes of the scenario's `[plan]` settings the arguments given ask for, each read as
+/// its type here; the library makes and checks them as it does the command line's
+/// (`Scenario::plan_with`, naming them by [`ARGUMENT_NAMES`]).
 #[allow(clippy::too_many_arguments)]
-fn plan_settings(
-    sc: &spherestep::Scenario,
+fn plan_changes<'a>(
     axis: Option<&Bound<'_, PyAny>>,
     angle: Option<f64>,
-    scheme: Option<&str>,
-    model: Option<&str>,
+    scheme: Option<&'a str>,
+    model: Option<&'a str>,
     pairs: Option<&Bound<'_, PyAny>>,
     start: Option<&Bound<'_, PyAny>>,
     to: Option<&Bound<'_, PyAny>>,
-) -> PyResult<PlanSettings> {
-    let changes = PlanChanges {
+) -> PyResult<PlanChanges<'a>> {
+    Ok(PlanChanges {
         axis: axis.map(|a| convert::axis(a, "axis")).transpose()?,
         angle_deg: angle,
         scheme,
@@ -337,8 +335,7 @@ fn plan_settings(
             .map(|f| convert::orientation(f, "start"))
             .transpose()?,
         to: to.map(|t| convert::orientation(t, "to")).transpose()?,
-    };
-    sc.plan_with(&changes, &ARGUMENT_NAMES).map_err(lib_err)
+    })
 }
 
 /// Pairs per step: an integer K (exactly K) or text `K` or `2-K` (2 to K, chosen per step).
@@ -445,26 +442,23 @@ fn thread_pool(threads: Option<i64>) -> PyResult<Option<rayon::ThreadPool>> {
     }
 }
 
-/// The sensor noise's seed when none is given (the command line's `--seed` default).
-const DEFAULT_SEED: u64 = 1;
-
 /// What the Python arguments are called in a refusal of the loop's options.
 const LOOP_ARGUMENT_NAMES: LoopNames = LoopNames {
     noise_deg: "sensor_noise_deg",
     max_steps: "max_steps",
+    motion: "axis/angle",
 };
 
-/// The loop's settings as `spherestep run` makes them from its options (the library's
-/// `LoopOptions::settings`); the sensor's arguments only with `closed_loop`, as the command
-/// line's only with `--closed-loop`.
-fn loop_settings(
+/// The loop's options from the arguments, checked before anything is computed (the library's
+/// `LoopOptions::check`, naming them by [`LOOP_ARGUMENT_NAMES`]); the sensor's arguments only
+/// with `closed_loop`, as the command line's only with `--closed-loop`.
+fn loop_options(
     closed_loop: bool,
     noise_deg: f64,
     seed: Option<u64>,
     max_steps: Option<usize>,
     identify: bool,
-    planned_steps: usize,
-) -> PyResult<LoopSettings> {
+) -> PyResult<LoopOptions> {
     let o = LoopOptions {
         closed: closed_loop,
         noise_deg,
@@ -473,9 +467,7 @@ fn loop_settings(
         identify,
     };
     // the options' own refusals first, then the sensor's arguments without closed_loop
-    let settings = o
-        .settings(planned_steps, &LOOP_ARGUMENT_NAMES)
-        .map_err(lib_err)?;
+    o.check(&LOOP_ARGUMENT_NAMES).map_err(lib_err)?;
     if !closed_loop && (noise_deg != 0.0 || seed.is_some() || max_steps.is_some() || !identify) {
         return Err(arg_err(
             "closed_loop",
@@ -483,7 +475,7 @@ fn loop_settings(
              --closed-loop: the open loop plays the plan as it is, measured without noise)",
         ));
     }
-    Ok(settings)
+    Ok(o)
 }
 
 /// The loop's seed and step limit as Python gives them (any integers), checked for their type.
@@ -508,55 +500,24 @@ fn loop_numbers(
     Ok((seed, max_steps))
 }
 
-/// A plan's rows as the closed loop plays them (`spherestep simulate PLAN --closed-loop`): the
-/// settings aimed at the plan's own target (the rotation from its row 0 to its last row, from
-/// row 0's orientation), the plan as the open-loop one, and its last orientation the goal.
-fn plan_as_loop(
-    settings: PlanSettings,
-    rows: Vec<PlanRow>,
-) -> PyResult<(PlanSettings, spherestep::Plan, spherestep::Orientation)> {
-    let (axis, angle) = target_of(&rows).ok_or_else(|| {
-        arg_err(
-            "plan",
-            "a plan that turns the ball (its last row is where its first is)",
-        )
-    })?;
-    let settings = PlanSettings {
-        axis,
-        angle,
-        start: rows[0].q,
-        target: None,
-        ..settings
-    };
-    let goal = rows[rows.len() - 1].q;
-    let plan = spherestep::Plan {
-        rows,
-        reached: true,
-        message: None,
-        settles: 0,
-    };
-    Ok((settings, plan, goal))
-}
-
-/// The rows to simulate: a `Plan` (made by a motor with these packings) or the path of a plan
-/// file (as `spherestep plan --out` writes it), its pairs checked against the scenario.
-fn plan_rows(sc: &spherestep::Scenario, plan: &Bound<'_, PyAny>) -> PyResult<Vec<PlanRow>> {
-    let (rows, file) = if let Ok(p) = plan.cast::<Plan>() {
-        (p.get().plan.rows.clone(), None)
+/// The rows of `plan` (a `Plan`, or the path of a plan file), checked against the scenario by
+/// the library (`Scenario::checked_rows`).
+fn rows_of(sc: &spherestep::Scenario, plan: &Bound<'_, PyAny>) -> PyResult<Vec<PlanRow>> {
+    let rows = if let Ok(p) = plan.cast::<Plan>() {
+        let rows = p.get().plan.rows.clone();
+        sc.checked_rows(PlanInput::Rows {
+            rows,
+            argument: "plan",
+        })
     } else if let Ok(path) = plan.extract::<PathBuf>() {
-        (read_plan(&path).map_err(lib_err)?, Some(path))
+        sc.checked_rows(PlanInput::File(&path))
     } else {
         return Err(arg_err(
             "plan",
             format!("a Plan or the path of a plan file, got {}", shown(plan)),
         ));
     };
-    let from = match &file {
-        Some(f) => RowsFrom::File(f),
-        None => RowsFrom::Argument("plan"),
-    };
-    sc.check_plan_pairs(&rows, from).map_err(lib_err)?;
-    Ok(rows)
+    rows.map_err(lib_err)
 }
 
 #[pymethods]
@@ -642,7 +603,7 @@ impl Motor {
                 let holding: Vec<_> = list
                     .iter()
                     .zip(&rs)
-                    .map(|(set, r)| results::holding(sc, set, &r.q))
+                    .map(|(set, r)| Holding::of(&sc.torques, set, &r.q))
                     .collect();
                 (rs, holding)
             };
@@ -673,7 +634,11 @@ impl Motor {
         start: Option<&Bound<'_, PyAny>>,
         to: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Plan> {
-        let settings = plan_settings(&self.sc, axis, angle, scheme, model, pairs, start, to)?;
+        let changes = plan_changes(axis, angle, scheme, model, pairs, start, to)?;
+        let settings = self
+            .sc
+            .plan_with(&changes, &ARGUMENT_NAMES)
+            .map_err(lib_err)?;
         let motor = cancellable(&self.motor);
         let plan = interruptible(py, &motor.cancel, || motor.plan(&settings))?;
         Ok(Plan {
@@ -706,10 +671,10 @@ impl Motor {
         identify: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let (seed, max_steps) = loop_numbers(seed, max_steps)?;
-        let rows = plan_rows(&self.sc, plan)?;
+        let rows = rows_of(&self.sc, plan)?;
         let physics = self.physics(plant.as_deref())?;
         // the options checked before anything is computed, as the command line does
-        loop_settings(closed_loop, sensor_noise_deg, seed, max_steps, identify, 0)?;
+        let o = loop_options(closed_loop, sensor_noise_deg, seed, max_steps, identify)?;
         if !closed_loop {
             if model.is_some() {
                 return Err(arg_err(
@@ -721,24 +686,26 @@ impl Motor {
             let sim = py.detach(|| physics.motor.simulate(&rows));
             return Simulation { rows: sim }.into_bound_py_any(py);
         }
-        let settings = plan_settings(&self.sc, None, None, None, model, None, None, None)?;
-        let (settings, open, goal) = plan_as_loop(settings, rows)?;
-        let planned_steps = open.rows.len() - 1;
-        let cl = loop_settings(
-            true,
-            sensor_noise_deg,
-            seed,
-            max_steps,
-            identify,
-            planned_steps,
-        )?;
+        let changes = PlanChanges {
+            model,
+            ..PlanChanges::default()
+        };
+        let settings = self
+            .sc
+            .plan_with(&changes, &ARGUMENT_NAMES)
+            .map_err(lib_err)?;
+        let lp = LoopPlan::of_rows(&settings, rows, RowsFrom::Argument("plan")).map_err(lib_err)?;
+        let planned_steps = lp.planned_steps();
+        let cl = o
+            .settings(planned_steps, &LOOP_ARGUMENT_NAMES)
+            .map_err(lib_err)?;
         let model = cancellable(&self.motor);
         let plant = spherestep::Motor {
             cancel: model.cancel.clone(),
             ..physics.motor.clone()
         };
         let run = interruptible(py, &model.cancel, || {
-            model.run(&plant, &settings, &open, goal, &cl)
+            model.run(&plant, &lp.settings, &lp.plan, lp.goal, &cl)
         })?;
         Run {
             run,
@@ -822,41 +789,27 @@ impl Motor {
     ) -> PyResult<Run> {
         let (seed, max_steps) = loop_numbers(seed, max_steps)?;
         let physics = self.physics(plant.as_deref())?;
-        let settings = plan_settings(&self.sc, axis, angle, scheme, model, pairs, start, to)?;
+        let changes = plan_changes(axis, angle, scheme, model, pairs, start, to)?;
+        let settings = self
+            .sc
+            .plan_with(&changes, &ARGUMENT_NAMES)
+            .map_err(lib_err)?;
         // The options checked before anything is computed, as the command line does.
-        loop_settings(closed_loop, sensor_noise_deg, seed, max_steps, identify, 0)?;
+        let o = loop_options(closed_loop, sensor_noise_deg, seed, max_steps, identify)?;
         let (model, plant) = (cancellable(&self.motor), physics.motor.clone());
         let plant = spherestep::Motor {
             cancel: model.cancel.clone(),
             ..plant
         };
         let p = interruptible(py, &model.cancel, || model.plan(&settings))?;
-        if p.rows.len() < 2 {
-            return Err(arg_err(
-                "axis/angle",
-                format!(
-                    "a motion the model can plan: {}",
-                    p.message.as_deref().unwrap_or("no step")
-                ),
-            ));
-        }
-        let goal = goal_of(&settings, &p.rows).ok_or_else(|| {
-            lib_err(spherestep::Error::Parse {
-                file: self.sc.path.clone(),
-                message: "the plan has no initial commutation state".into(),
-            })
-        })?;
-        let planned_steps = p.rows.len() - 1;
-        let cl = loop_settings(
-            closed_loop,
-            sensor_noise_deg,
-            seed,
-            max_steps,
-            identify,
-            planned_steps,
-        )?;
+        let lp = LoopPlan::planned(&settings, p, &LOOP_ARGUMENT_NAMES, &self.sc.path)
+            .map_err(lib_err)?;
+        let planned_steps = lp.planned_steps();
+        let cl = o
+            .settings(planned_steps, &LOOP_ARGUMENT_NAMES)
+            .map_err(lib_err)?;
         let run = interruptible(py, &model.cancel, || {
-            model.run(&plant, &settings, &p, goal, &cl)
+            model.run(&plant, &lp.settings, &lp.plan, lp.goal, &cl)
         })?;
         Ok(Run {
             run,

@@ -17,15 +17,9 @@ use spherestep::io::simfile::write_sim;
 use spherestep::io::table::csv_bytes;
 use spherestep::planning::holding::Holding;
 use spherestep::planning::simulate::summary as sim_summary;
-use spherestep::{LoopRun, Orientation, Pair, PlanSettings, SimRow, WellSummary};
+use spherestep::{LoopRun, Pair, PlanSettings, SimRow, WellSummary};
 use std::path::PathBuf;
 use std::sync::Arc;
-
-/// Which pairs of `active` hold the ball at `q` in `sc` (the library's `Holding::of`, as the
-/// command line's `settle` reports it).
-pub fn holding(sc: &spherestep::Scenario, active: &[Pair], q: &Orientation) -> Holding {
-    Holding::of(&sc.torques, active, q)
-}
 
 /// Sets of pairs as a numpy array of shape `(sets, coils)` (`int64`): row k, column c the
 /// magnet set k pairs coil c with, -1 where set k leaves coil c out (a set has each coil once).
@@ -95,7 +89,7 @@ pub struct SettleResult {
 
 impl SettleResult {
     pub fn new(sc: &spherestep::Scenario, active: Vec<Pair>, r: spherestep::SettleResult) -> Self {
-        let holding = holding(sc, &active, &r.q);
+        let holding = Holding::of(&sc.torques, &active, &r.q);
         SettleResult { r, active, holding }
     }
 }

@@ -16,6 +16,7 @@ mod virtual_motor;
 mod wells;
 
 use clap::{Parser, Subcommand};
+use spherestep::planning::options::DEFAULT_SEED;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -43,7 +44,7 @@ pub struct LoopArgs {
     #[arg(long, default_value_t = 0.0, requires = "closed_loop")]
     pub sensor_noise_deg: f64,
     /// With --closed-loop: seed of the sensor's noise (the same seed, the same run).
-    #[arg(long, default_value_t = 1, requires = "closed_loop")]
+    #[arg(long, default_value_t = DEFAULT_SEED, requires = "closed_loop")]
     pub seed: u64,
     /// With --closed-loop: at most this many steps (default: 3 x the planned steps + 6).
     #[arg(long, requires = "closed_loop")]

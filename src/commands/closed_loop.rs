@@ -7,11 +7,10 @@ use crate::io::loopfile::write_loop;
 use crate::io::output::emit_csv;
 use crate::io::planfile::read_plan;
 use crate::io::scenario::Scenario;
-use crate::model::geometry::Orientation;
-use crate::planning::closed_loop::{goal_of, run_closed_loop, target_of, LoopRun, LoopSettings};
-use crate::planning::options::LoopNames;
+use crate::planning::closed_loop::{run_closed_loop, LoopRun, LoopSettings};
 pub use crate::planning::options::{default_max_steps, LoopOptions, MAX_SENSOR_NOISE_DEG};
-use crate::planning::plan::{Plan, PlanRow, PlanSettings};
+use crate::planning::options::{LoopNames, LoopPlan, RowsFrom};
+use crate::planning::plan::{PlanRow, PlanSettings};
 use crate::planning::planner::plan;
 use crate::text::printable;
 use serde::Serialize;
@@ -44,6 +43,7 @@ pub struct RunSummary {
 pub const LOOP_OPTION_NAMES: LoopNames = LoopNames {
     noise_deg: "--sensor-noise-deg",
     max_steps: "--max-steps",
+    motion: "--axis/--angle",
 };
 
 /// Checks the loop's options as the command line gives them ([`LoopOptions::check`]).
@@ -68,17 +68,8 @@ pub fn run_command(
     sc.check_same_packings(plant, "--plant")?;
     check_loop_options(o)?;
     let p = plan(&sc.motor(), settings);
-    if p.rows.len() < 2 {
-        return Err(Error::Arg {
-            arg: "--axis/--angle".into(),
-            expected: format!(
-                "a motion the model can plan: {}",
-                p.message.unwrap_or_else(|| "no step".into())
-            ),
-        });
-    }
-    let goal = goal_of(settings, &p.rows).ok_or_else(|| no_start(&sc.path))?;
-    play(sc, plant, settings, &p, goal, o, report)
+    let lp = LoopPlan::planned(settings, p, &LOOP_OPTION_NAMES, &sc.path)?;
+    play(sc, plant, &lp, o, report)
 }
 
 /// `spherestep simulate PLAN SCENARIO --plant PLANT --closed-loop`: the plan file's own
@@ -94,71 +85,34 @@ pub fn simulate_closed_loop(
 ) -> Result<RunSummary> {
     sc.check_same_packings(plant, "--plant")?;
     check_loop_options(o)?;
-    let f = plan_file_loop(sc, settings, read_plan(plan_path)?, plan_path)?;
-    play(sc, plant, &f.settings, &f.plan, f.goal, o, report)
+    let lp = plan_file_loop(sc, settings, read_plan(plan_path)?, plan_path)?;
+    play(sc, plant, &lp, o, report)
 }
 
-/// A plan file as the closed loop plays it: its pairs checked against the scenario, the
-/// planning `settings` aimed at its own target (the rotation from its row 0 to its last row),
-/// and its last orientation the goal.
-pub struct PlanFileLoop {
-    pub settings: PlanSettings,
-    pub plan: Plan,
-    pub goal: Orientation,
-}
-
-/// The [`PlanFileLoop`] of the plan `rows` read from `plan_path`, played in `sc`.
+/// The plan `rows` read from `plan_path` as the closed loop plays them in `sc`: their pairs
+/// checked against the scenario, `settings` aimed at their own target ([`LoopPlan::of_rows`]).
 pub fn plan_file_loop(
     sc: &Scenario,
     settings: &PlanSettings,
     rows: Vec<PlanRow>,
     plan_path: &Path,
-) -> Result<PlanFileLoop> {
+) -> Result<LoopPlan> {
     super::check_plan_pairs(sc, &rows, plan_path)?;
-    let (axis, angle) = target_of(&rows).ok_or_else(|| Error::Parse {
-        file: plan_path.to_path_buf(),
-        message: "expected a plan that turns the ball (its last row is where its first is)".into(),
-    })?;
-    let settings = PlanSettings {
-        axis,
-        angle,
-        start: rows[0].q,
-        target: None,
-        ..settings.clone()
-    };
-    let goal = rows[rows.len() - 1].q;
-    Ok(PlanFileLoop {
-        settings,
-        plan: Plan {
-            rows,
-            reached: true,
-            message: None,
-            settles: 0,
-        },
-        goal,
-    })
-}
-
-fn no_start(path: &Path) -> Error {
-    Error::Parse {
-        file: path.to_path_buf(),
-        message: "the plan has no initial commutation state".into(),
-    }
+    LoopPlan::of_rows(settings, rows, RowsFrom::File(plan_path))
 }
 
 /// Plays `p` on the plant and reports.
 fn play(
     sc: &Scenario,
     plant: &Scenario,
-    s: &PlanSettings,
-    p: &Plan,
-    goal: Orientation,
+    lp: &LoopPlan,
     o: &LoopOptions,
     report: Report,
 ) -> Result<RunSummary> {
-    let planned_steps = p.rows.len() - 1;
+    let planned_steps = lp.planned_steps();
     let cl = loop_settings(o, planned_steps)?;
-    let run: LoopRun = run_closed_loop(&sc.motor(), &plant.motor(), s, p, goal, &cl);
+    let (s, p) = (&lp.settings, &lp.plan);
+    let run: LoopRun = run_closed_loop(&sc.motor(), &plant.motor(), s, p, lp.goal, &cl);
     let mut csv = Vec::new();
     write_loop(&run.rows, &mut csv)?;
     let Report {

@@ -13,8 +13,10 @@ pub mod wells;
 use crate::error::{Error, Result};
 use crate::io::output::emit_csv;
 use crate::io::pairs::parse_pairs;
-use crate::io::planfile::{read_plan, write_plan};
-use crate::io::scenario::{parse_pairs_per_step, ChangeNames, PlanChanges, RowsFrom, Scenario};
+use crate::io::planfile::write_plan;
+use crate::io::scenario::{
+    parse_pairs_per_step, ChangeNames, PlanChanges, PlanInput, RowsFrom, Scenario,
+};
 use crate::io::table::write_csv;
 use crate::model::geometry::{xyzw, Orientation, Pair};
 use crate::model::packing::{self, points_csv};
@@ -425,8 +427,7 @@ pub fn simulate_plan_in(
     plant: Option<&Scenario>,
     plan_path: &Path,
 ) -> Result<Vec<SimRow>> {
-    let rows = read_plan(plan_path)?;
-    check_plan_pairs(sc, &rows, plan_path)?;
+    let rows = sc.checked_rows(PlanInput::File(plan_path))?;
     let physics = match plant {
         Some(p) => {
             sc.check_same_packings(p, "--plant")?;

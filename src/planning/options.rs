@@ -1,12 +1,16 @@
 //! How a front end asks to play a plan on a plant (the command line's `run` and `simulate
-//! --closed-loop` options, Python's `Motor.run` arguments), checked and turned into the loop's
-//! settings in one place for every front end: a refusal names the option as the front end
-//! calls it ([`LoopNames`]).
+//! --closed-loop` options, Python's `Motor.run` and `Motor.simulate` arguments), checked and
+//! turned into the loop's settings in one place for every front end: the loop's options
+//! ([`LoopOptions`]), and the plan the loop plays with its goal ([`LoopPlan`]: a plan just made,
+//! or a plan's rows aimed at their own target). A refusal names the option as the front end
+//! calls it ([`LoopNames`]), or where the rows came from ([`RowsFrom`]).
 
 use crate::error::{Error, Result};
-use crate::model::geometry::Radians;
-use crate::planning::closed_loop::LoopSettings;
+use crate::model::geometry::{Orientation, Radians};
+use crate::planning::closed_loop::{target_of, LoopSettings};
+use crate::planning::plan::{goal_of, Plan, PlanRow, PlanSettings};
 use crate::text::shown;
+use std::path::Path;
 
 /// How to play a plan on the plant.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -29,7 +33,22 @@ pub struct LoopOptions {
 pub struct LoopNames {
     pub noise_deg: &'static str,
     pub max_steps: &'static str,
+    /// The motion asked for (`--axis/--angle` on the command line), refused when the model
+    /// cannot plan it ([`LoopPlan::planned`]).
+    pub motion: &'static str,
 }
+
+/// Where a plan's rows came from, for a refusal of them: a plan file (the refusal names the
+/// file, and the line), or a front end's argument (named with the step).
+#[derive(Debug, Clone, Copy)]
+pub enum RowsFrom<'a> {
+    File(&'a Path),
+    Argument(&'a str),
+}
+
+/// The sensor noise's seed when none is given (the command line's `--seed` default, Python's
+/// `seed=None`).
+pub const DEFAULT_SEED: u64 = 1;
 
 /// The largest sensor noise accepted, degrees. The loop's thresholds grow with the noise
 /// (replan beyond three times it, done within twice it): at 10 degrees of noise a run counts as
@@ -82,5 +101,91 @@ impl LoopOptions {
         } else {
             LoopSettings::open(noise, self.seed)
         })
+    }
+}
+
+/// A plan as the loop plays it: the planning settings the loop replans with, aimed at the
+/// plan's goal, the plan (the open-loop one) and the goal.
+#[derive(Debug, Clone)]
+pub struct LoopPlan {
+    pub settings: PlanSettings,
+    pub plan: Plan,
+    pub goal: Orientation,
+}
+
+impl LoopPlan {
+    /// The plan `plan` just made with `settings` (`run`), aimed at the settings' goal. A plan
+    /// without a step is refused as [`Error::Arg`] naming the motion by `names`, one without
+    /// an initial commutation state as [`Error::Parse`] of the scenario at `scenario`.
+    pub fn planned(
+        settings: &PlanSettings,
+        plan: Plan,
+        names: &LoopNames,
+        scenario: &Path,
+    ) -> Result<LoopPlan> {
+        if plan.rows.len() < 2 {
+            return Err(Error::Arg {
+                arg: names.motion.into(),
+                expected: format!(
+                    "a motion the model can plan: {}",
+                    plan.message.as_deref().unwrap_or("no step")
+                ),
+            });
+        }
+        let goal = goal_of(settings, &plan.rows).ok_or_else(|| Error::Parse {
+            file: scenario.to_path_buf(),
+            message: "the plan has no initial commutation state".into(),
+        })?;
+        Ok(LoopPlan {
+            settings: settings.clone(),
+            plan,
+            goal,
+        })
+    }
+
+    /// A plan's `rows` as the closed loop plays them (`simulate PLAN --closed-loop`, the
+    /// closed-loop replay): `settings` (the model's and the limits) aimed at the rows' own
+    /// target (the rotation from row 0 to the last row, from row 0's orientation), the rows as
+    /// the open-loop plan and the last orientation the goal. Rows that do not turn the ball are
+    /// refused, naming where they came from: [`Error::Parse`] of the file, or [`Error::Arg`].
+    pub fn of_rows(
+        settings: &PlanSettings,
+        rows: Vec<PlanRow>,
+        from: RowsFrom<'_>,
+    ) -> Result<LoopPlan> {
+        const TURNS: &str = "a plan that turns the ball (its last row is where its first is)";
+        let (axis, angle) = target_of(&rows).ok_or_else(|| match from {
+            RowsFrom::File(file) => Error::Parse {
+                file: file.to_path_buf(),
+                message: format!("expected {TURNS}"),
+            },
+            RowsFrom::Argument(name) => Error::Arg {
+                arg: name.into(),
+                expected: TURNS.into(),
+            },
+        })?;
+        let settings = PlanSettings {
+            axis,
+            angle,
+            start: rows[0].q,
+            target: None,
+            ..settings.clone()
+        };
+        let goal = rows[rows.len() - 1].q;
+        Ok(LoopPlan {
+            settings,
+            plan: Plan {
+                rows,
+                reached: true,
+                message: None,
+                settles: 0,
+            },
+            goal,
+        })
+    }
+
+    /// Steps of the plan (its rows but row 0, the initial commutation).
+    pub fn planned_steps(&self) -> usize {
+        self.plan.rows.len() - 1
     }
 }

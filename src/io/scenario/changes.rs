@@ -1,12 +1,14 @@
 //! What a front end brings to a scenario, checked in one place for every front end (the
 //! command line's options, the Python arguments): changes to its `[plan]` settings (a refusal
 //! names the change as the front end calls it, [`ChangeNames`]), and a plan's pairs, from a
-//! file or an argument ([`RowsFrom`]).
+//! file or an argument ([`RowsFrom`], [`PlanInput`]).
 
 use super::{check_pairs_per_step, check_supply, default_pairs_per_step, Scenario};
 use crate::error::{Error, Result};
+use crate::io::planfile::read_plan;
 use crate::model::geometry::{Orientation, UnitVec};
 use crate::planning::commutation::{PairsPerStep, StepModel};
+pub use crate::planning::options::RowsFrom;
 use crate::planning::plan::{target_angle, turn_to, PlanRow};
 use crate::planning::planner::{PlanSettings, Scheme};
 use std::path::Path;
@@ -38,12 +40,15 @@ pub struct ChangeNames {
     pub to: &'static str,
 }
 
-/// Where a plan's rows came from, for the refusal of a pair the scenario does not have: a plan
-/// file (the refusal names its line), or a front end's argument (named with the step).
-#[derive(Debug, Clone, Copy)]
-pub enum RowsFrom<'a> {
+/// A plan a front end gives to be played in a scenario: the path of a plan file, or rows it
+/// holds (a plan made before) given as its argument `argument`.
+#[derive(Debug, Clone)]
+pub enum PlanInput<'a> {
     File(&'a Path),
-    Argument(&'a str),
+    Rows {
+        rows: Vec<PlanRow>,
+        argument: &'a str,
+    },
 }
 
 impl Scenario {
@@ -67,6 +72,17 @@ impl Scenario {
             })?;
         }
         Ok(())
+    }
+
+    /// The rows of the plan `input` (a plan file read, or the rows given), their pairs checked
+    /// against the scenario ([`Scenario::check_plan_pairs`]).
+    pub fn checked_rows(&self, input: PlanInput<'_>) -> Result<Vec<PlanRow>> {
+        let (rows, from) = match input {
+            PlanInput::File(file) => (read_plan(file)?, RowsFrom::File(file)),
+            PlanInput::Rows { rows, argument } => (rows, RowsFrom::Argument(argument)),
+        };
+        self.check_plan_pairs(&rows, from)?;
+        Ok(rows)
     }
 
     /// The scenario's `[plan]` settings with `changes` made, each checked as the scenario's own

@@ -9,7 +9,7 @@ mod changes;
 mod checked;
 mod raw;
 
-pub use changes::{ChangeNames, PlanChanges, RowsFrom};
+pub use changes::{ChangeNames, PlanChanges, PlanInput, RowsFrom};
 use checked::Checker;
 use raw::*;
 
