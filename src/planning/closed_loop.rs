@@ -45,17 +45,29 @@ pub struct LoopSettings {
     pub replan_beam: usize,
 }
 
+/// The loop replans beyond this many times the sensor's noise from the plan (a normal's three
+/// deviations, which one measurement in 370 exceeds) ...
+pub const REPLAN_NOISE_FACTOR: f64 = 3.0;
+/// ... and at least this far, degrees.
+pub const REPLAN_FLOOR_DEG: f64 = 1.0;
+/// The loop is done within this many times the sensor's noise of the goal ...
+pub const GOAL_NOISE_FACTOR: f64 = 2.0;
+/// ... or this near, degrees, if that is more.
+pub const GOAL_FLOOR_DEG: f64 = 1.5;
+
 impl LoopSettings {
-    /// Settings for a sensor noise of `noise`: replan beyond three times the noise (at least 1
-    /// degree: a normal's three deviations, which one measurement in 370 exceeds), done within
-    /// twice the noise (at least 1.5 degrees), at most `max_steps` steps, the wells fitted.
+    /// Settings for a sensor noise of `noise`: replan beyond [`REPLAN_NOISE_FACTOR`] times the
+    /// noise (at least [`REPLAN_FLOOR_DEG`]), done within [`GOAL_NOISE_FACTOR`] times the noise
+    /// (at least [`GOAL_FLOOR_DEG`]), at most `max_steps` steps, the wells fitted.
     pub fn for_noise(noise: Radians, seed: u64, max_steps: usize) -> LoopSettings {
         LoopSettings {
             replan: true,
             noise,
             seed,
-            replan_beyond: Radians((3.0 * noise.0).max(1f64.to_radians())),
-            goal_tolerance: Radians((2.0 * noise.0).max(1.5f64.to_radians())),
+            replan_beyond: Radians(
+                (REPLAN_NOISE_FACTOR * noise.0).max(REPLAN_FLOOR_DEG.to_radians()),
+            ),
+            goal_tolerance: Radians((GOAL_NOISE_FACTOR * noise.0).max(GOAL_FLOOR_DEG.to_radians())),
             max_steps,
             identify: true,
             replan_beam: REPLAN_BEAM,
@@ -951,6 +963,74 @@ impl Loop<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every "max(F, K x noise)" the book and the replay's help state (the noise written `S`,
+    /// `x noise` or ``x `--sensor-noise-deg` ``) as (F, K).
+    fn thresholds_stated(text: &str) -> Vec<(f64, f64)> {
+        let mut found = Vec::new();
+        for part in text.split("max(").skip(1) {
+            let Some((floor, rest)) = part.split_once(", ") else {
+                continue;
+            };
+            let floor = floor
+                .trim_end_matches(" degrees")
+                .trim_end_matches(" degree");
+            let floor = floor.trim_end_matches(" deg");
+            let Some((factor, noise)) = rest.split_once(' ') else {
+                continue;
+            };
+            let noisy = ["S)", "S;", "x noise", "x `--sensor-noise-deg`"];
+            if !noisy.iter().any(|n| noise.starts_with(n)) {
+                continue;
+            }
+            if let (Ok(f), Ok(k)) = (floor.parse::<f64>(), factor.parse::<f64>()) {
+                found.push((f, k));
+            }
+        }
+        found
+    }
+
+    #[test]
+    fn the_book_and_the_help_state_the_thresholds_the_loop_has() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut files: Vec<_> = std::fs::read_dir(root.join("docs"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "md"))
+            .collect();
+        files.push(root.join("src/cli/replay.rs"));
+        files.sort();
+        let allowed = [
+            (REPLAN_FLOOR_DEG, REPLAN_NOISE_FACTOR),
+            (GOAL_FLOOR_DEG, GOAL_NOISE_FACTOR),
+        ];
+        let mut seen = Vec::new();
+        for f in &files {
+            let text = std::fs::read_to_string(f).unwrap().replace('\n', " ");
+            let text = text.replace("///", " ");
+            let text = text.split_whitespace().collect::<Vec<_>>().join(" ");
+            for t in thresholds_stated(&text) {
+                assert!(
+                    allowed.contains(&t),
+                    "{}: max({}, {} x noise)",
+                    f.display(),
+                    t.0,
+                    t.1
+                );
+                seen.push(t);
+            }
+        }
+        // both stated, in the book and the help (which this reads among the files)
+        assert!(allowed.iter().all(|a| seen.contains(a)), "{seen:?}");
+        assert!(seen.len() >= 8, "{seen:?}");
+        // and what the settings use
+        let l = LoopSettings::for_noise(Radians(2f64.to_radians()), 1, 10);
+        assert!((l.replan_beyond.0.to_degrees() - 6.0).abs() < 1e-9);
+        assert!((l.goal_tolerance.0.to_degrees() - 4.0).abs() < 1e-9);
+        let quiet = LoopSettings::for_noise(Radians(0.1f64.to_radians()), 1, 10);
+        assert!((quiet.replan_beyond.0.to_degrees() - 1.0).abs() < 1e-9);
+        assert!((quiet.goal_tolerance.0.to_degrees() - 1.5).abs() < 1e-9);
+    }
     use nalgebra::Vector3;
 
     #[test]
