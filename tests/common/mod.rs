@@ -101,3 +101,7 @@ pub fn files_below(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     out.sort();
     out
 }
+
+/// The relay tests' harness: plans, scenarios, pseudo-terminal pairs and the boards' far ends.
+#[cfg(unix)]
+pub mod relay_support;

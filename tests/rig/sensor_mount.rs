@@ -7,7 +7,7 @@
 //! replans included. A tare that times out stops the replay before any byte reaches a board; a
 //! bad mounting is refused naming the file and the field.
 
-mod relay_support;
+use crate::common::relay_support;
 
 use relay_support::{path_of, pty, GUARD};
 use serialport::{SerialPort, TTYPort};

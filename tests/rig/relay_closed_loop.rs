@@ -5,7 +5,7 @@
 //! against the controller run offline on the same readings), on a BNO055, and a sensor that
 //! closes or sends garbage mid-run: every coil off on both boards, the sensor named.
 
-mod relay_support;
+use crate::common::relay_support;
 
 use relay_support::{lcus_all_off, path_of, pty, GUARD};
 use serialport::{SerialPort, TTYPort};
