@@ -101,3 +101,12 @@ pub fn files_below(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     out.sort();
     out
 }
+
+/// The relay tests' harness: plans, scenarios, pseudo-terminal pairs and the boards' far ends.
+#[cfg(unix)]
+pub mod relay_support;
+
+/// The closed loop's scripted plant on pseudo-terminals: the controller run offline through the
+/// library's loop, and the ball the boards' far ends switch.
+#[cfg(unix)]
+pub mod scripted;

@@ -1,6 +1,6 @@
 //! Physics of the settle engine: alignment, energy, invariance, symmetry, parallel = serial.
 
-mod common;
+use crate::common;
 
 use common::{identity, nearest_magnet};
 use nalgebra::{UnitQuaternion, Vector3};

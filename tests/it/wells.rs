@@ -2,7 +2,7 @@
 //! analytic well, the curve written is a `table` that reads back to the same settles, and the
 //! command writes the CSV, its picture and refuses a bad step.
 
-mod common;
+use crate::common;
 
 use common::{identity, nearest_magnet, run};
 use nalgebra::Vector3;

@@ -2,7 +2,7 @@
 //! the model's, measured by a noisy sensor and replanned; open loop ends far off, closed loop
 //! at the goal; the same seed gives the same bytes on any thread count; bad options refused.
 
-mod common;
+use crate::common;
 
 use common::run;
 use spherestep::commands::closed_loop::{run_command, LoopOptions, Report, RunSummary};

@@ -3,7 +3,7 @@
 //! or coils, stray separators in pairs, a zero baud rate, plan files without row 0 or with a
 //! negative settle time, a device (`/dev/zero`) where a file is meant.
 
-mod common;
+use crate::common;
 
 use spherestep::io::scenario::Scenario;
 use spherestep::parse_pairs;

@@ -1,7 +1,7 @@
 //! Each relay board played on the far end of a pseudo-terminal: the exact bytes of a short
 //! plan, in order, ending with every channel off; read-back and its mismatch.
 
-mod relay_support;
+use crate::common::relay_support;
 
 use relay_support::*;
 use spherestep::relay::RelayError;

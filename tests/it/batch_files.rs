@@ -3,7 +3,7 @@
 //! (only those of dead processes of this machine), and a sweep's finished cases are saved as
 //! they end so that `--resume` continues a killed sweep.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

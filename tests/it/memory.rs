@@ -6,7 +6,7 @@
 //! (Linux: `VmHWM` in /proc). A path through 1,000 waypoints keeps no copy of the plan per
 //! waypoint (61 MB before, growing with the square of the count).
 
-mod common;
+use crate::common;
 
 use std::io::Write;
 use std::process::{Command, Stdio};

@@ -3,7 +3,7 @@
 //! coil-set step, the same bytes on any thread count, replay on relay boards, and the refusals
 //! (`--model`, `--plant`, a physics in which nothing settles).
 
-mod common;
+use crate::common;
 
 use common::csv_bytes;
 use spherestep::commands::{plan_settings, simulate_plan_in, PlanOverrides};

@@ -29,7 +29,7 @@
 //! virtual motor at a time), so that neither slows the other's frames.
 #![cfg(unix)]
 
-mod common;
+use crate::common;
 
 use spherestep::model::geometry::Orientation;
 use std::collections::BTreeSet;

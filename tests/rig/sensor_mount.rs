@@ -7,7 +7,8 @@
 //! replans included. A tare that times out stops the replay before any byte reaches a board; a
 //! bad mounting is refused naming the file and the field.
 
-mod relay_support;
+use crate::common::relay_support;
+use crate::common::scripted::{board, line_of, offline, Ball, Script, Shared};
 
 use relay_support::{path_of, pty, GUARD};
 use serialport::{SerialPort, TTYPort};
@@ -15,17 +16,15 @@ use spherestep::commands::closed_replay::{execute, prepare_closed, ClosedInputs,
 use spherestep::commands::replay::ReplayOptions;
 use spherestep::io::scenario::Scenario;
 use spherestep::model::geometry::{rot_q, rotation_angle, Orientation, Radians, UnitVec};
-use spherestep::planning::closed_loop::{Controller, Decision};
 use spherestep::rehearse::sensor::Bno055Emulator;
 use spherestep::relay::Link;
 use spherestep::rig::ClosedSummary;
 use spherestep::sensor::frame::Frame;
-use spherestep::sensor::{self, quat_csv::parse_line, SensorFormat};
-use std::collections::BTreeSet;
+use spherestep::sensor::{self, SensorFormat};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -33,9 +32,6 @@ const MODEL: &str = "scenarios/broad-wells.toml";
 const TWO_LCUS: &str =
     "max_coils_on = 8\n[[boards]]\nboard = \"lcus\"\n[[boards]]\nboard = \"lcus\"\n";
 const DWELL_MS: u64 = 100;
-
-/// The coils on, the ball's orientation while they are on.
-type Script = Vec<(BTreeSet<usize>, Orientation)>;
 
 /// The angle between two orientations, radians (the crate's `rotation_angle`).
 fn ang(a: &Orientation, b: &Orientation) -> f64 {
@@ -61,45 +57,6 @@ fn unrotated() -> Frame {
         mount: Orientation::identity(),
         reference: Orientation::identity(),
     }
-}
-
-struct Plant {
-    script: Script,
-    /// The ball at rest before anything is switched: the plan's start.
-    rest: Orientation,
-    on: BTreeSet<usize>,
-    at: Option<usize>,
-    /// What the sensor reports for the ball at q: `W * q * M`.
-    frame: Frame,
-}
-
-impl Plant {
-    fn ball(&self) -> Orientation {
-        self.at.map_or(self.rest, |k| self.script[k].1)
-    }
-
-    fn sensed(&self) -> Orientation {
-        self.frame.sensor(&self.ball())
-    }
-
-    fn switch(&mut self, coil: usize, on: bool) {
-        if on {
-            self.on.insert(coil);
-        } else {
-            self.on.remove(&coil);
-        }
-        let next = self.at.map_or(0, |k| k + 1);
-        if self.script.get(next).is_some_and(|(c, _)| *c == self.on) {
-            self.at = Some(next);
-        }
-    }
-}
-
-type Shared = Arc<Mutex<Plant>>;
-
-/// A quat-csv line of full precision (shortest round trip).
-fn line_of(q: &Orientation) -> String {
-    format!("{},{},{},{}", q.w, q.i, q.j, q.k)
 }
 
 /// The scenario: the model with `[sensor]` body `sensor` (none: no section).
@@ -133,64 +90,6 @@ fn options(dir: &Path, sensor: Option<&str>) -> ReplayOptions {
 fn prepared(dir: &Path, sensor: Option<&str>, format: SensorFormat) -> ClosedInputs {
     let so = SensorOptions::new("/dev/sensor-given-by-the-test", format);
     prepare_closed(&options(dir, sensor), &so).unwrap()
-}
-
-/// The controller offline on an unrotated sensor's readings: the ball turned 4 degrees about
-/// X after row `stray` (a replan). The script and the replans.
-fn offline(inputs: &ClosedInputs, stray: Option<usize>) -> (Script, usize) {
-    let motor = inputs.scenario.motor();
-    let mut ctl = Controller::new(
-        &motor,
-        &inputs.settings,
-        &inputs.open,
-        inputs.goal,
-        inputs.cl,
-    )
-    .unwrap();
-    let mut script = Script::new();
-    loop {
-        let row = ctl.next_row().clone();
-        let mut q = row.q;
-        if stray == Some(script.len()) {
-            q = rot([1.0, 0.0, 0.0], 4.0) * q;
-        }
-        let q = parse_line(&line_of(&q)).unwrap();
-        script.push((row.active.iter().map(|p| p.coil.0).collect(), q));
-        assert!(script.len() < 200, "the offline loop does not end");
-        match ctl.observe(&q) {
-            Decision::Continue | Decision::Replanned => {}
-            Decision::Done => return (script, ctl.replans()),
-            Decision::Stuck(m) => panic!("offline: {m}"),
-        }
-    }
-}
-
-/// An LCUS board's far end: records the bytes and tells the plant what it switched.
-fn board(
-    mut port: TTYPort,
-    index: usize,
-    plant: Shared,
-    done: Arc<AtomicBool>,
-) -> JoinHandle<Vec<u8>> {
-    std::thread::spawn(move || {
-        port.set_timeout(Duration::from_millis(5)).unwrap();
-        let (mut got, mut buf, start) = (Vec::new(), [0u8; 64], Instant::now());
-        loop {
-            assert!(start.elapsed() < GUARD, "board {index} never told to stop");
-            match port.read(&mut buf) {
-                Ok(n) => {
-                    let old = got.len() / 4;
-                    got.extend_from_slice(&buf[..n]);
-                    let mut p = plant.lock().unwrap();
-                    for f in got.chunks_exact(4).skip(old) {
-                        p.switch(index * 8 + usize::from(f[1]) - 1, f[2] == 1);
-                    }
-                }
-                Err(_) if done.load(Ordering::SeqCst) => return got,
-                Err(_) => {}
-            }
-        }
-    })
 }
 
 /// A quat-csv far end printing what the sensor reads every 10 ms (nothing when `silent`).
@@ -250,13 +149,7 @@ fn run(
     format: SensorFormat,
     silent: bool,
 ) -> Ran {
-    let plant: Shared = Arc::new(Mutex::new(Plant {
-        script,
-        rest: inputs.open.rows[0].q,
-        on: BTreeSet::new(),
-        at: None,
-        frame,
-    }));
+    let plant = Ball::shared(script, inputs.open.rows[0].q, Some(frame));
     let done = Arc::new(AtomicBool::new(false));
     let (b0, c0) = pty();
     let (b1, c1) = pty();
@@ -280,7 +173,7 @@ fn run(
     let stop = Arc::new(AtomicBool::new(false));
     let result = execute(inputs, vec![link(&c0), link(&c1)], sensor, stop, &mut out);
     done.store(true, Ordering::SeqCst);
-    let frames = boards.map(|h| h.join().unwrap());
+    let frames = boards.map(|h| h.join().unwrap().0);
     far.join().unwrap();
     let log = std::fs::read_to_string(inputs.prep.drive.log.as_ref().unwrap()).unwrap_or_default();
     Ran {

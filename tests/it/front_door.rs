@@ -2,7 +2,7 @@
 //! goes to standard error), so that `spherestep plan s.toml > plan.csv` is a plan file that
 //! `simulate`, `plot` and `replay` read.
 
-mod common;
+use crate::common;
 
 use std::process::{Command, Stdio};
 

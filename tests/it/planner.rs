@@ -1,7 +1,7 @@
 //! Commutation and planning: the filter's geometry, pivot steps, the paper's targets, the
 //! search against the greedy schemes, determinism, and unreachable targets.
 
-mod common;
+use crate::common;
 
 use common::csv_bytes;
 use nalgebra::Vector3;

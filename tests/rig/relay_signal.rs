@@ -4,7 +4,7 @@
 //! In a closed loop the signal also acts while the replay waits for the sensor or replans:
 //! every coil off within a second of it.
 
-mod relay_support;
+use crate::common::relay_support;
 
 use relay_support::*;
 use serialport::{SerialPort, TTYPort};

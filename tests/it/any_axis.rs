@@ -2,7 +2,7 @@
 //! hard axes within the paper's 15 degrees, plans that are what the dynamics does, the pivot
 //! model's floor, and the planner's settings checked.
 
-mod common;
+use crate::common;
 
 use spherestep::commands::{plan_settings, PlanOverrides};
 use spherestep::io::scenario::Scenario;

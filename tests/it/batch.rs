@@ -2,7 +2,7 @@
 //! half-written files after a kill and --resume completing it, a broken scenario reported by
 //! name while the good ones finish.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! Bad input gets a clear error naming the file, the field and what was expected, a non-zero
 //! exit code, and never a panic.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;

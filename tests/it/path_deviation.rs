@@ -2,7 +2,7 @@
 //! geodesic from row 0's orientation to its goal, checked against a sampling of that geodesic
 //! recomputed from the plan file's quaternions.
 
-mod common;
+use crate::common;
 
 use spherestep::io::planfile::parse_plan;
 use spherestep::model::geometry::{rot_q, unit, Radians};

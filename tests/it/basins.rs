@@ -2,10 +2,7 @@
 //! same settled flag and the same settle time, for both well shapes, light, medium and heavy
 //! damping and 2 to 5 pairs. The full 4,000-per-kind measurement is research/basins.rs.
 
-#[path = "../research/basins_common.rs"]
-mod basins_common;
-
-use basins_common::{both, compare, random_sets, setup, Rng, Shape};
+use crate::basins_common::{both, compare, random_sets, setup, Rng, Shape};
 use rayon::prelude::*;
 
 /// Sets per kind: enough to meet the hard cases (a lone pair's free rotation, pairs beyond

@@ -5,15 +5,16 @@
 //! against the controller run offline on the same readings), on a BNO055, and a sensor that
 //! closes or sends garbage mid-run: every coil off on both boards, the sensor named.
 
-mod relay_support;
+use crate::common::relay_support;
+use crate::common::scripted::{board, line_of, offline, Ball, Received, Script, Shared};
 
 use relay_support::{lcus_all_off, path_of, pty, GUARD};
 use serialport::{SerialPort, TTYPort};
 use spherestep::commands::closed_replay::{execute, prepare_closed, ClosedInputs, SensorOptions};
 use spherestep::commands::replay::{Flagged, ReplayOptions};
 use spherestep::io::scenario::Scenario;
-use spherestep::model::geometry::{rot_q, Orientation, Radians, UnitVec};
-use spherestep::planning::closed_loop::{run_closed_loop, Controller, Decision, LoopSettings};
+use spherestep::model::geometry::Radians;
+use spherestep::planning::closed_loop::{run_closed_loop, LoopSettings};
 use spherestep::relay::{Link, RelayError};
 use spherestep::rig::ClosedSummary;
 use spherestep::sensor::bno055::FusionMode;
@@ -22,7 +23,7 @@ use std::collections::BTreeSet;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -33,41 +34,6 @@ const TWO_LCUS: &str =
 /// The dwell of every step: a wide margin for the far ends to have seen the switching before
 /// the reading (under load too).
 const DWELL_MS: u64 = 100;
-
-/// The coils on, the orientation the plant reports while they are on.
-type Script = Vec<(BTreeSet<usize>, Orientation)>;
-
-/// What the far ends share: the script, the coils on (both boards), how far the script went.
-struct Plant {
-    script: Script,
-    /// Where the ball rests before anything is switched (the plan's start: the tare reads it).
-    rest: Orientation,
-    on: BTreeSet<usize>,
-    /// The script entry whose coils were switched last.
-    at: Option<usize>,
-}
-
-impl Plant {
-    /// The orientation the ball has now (at rest at the plan's start before anything).
-    fn now(&self) -> Orientation {
-        self.at.map_or(self.rest, |k| self.script[k].1)
-    }
-
-    /// Coil `coil` switched: advance to the next entry when its coils are the ones on.
-    fn switch(&mut self, coil: usize, on: bool) {
-        if on {
-            self.on.insert(coil);
-        } else {
-            self.on.remove(&coil);
-        }
-        let next = self.at.map_or(0, |k| k + 1);
-        if self.script.get(next).is_some_and(|(c, _)| *c == self.on) {
-            self.at = Some(next);
-        }
-    }
-}
-
-type Shared = Arc<Mutex<Plant>>;
 
 /// A broad-well plan of 30 degrees about Y, written to `dir` and read back as the replay will.
 fn plan_file(dir: &Path) -> PathBuf {
@@ -83,44 +49,6 @@ fn options(dir: &Path, plan: &Path) -> ReplayOptions {
     o.dwell_ms = Some(DWELL_MS);
     o.log = Some(dir.join("log.csv"));
     o
-}
-
-/// A reading as the quat-csv far end prints it (shortest round trip).
-fn line_of(q: &Orientation) -> String {
-    format!("{},{},{},{}", q.w, q.i, q.j, q.k)
-}
-
-/// The controller run offline on what the plant will report: after the plan's row `stray`
-/// the measurement turned 4 degrees about X (no stray: `None`). The script of what is
-/// switched and reported, and the replans.
-fn offline(inputs: &ClosedInputs, stray: Option<usize>) -> (Script, usize) {
-    let motor = inputs.scenario.motor();
-    let mut ctl = Controller::new(
-        &motor,
-        &inputs.settings,
-        &inputs.open,
-        inputs.goal,
-        inputs.cl,
-    )
-    .unwrap();
-    let x = UnitVec::new_normalize(nalgebra::Vector3::x());
-    let mut script = Script::new();
-    loop {
-        let row = ctl.next_row().clone();
-        let mut q = row.q;
-        if stray == Some(script.len()) {
-            q = rot_q(&x, Radians(4f64.to_radians())) * q;
-        }
-        // what the replay decodes from the printed line
-        let q = parse_line(&line_of(&q)).unwrap();
-        script.push((row.active.iter().map(|p| p.coil.0).collect(), q));
-        assert!(script.len() < 200, "the offline loop does not end");
-        match ctl.observe(&q) {
-            Decision::Continue | Decision::Replanned => {}
-            Decision::Done => return (script, ctl.replans()),
-            Decision::Stuck(m) => panic!("offline: {m}"),
-        }
-    }
 }
 
 /// One LCUS frame.
@@ -148,42 +76,6 @@ fn expected_frames(sets: &[BTreeSet<usize>]) -> [Vec<u8>; 2] {
         o.extend(lcus_all_off(8));
     }
     out
-}
-
-/// What a board's far end received: the bytes, and when each complete frame had arrived.
-type Received = (Vec<u8>, Vec<Instant>);
-
-/// An LCUS board's far end: records every byte (and when each frame was complete) and tells
-/// the plant what it switched, until `done`.
-fn board(
-    mut port: TTYPort,
-    index: usize,
-    plant: Shared,
-    done: Arc<AtomicBool>,
-) -> JoinHandle<Received> {
-    std::thread::spawn(move || {
-        port.set_timeout(Duration::from_millis(5)).unwrap();
-        let (mut got, mut buf, start) = (Vec::new(), [0u8; 64], Instant::now());
-        let mut times = Vec::new();
-        loop {
-            assert!(start.elapsed() < GUARD, "board {index} never told to stop");
-            match port.read(&mut buf) {
-                Ok(n) => {
-                    let at = Instant::now();
-                    let old = got.len() / 4;
-                    got.extend_from_slice(&buf[..n]);
-                    let mut p = plant.lock().unwrap();
-                    for f in got.chunks_exact(4).skip(old) {
-                        assert_eq!(f[0], 0xA0, "board {index}: {got:02X?}");
-                        p.switch(index * 8 + usize::from(f[1]) - 1, f[2] == 1);
-                        times.push(at);
-                    }
-                }
-                Err(_) if done.load(Ordering::SeqCst) => return (got, times),
-                Err(_) => {}
-            }
-        }
-    })
 }
 
 /// The longest time any relay of the boards was on, as their far ends saw it (a relay left
@@ -329,12 +221,7 @@ fn run_with(
     fault: Fault,
     timeout: Duration,
 ) -> Ran {
-    let plant: Shared = Arc::new(Mutex::new(Plant {
-        script,
-        rest: inputs.open.rows[0].q,
-        on: BTreeSet::new(),
-        at: None,
-    }));
+    let plant = Ball::shared(script, inputs.open.rows[0].q, None);
     let done = Arc::new(AtomicBool::new(false));
     let (b0, c0) = pty();
     let (b1, c1) = pty();

@@ -3,7 +3,7 @@
 //! limits, give the same bytes on one thread and on two; `plan --waypoints` and `simulate`
 //! report each waypoint, and refuse bad waypoint files naming the file, the line and the column.
 
-mod common;
+use crate::common;
 
 use spherestep::io::planfile::{parse_plan_waypoints, write_waypoint_plan};
 use spherestep::io::waypoints::read_waypoints;

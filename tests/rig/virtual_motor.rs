@@ -7,7 +7,7 @@
 //! shorter, so the ball has the plan's dwells on the virtual clock whatever the machine.
 #![cfg(unix)]
 
-mod common;
+use crate::common;
 
 use spherestep::commands::{plan_settings, PlanOverrides};
 use spherestep::io::planfile::write_plan;

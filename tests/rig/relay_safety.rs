@@ -2,7 +2,7 @@
 //! the board end closing mid-replay gives a clear error (not a hang), and `--from-step`
 //! resumes where the log stopped.
 
-mod relay_support;
+use crate::common::relay_support;
 
 use relay_support::*;
 use spherestep::commands::replay;

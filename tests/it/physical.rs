@@ -2,10 +2,7 @@
 //! (the same torque as the full 3-D magnetics), its settles against the reference, `wells`
 //! on it read back as a table, the physical prototype's plan, and the scenario's refusals.
 
-#[path = "../research/basins_common.rs"]
-mod basins_common;
-
-use basins_common::{both, compare, Rng};
+use crate::basins_common::{both, compare, Rng};
 use nalgebra::{Rotation3, Vector3};
 use spherestep::commands::wells::{curve_csv, well_curve, DEFAULT_STEP_DEG};
 use spherestep::commands::{plan_settings, PlanOverrides};
