@@ -1,4 +1,4 @@
-//! Random active sets for the basin checks (tests/basins.rs and research/basins.rs share this
+//! Random active sets for the basin checks (tests/it/basins.rs and research/basins.rs share this
 //! file): the basin checks' setup, a deterministic generator, and the comparison of a settle with
 //! the reference; also the planner-like sets (`planner_sets`, for
 //! research/settle_sets.rs and benches/settle.rs).

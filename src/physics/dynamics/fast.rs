@@ -571,7 +571,7 @@ fn turns_back(side: f64, (m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f6
 /// twice the acceleration). Whether such a pair crosses at all hangs on errors the loose
 /// tolerance allows: an approach the tight integration turns back 1e-3 degrees short of a 25
 /// degree cut-off crossed it at 0.4 degrees a second on the loose one (the settle-graze case of
-/// `tests/basins.rs`), and ended 0.011 rad from the reference's equilibrium.
+/// `tests/it/basins.rs`), and ended 0.011 rad from the reference's equilibrium.
 fn barely_crosses(side: f64, (m0, rate0): (f64, f64), (m1, rate1): (f64, f64), h: f64) -> bool {
     if !(h > 0.0 && side * rate1 < 0.0) {
         return false;

@@ -9,8 +9,8 @@
 //! cannot be sure), and the reference path
 //! (`reference`), ode_solvers' Dopri5 at whatever tolerances are asked
 //! (`SettleParams::reference()` is tight). This file holds the types, the equations of motion
-//! and the entry points; tests/basins.rs and research/basins.rs check the one path against the
-//! other on random sets, tests/settle.rs pins 54, and each part's file has its own unit tests.
+//! and the entry points; tests/it/basins.rs and research/basins.rs check the one path against the
+//! other on random sets, tests/it/settle.rs pins 54, and each part's file has its own unit tests.
 
 mod end_phase;
 mod events;
