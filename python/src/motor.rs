@@ -802,8 +802,7 @@ impl Motor {
             ..plant
         };
         let p = interruptible(py, &model.cancel, || model.plan(&settings))?;
-        let lp = LoopPlan::planned(&settings, p, &LOOP_ARGUMENT_NAMES, &self.sc.path)
-            .map_err(lib_err)?;
+        let lp = LoopPlan::planned(&settings, p, &LOOP_ARGUMENT_NAMES).map_err(lib_err)?;
         let planned_steps = lp.planned_steps();
         let cl = o
             .settings(planned_steps, &LOOP_ARGUMENT_NAMES)

@@ -68,7 +68,7 @@ pub fn run_command(
     sc.check_same_packings(plant, "--plant")?;
     check_loop_options(o)?;
     let p = plan(&sc.motor(), settings);
-    let lp = LoopPlan::planned(settings, p, &LOOP_OPTION_NAMES, &sc.path)?;
+    let lp = LoopPlan::planned(settings, p, &LOOP_OPTION_NAMES)?;
     play(sc, plant, &lp, o, report)
 }
 

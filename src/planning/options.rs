@@ -115,27 +115,21 @@ pub struct LoopPlan {
 
 impl LoopPlan {
     /// The plan `plan` just made with `settings` (`run`), aimed at the settings' goal. A plan
-    /// without a step is refused as [`Error::Arg`] naming the motion by `names`, one without
-    /// an initial commutation state as [`Error::Parse`] of the scenario at `scenario`.
-    pub fn planned(
-        settings: &PlanSettings,
-        plan: Plan,
-        names: &LoopNames,
-        scenario: &Path,
-    ) -> Result<LoopPlan> {
-        if plan.rows.len() < 2 {
-            return Err(Error::Arg {
-                arg: names.motion.into(),
-                expected: format!(
-                    "a motion the model can plan: {}",
-                    plan.message.as_deref().unwrap_or("no step")
-                ),
-            });
-        }
-        let goal = goal_of(settings, &plan.rows).ok_or_else(|| Error::Parse {
-            file: scenario.to_path_buf(),
-            message: "the plan has no initial commutation state".into(),
-        })?;
+    /// without a step (so without a goal: none without row 0) is refused as [`Error::Arg`]
+    /// naming the motion by `names`.
+    pub fn planned(settings: &PlanSettings, plan: Plan, names: &LoopNames) -> Result<LoopPlan> {
+        let goal = match goal_of(settings, &plan.rows) {
+            Some(goal) if plan.rows.len() >= 2 => goal,
+            _ => {
+                return Err(Error::Arg {
+                    arg: names.motion.into(),
+                    expected: format!(
+                        "a motion the model can plan: {}",
+                        plan.message.as_deref().unwrap_or("no step")
+                    ),
+                })
+            }
+        };
         Ok(LoopPlan {
             settings: settings.clone(),
             plan,

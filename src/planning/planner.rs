@@ -6,7 +6,9 @@
 //! schemes, a beam search and a best-first branch and bound). The settings and the plan are in
 //! `plan` (re-exported here).
 
-use crate::model::geometry::{rotation_axis, CoilId, MagnetId, Orientation, Pair, Radians};
+use crate::model::geometry::{
+    rotation_axis, CoilId, MagnetId, Orientation, Pair, Radians, UnitVec,
+};
 use crate::physics::dynamics::settle;
 use crate::physics::torque::MagnetTorques;
 use crate::planning::coilsets::CoilSets;
@@ -287,26 +289,27 @@ impl StepSource for PairSteps<'_> {
         {
             return None;
         }
-        let to = settled_states(self.motor, vec![row.active.clone()], &from.q)
-            .pop()
-            .flatten()?;
-        // held as the landing's steps are (every magnet within its coil's reach)
-        let capture = self.motor.torques.well.max_attraction();
-        let landing = s.limits.landing();
-        let (to, angle, axis_error) =
-            admissible(&self.motor.torques, &from.q, to, &s.axis, &landing, capture)?;
         // a row replayed after the same set keeps its pivot and new pairs
         let (pivot, new) = match row.pivot.filter(held) {
             Some(p) if row.new.iter().all(|n| !held(n)) => (Some(p), row.new.clone()),
             _ => (row.active.iter().copied().find(held), new),
         };
-        Some(Step {
+        let switch = Switch {
+            set: row.active.clone(),
             pivot,
             new,
-            to,
-            angle,
-            axis_error,
-        })
+        };
+        // held as the landing's steps are (every magnet within its coil's reach)
+        let capture = self.motor.torques.well.max_attraction();
+        held_steps(
+            self.motor,
+            &from.q,
+            vec![switch],
+            &s.axis,
+            &s.limits,
+            capture,
+        )
+        .pop()
     }
 
     fn bridges(
@@ -321,26 +324,18 @@ impl StepSource for PairSteps<'_> {
         }
         let t = &self.motor.torques;
         let capture = s.limits.capture_for(s.model, &t.well);
-        let sets = bridge_sets(t, from, next, aim, capture, s);
-        let outcomes = settled_states(self.motor, sets.clone(), &from.q);
-        let landing = s.limits.landing();
-        let steps = sets
-            .iter()
-            .zip(outcomes)
-            .filter_map(|(set, to)| {
-                let (to, angle, axis_error) =
-                    admissible(t, &from.q, to?, &s.axis, &landing, capture)?;
-                let held = |p: &&Pair| from.active.contains(p);
-                Some(Step {
-                    pivot: set.iter().find(held).copied(),
-                    new: set.iter().filter(|p| !held(p)).copied().collect(),
-                    to,
-                    angle,
-                    axis_error,
-                })
+        let held = |p: &&Pair| from.active.contains(p);
+        let switches: Vec<Switch> = bridge_sets(t, from, next, aim, capture, s)
+            .into_iter()
+            .map(|set| Switch {
+                pivot: set.iter().find(held).copied(),
+                new: set.iter().filter(|p| !held(p)).copied().collect(),
+                set,
             })
             .collect();
-        (sets.len(), steps)
+        let spent = switches.len();
+        let steps = held_steps(self.motor, &from.q, switches, &s.axis, &s.limits, capture);
+        (spent, steps)
     }
 
     fn expand_towards(&self, at: &Frontier, goal: &Orientation) -> (usize, Vec<Step>) {
@@ -350,39 +345,66 @@ impl StepSource for PairSteps<'_> {
         };
         let (found, finals) = self.finals.of(self.motor, s, goal);
         let on = (at.state.active.as_slice(), &at.state.q);
-        let proposals = landing_proposals(self.motor, s, on, goal, &finals, at.tired);
-        let sets: Vec<Vec<Pair>> = proposals
-            .iter()
-            .map(|(kept, new)| kept.iter().chain(new).copied().collect())
-            .collect();
-        let spent = found + sets.len();
-        let outcomes = settled_states(self.motor, sets, &at.state.q);
-        let landing = s.limits.landing();
-        // held where the settle says so: every magnet within its coil's reach (see `landing`)
-        let capture = self.motor.torques.well.max_attraction();
-        let steps = proposals
+        let switches: Vec<Switch> = landing_proposals(self.motor, s, on, goal, &finals, at.tired)
             .into_iter()
-            .zip(outcomes)
-            .filter_map(|((kept, new), to)| {
-                let (to, angle, axis_error) = admissible(
-                    &self.motor.torques,
-                    &at.state.q,
-                    to?,
-                    &towards,
-                    &landing,
-                    capture,
-                )?;
-                Some(Step {
-                    pivot: kept.first().copied(),
-                    new,
-                    to,
-                    angle,
-                    axis_error,
-                })
+            .map(|(kept, new)| Switch {
+                set: kept.iter().chain(&new).copied().collect(),
+                pivot: kept.first().copied(),
+                new,
             })
             .collect();
+        let spent = found + switches.len();
+        // held where the settle says so: every magnet within its coil's reach (see `landing`)
+        let capture = self.motor.torques.well.max_attraction();
+        let steps = held_steps(
+            self.motor,
+            &at.state.q,
+            switches,
+            &towards,
+            &s.limits,
+            capture,
+        );
         (spent, steps)
     }
+}
+
+/// A switch a landing, a bridge or a replayed row weighs: the set on after it, and the pair it
+/// keeps as its pivot (if any) and the pairs it switches on, as the plan's row names them.
+struct Switch {
+    set: Vec<Pair>,
+    pivot: Option<Pair>,
+    new: Vec<Pair>,
+}
+
+/// The steps `switches` make from `from`, settled in parallel, that hold every active pair
+/// within `capture`: any way the ball turns, by any angle ([`StepLimits::landing`]), measured
+/// about `about`; in the switches' order.
+fn held_steps(
+    motor: &Motor,
+    from: &Orientation,
+    switches: Vec<Switch>,
+    about: &UnitVec,
+    limits: &StepLimits,
+    capture: Radians,
+) -> Vec<Step> {
+    let sets = switches.iter().map(|w| w.set.clone()).collect();
+    let outcomes = settled_states(motor, sets, from);
+    let landing = limits.landing();
+    switches
+        .into_iter()
+        .zip(outcomes)
+        .filter_map(|(w, to)| {
+            let (to, angle, axis_error) =
+                admissible(&motor.torques, from, to?, about, &landing, capture)?;
+            Some(Step {
+                pivot: w.pivot,
+                new: w.new,
+                to,
+                angle,
+                axis_error,
+            })
+        })
+        .collect()
 }
 
 /// The sets a step from `from` may switch on so that the set of `next` can be switched on

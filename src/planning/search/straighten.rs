@@ -67,6 +67,13 @@ fn better_way(
     limit: f64,
     budget: usize,
 ) -> (Option<Node>, usize) {
+    // the rows before row k stay: none may already lie as far out as the limit
+    if departures(&plan.rows[..k], s)
+        .into_iter()
+        .any(|d| d >= limit)
+    {
+        return (None, 0);
+    }
     let before = src.initial_on_times();
     let parent = node_of(&plan.rows[..k], s, before.as_ref());
     let rest = &plan.rows[k + 1..];
@@ -105,10 +112,11 @@ fn better_way(
     (None, spent)
 }
 
-/// `node` carried on by the sets of `rest` (a plan's later rows), each step replayed from the
-/// state before it: the plan, when every step is admissible and ends in the state its row
-/// had (the same key, within [`SAME_STATE_RAD`]) and every row lies within `limit` (rad) of the
-/// straight way; and the settles spent (one a step, until one fails).
+/// `node` (whose rows lie within `limit`, rad, of the straight way) carried on by the sets of
+/// `rest` (a plan's later rows), each step replayed from the state before it: the plan, when
+/// every step is admissible and ends in the state its row had (the same key, within
+/// [`SAME_STATE_RAD`]) and lies within `limit` of the straight way too; and the settles spent
+/// (one a step, until one fails).
 fn rejoin(
     src: &dyn StepSource,
     s: &PlanSettings,
@@ -117,9 +125,6 @@ fn rejoin(
     limit: f64,
 ) -> (Option<Node>, usize) {
     let q0 = node.rows[0].q;
-    if departures(&node.rows, s).into_iter().any(|d| d >= limit) {
-        return (None, 0);
-    }
     let mut n = node;
     for (j, r) in rest.iter().enumerate() {
         let Some(st) = src.step_to(&n.state, r) else {
