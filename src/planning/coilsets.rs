@@ -259,6 +259,7 @@ impl StepSource for CoilSets<'_> {
             cum: 0.0,
             tired: &[],
             ranking: ONWARD,
+            goal: None,
         };
         self.weigh(&at, &self.ranked_sets(&at)).1
     }

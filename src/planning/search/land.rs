@@ -8,12 +8,14 @@ use super::*;
 /// The search's best plan carried on by the landing (with the other complete plans it found,
 /// `solutions`), and the settles the landing spent. A landing that ends further than the plan's
 /// tolerance from the target orientation is tried again wider ([`WIDE`]: a worse path allowed
-/// for an end within reach), and the nearer-ending of the two is kept.
+/// for an end within reach), and the nearer-ending of the two is kept. `most`: how far (rad)
+/// a landed plan may stray at most, when less than the leeway allows.
 pub(super) fn land_best(
     src: &dyn StepSource,
     s: &PlanSettings,
     best: Option<Node>,
     solutions: Vec<Node>,
+    most: Option<f64>,
 ) -> (Option<Node>, usize) {
     let Some(b) = best else {
         return (None, 0);
@@ -21,12 +23,12 @@ pub(super) fn land_best(
     let mut plans = vec![b];
     plans.extend(solutions);
     let budget = s.settle_budget / LANDING_SHARE;
-    let (landed, settles) = land(src, s, plans.clone(), budget, NARROW);
+    let (landed, settles) = land(src, s, plans.clone(), budget, NARROW, most);
     let off = |n: &Node| n.state.q.angle_to(&goal_of_node(n, s));
     if off(&landed) <= s.tolerance.0 {
         return (Some(landed), settles);
     }
-    let (wide, more) = land(src, s, plans, budget, WIDE);
+    let (wide, more) = land(src, s, plans, budget, WIDE, most);
     let kept = match off(&wide) < off(&landed) - 1e-12 {
         true => wide,
         false => landed,
@@ -84,8 +86,10 @@ fn land(
     plans: Vec<Node>,
     budget: usize,
     leeway: Leeway,
+    most: Option<f64>,
 ) -> (Node, usize) {
     let bound = plans.first().map_or(0.0, |b| path_score(b, s)) + leeway.slack + 1e-9;
+    let bound = most.map_or(bound, |m| bound.min(m));
     // each node: the plan, its goal, the farthest from it a landing may go
     let mut nodes: Vec<(Node, Orientation, f64)> = Vec::new();
     let mut open = std::collections::BinaryHeap::new();
@@ -197,7 +201,7 @@ fn expand_rested(
     let mut avoid = tired_after_last(at, s);
     let (mut spent, mut steps) = (0usize, Vec::new());
     loop {
-        let (settles, found) = src.expand_towards(&at.frontier(&avoid, ONWARD), goal);
+        let (settles, found) = src.expand_towards(&at.frontier(&avoid, ONWARD, s), goal);
         spent += settles;
         // the on-time check of `Node::extend`, without building the plan
         let over = |st: &Step| {

@@ -15,6 +15,7 @@ use rayon::prelude::*;
 
 mod beam;
 mod land;
+mod repair;
 mod straighten;
 
 /// Where a partial plan stands, as a step model needs it to rank the steps it proposes.
@@ -34,6 +35,10 @@ pub struct Frontier<'a> {
     pub tired: &'a [CoilId],
     /// How the search ranks partial plans now ([`predicted_rank`] ranks proposals with it).
     pub ranking: Ranking,
+    /// The orientation the search sends the plan to when it weighs the plan's path alone (a
+    /// plan to a target orientation, and a plan searched again from before the row where it
+    /// strays most); `None`: the step model's own settings say how a plan strays.
+    pub goal: Option<Orientation>,
 }
 
 /// How the best-first search ranks its partial plans (smaller first): the worst it has strayed
@@ -232,9 +237,15 @@ impl Node {
                 .all(|(c, h)| o.on.get(c).is_some_and(|x| h.on <= x.on))
     }
 
-    fn frontier<'b>(&'b self, tired: &'b [CoilId], ranking: Ranking) -> Frontier<'b> {
+    fn frontier<'b>(
+        &'b self,
+        tired: &'b [CoilId],
+        ranking: Ranking,
+        s: &PlanSettings,
+    ) -> Frontier<'b> {
         Frontier {
             ranking,
+            goal: s.target,
             state: &self.state,
             q0: self.rows[0].q,
             worst: self.worst,
@@ -494,13 +505,17 @@ pub fn predicted_rank(at: &Frontier, qp: &Orientation, s: &PlanSettings) -> Opti
         return None;
     }
     let (ca, ce) = cumulative_from(&at.q0, qp, &s.axis, at.cum);
-    let here = departure(qp, &at.q0, s);
-    Some(at.ranking.rank(
-        at.worst.max(strayed_by(here, ce.0, s)),
-        here,
-        ca.0,
-        s.angle.0,
-    ))
+    let (here, strays) = match at.goal.filter(|_| s.model != StepModel::Pivot) {
+        Some(goal) => {
+            let here = distance_to_geodesic(qp, &at.q0, &goal).0;
+            (here, here)
+        }
+        None => {
+            let here = departure(qp, &at.q0, s);
+            (here, strayed_by(here, ce.0, s))
+        }
+    };
+    Some(at.ranking.rank(at.worst.max(strays), here, ca.0, s.angle.0))
 }
 
 /// How far `q` lies from the straight way of a plan from `q0` (rad): its angle to the nearest
@@ -647,12 +662,51 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
     let Some(root) = roots.first().cloned() else {
         return no_initial_state();
     };
-    let mut best = greedy_best(src, s, &root, better_landing);
+    let best = greedy_best(src, s, &root, better_landing);
+    let share = match s.model {
+        StepModel::Pivot => 0,
+        _ => s.settle_budget / repair::REPAIR_SHARE,
+    };
+    let run = explore(src, s, roots, best, s.settle_budget - share);
+    let mut spent = run.spent;
+    let (best, landing) = land::land_best(src, s, run.best, run.solutions, None);
+    spent += landing;
+    let best = best.map(|b| {
+        let (b, straightening) = straighten::straighten(src, s, b);
+        let (b, repairing) = repair::repair(src, s, b, share);
+        spent += straightening + repairing;
+        b
+    });
+    let mut plan = outcome(best, run.deepest, unreached_why(run.over, s.settle_budget));
+    plan.settles = spent;
+    plan
+}
+
+/// A best-first search's findings: its best complete plan (`best`), the other complete plans
+/// it found (which the landing may carry on too), the partial plan that went furthest, a step
+/// it refused for the on-time limit and the settles it spent.
+struct Explored {
+    best: Option<Node>,
+    solutions: Vec<Node>,
+    deepest: Node,
+    over: Option<OverTime>,
+    spent: usize,
+}
+
+/// The best-first search from `roots` (at least one), within `budget` settles, with `best` the
+/// plan it must beat (partial plans already as bad are pruned).
+fn explore(
+    src: &dyn StepSource,
+    s: &PlanSettings,
+    roots: Vec<Node>,
+    mut best: Option<Node>,
+    budget: usize,
+) -> Explored {
     let mut f = Frontiers {
         nodes: Vec::new(),
         open: std::collections::BinaryHeap::new(),
         states: StateIndex::new(),
-        deepest: root,
+        deepest: roots[0].clone(),
         ranking: CENTRED,
     };
     for (k, r) in roots.into_iter().enumerate() {
@@ -660,12 +714,11 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
     }
     let mut spent = 0usize;
     let mut over: Option<OverTime> = None;
-    // the other complete plans, which the landing may carry on too
     let mut solutions: Vec<Node> = Vec::new();
     // whether the search has completed a plan of its own (the greedy plans are not its own)
     let mut own = false;
-    while spent < s.settle_budget {
-        if !own && f.ranking != ONWARD && 2 * spent >= s.settle_budget {
+    while spent < budget {
+        if !own && f.ranking != ONWARD && 2 * spent >= budget {
             f.rerank(ONWARD, s);
         }
         let Some(Open { node, .. }) = f.open.pop() else {
@@ -703,16 +756,13 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
             f.admit(src, root_id, c, s);
         }
     }
-    let (best, landing) = land::land_best(src, s, best, solutions);
-    spent += landing;
-    let best = best.map(|b| {
-        let (b, straightening) = straighten::straighten(src, s, b);
-        spent += straightening;
-        b
-    });
-    let mut plan = outcome(best, f.deepest, unreached_why(over, s.settle_budget));
-    plan.settles = spent;
-    plan
+    Explored {
+        best,
+        solutions,
+        deepest: f.deepest,
+        over,
+        spent,
+    }
 }
 
 /// Files a complete plan the search found: the best so far if [`better_landing`] says so (the
@@ -751,7 +801,7 @@ fn expand_fresh(
     s: &PlanSettings,
     ranking: Ranking,
 ) -> (usize, Vec<Step>) {
-    src.expand(&path.frontier(&tired_after_last(path, s), ranking))
+    src.expand(&path.frontier(&tired_after_last(path, s), ranking, s))
 }
 
 /// [`tired_coils`] for a next step as long as `p`'s last.

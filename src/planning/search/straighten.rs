@@ -85,7 +85,7 @@ fn better_way(
     let goal = goal_of(s, &plan.rows).unwrap_or(plan.state.q);
     let aim = nearest_on_geodesic(&plan.rows[k].q, &q0, &goal);
     let tired = tired_after_last(&parent, s);
-    let at = parent.frontier(&tired, CENTRED);
+    let at = parent.frontier(&tired, CENTRED, s);
     let (a, mut steps) = src.bridges(&parent.state, &plan.rows[k + 1], &aim);
     let (b, more) = src.expand_towards(&at, &aim);
     spent += a + b;
