@@ -1,9 +1,11 @@
-//! The library's one error type, [`Error`], with the relay boards' and the sensors' errors as
-//! variants. Every message names where the problem is (file, field, setting or argument) and
-//! what was expected; the library names a replay's settings by their fields, and the command
-//! line words them as its flags ([`Error::worded`]).
+//! The library's one error type, [`Error`], with the relay boards', the sensors' and the rig's
+//! (the closed loop on the hardware) errors as variants, each gathered once. Every message
+//! names where the problem is (file, field, setting or argument) and what was expected; the
+//! library names a replay's settings by their fields, and the command line words them as its
+//! flags ([`Error::worded`]).
 
 use crate::relay::{RelayError, Wording};
+use crate::rig::RigError;
 use crate::sensor::SensorError;
 use std::path::PathBuf;
 
@@ -112,6 +114,10 @@ pub enum Error {
     /// An orientation sensor failed (the message names the sensor and its port).
     #[error(transparent)]
     Sensor(#[from] SensorError),
+    /// A closed loop on the hardware stopped: on a board's error, the sensor's, or its own
+    /// (the message says how far it got and that every coil was switched off).
+    #[error(transparent)]
+    Rig(#[from] RigError),
 }
 
 /// The parameter of a library call an [`Error::Input`] is about.
@@ -152,6 +158,7 @@ impl Error {
     pub fn worded(&self, w: &dyn Wording) -> String {
         match self {
             Error::Relay(e) => e.worded(w),
+            Error::Rig(e) => e.worded(w),
             e => e.to_string(),
         }
     }

@@ -17,6 +17,7 @@ use spherestep::model::geometry::Radians;
 use spherestep::planning::closed_loop::{run_closed_loop, LoopSettings};
 use spherestep::relay::{Link, RelayError};
 use spherestep::rig::ClosedSummary;
+use spherestep::rig::RigError;
 use spherestep::sensor::bno055::FusionMode;
 use spherestep::sensor::{self, quat_csv::parse_line, SensorFormat};
 use std::collections::BTreeSet;
@@ -194,7 +195,7 @@ fn bno055(
 
 /// What one closed-loop replay gave.
 struct Ran {
-    result: Result<ClosedSummary, RelayError>,
+    result: Result<ClosedSummary, RigError>,
     text: String,
     frames: [Vec<u8>; 2],
     /// What the boards' far ends received, with when.
@@ -268,8 +269,8 @@ fn run_with(
     let log = std::fs::read_to_string(inputs.prep.drive.log.as_ref().unwrap()).unwrap_or_default();
     Ran {
         result: result.map_err(|e| match e {
-            spherestep::Error::Relay(r) => r,
-            other => panic!("expected a relay error, got: {other}"),
+            spherestep::Error::Rig(r) => r,
+            other => panic!("expected the rig's error, got: {other}"),
         }),
         text: String::from_utf8_lossy(&out).into_owned(),
         frames,
@@ -566,8 +567,10 @@ fn faulty(fault: Fault) -> (Ran, String) {
         Ok(s) => panic!("the replay went on: {s:?}\n{}", ran.text),
         Err(e) => e.to_string(),
     };
+    // the sensor's error arrives as the sensor's, inside the loop's stop
     assert!(
-        matches!(ran.result, Err(RelayError::LoopStopped { .. })),
+        matches!(&ran.result, Err(RigError::LoopStopped { cause, .. })
+            if matches!(**cause, RigError::Sensor(_))),
         "{e}"
     );
     assert_eq!(
@@ -628,11 +631,12 @@ fn switched_off_before_the_limit(ran: &Ran, limit: Duration, phase: &str) {
         Ok(s) => panic!("the replay went on: {s:?}\n{}", ran.text),
         Err(e) => e,
     };
-    let Err(RelayError::LoopStopped { cause, .. }) = &ran.result else {
+    let Err(RigError::LoopStopped { cause, .. }) = &ran.result else {
         panic!("{e}");
     };
     assert!(
-        matches!(&**cause, RelayError::OnTimeReached { phase: p, .. } if p.ends_with(phase)),
+        matches!(&**cause, RigError::Relay(RelayError::OnTimeReached { phase: p, .. })
+            if p.ends_with(phase)),
         "{e}\n{}",
         ran.text
     );
