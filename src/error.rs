@@ -4,7 +4,9 @@
 //! library names a replay's settings by their fields, and the command line words them as its
 //! flags ([`Error::worded`]).
 
-use crate::relay::{RelayError, Wording};
+use crate::physics::well_curve::StepError;
+use crate::planning::options::OptionError;
+use crate::relay::{ConfigError, RelayError, Wording};
 use crate::rig::RigError;
 use crate::sensor::SensorError;
 use std::path::PathBuf;
@@ -118,6 +120,44 @@ pub enum Error {
     /// (the message says how far it got and that every coil was switched off).
     #[error(transparent)]
     Rig(#[from] RigError),
+}
+
+impl From<ConfigError> for Error {
+    /// A `[relay]` section's or a map file's error, as the crate's `Field` or `Parse`.
+    fn from(e: ConfigError) -> Error {
+        match e {
+            ConfigError::Field {
+                file,
+                field,
+                expected,
+            } => Error::Field {
+                file,
+                field,
+                expected,
+            },
+            ConfigError::Parse { file, message } => Error::Parse { file, message },
+        }
+    }
+}
+
+impl From<OptionError> for Error {
+    /// A loop option's or a plan's rows' refusal, as the crate's `Arg` or `Parse`.
+    fn from(e: OptionError) -> Error {
+        match e {
+            OptionError::Arg { arg, expected } => Error::Arg { arg, expected },
+            OptionError::Parse { file, message } => Error::Parse { file, message },
+        }
+    }
+}
+
+impl From<StepError> for Error {
+    /// A well curve's step that is not allowed, as the crate's `Input` about `step_deg`.
+    fn from(e: StepError) -> Error {
+        Error::Input {
+            input: Input::WellStep,
+            expected: e.expected,
+        }
+    }
 }
 
 /// The parameter of a library call an [`Error::Input`] is about.

@@ -48,12 +48,12 @@ pub const LOOP_OPTION_NAMES: LoopNames = LoopNames {
 
 /// Checks the loop's options as the command line gives them ([`LoopOptions::check`]).
 pub fn check_loop_options(o: &LoopOptions) -> Result<()> {
-    o.check(&LOOP_OPTION_NAMES)
+    Ok(o.check(&LOOP_OPTION_NAMES)?)
 }
 
 /// The loop's settings from the command line's options, checked ([`LoopOptions::settings`]).
 pub fn loop_settings(o: &LoopOptions, planned_steps: usize) -> Result<LoopSettings> {
-    o.settings(planned_steps, &LOOP_OPTION_NAMES)
+    Ok(o.settings(planned_steps, &LOOP_OPTION_NAMES)?)
 }
 
 /// `spherestep run`: plans in `sc` (the model) with `settings`, plays the plan on `plant` as
@@ -98,7 +98,11 @@ pub fn plan_file_loop(
     plan_path: &Path,
 ) -> Result<LoopPlan> {
     super::check_plan_pairs(sc, &rows, plan_path)?;
-    LoopPlan::of_rows(settings, rows, RowsFrom::File(plan_path))
+    Ok(LoopPlan::of_rows(
+        settings,
+        rows,
+        RowsFrom::File(plan_path),
+    )?)
 }
 
 /// Plays `p` on the plant and reports.

@@ -20,6 +20,7 @@ pub mod watch;
 
 pub use boards::BoardConfig;
 pub use config::{CoilMap, RelayConfig, RelaySettings, SwitchOrder};
+pub use fields::ConfigError;
 pub use link::Link;
 
 use crate::model::geometry::CoilId;
