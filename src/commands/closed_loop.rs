@@ -13,7 +13,6 @@ use crate::planning::options::{LoopNames, LoopPlan, RowsFrom};
 use crate::planning::plan::{PlanRow, PlanSettings};
 use crate::planning::planner::plan;
 use crate::text::printable;
-use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
 
@@ -26,18 +25,7 @@ pub struct Report<'a> {
     pub note: &'a mut dyn Write,
 }
 
-/// What `run` and `simulate --closed-loop` report.
-#[derive(Debug, Clone, Serialize)]
-pub struct RunSummary {
-    /// "closed" or "open".
-    pub mode: &'static str,
-    pub sensor_noise_deg: f64,
-    pub seed: u64,
-    /// Steps of the plan made before the motion (the open-loop plan).
-    pub planned_steps: usize,
-    #[serde(flatten)]
-    pub run: crate::planning::closed_loop::LoopSummary,
-}
+pub use crate::planning::options::RunSummary;
 
 /// What the command line calls the loop's options.
 pub const LOOP_OPTION_NAMES: LoopNames = LoopNames {
@@ -126,13 +114,7 @@ fn play(
         note,
     } = report;
     let out = emit_csv(&csv, file, json, out, note)?;
-    let summary = RunSummary {
-        mode: if o.closed { "closed" } else { "open" },
-        sensor_noise_deg: o.noise_deg,
-        seed: o.seed,
-        planned_steps,
-        run: run.summary,
-    };
+    let summary = RunSummary::of(o, planned_steps, run.summary);
     let w = |e| Error::io("<stdout>", e);
     if json {
         let text =

@@ -6,9 +6,10 @@
 //! calls it ([`LoopNames`]), or where the rows came from ([`RowsFrom`]).
 
 use crate::model::geometry::{Orientation, Radians};
-use crate::planning::closed_loop::{target_of, LoopSettings};
+use crate::planning::closed_loop::{target_of, LoopSettings, LoopSummary};
 use crate::planning::plan::{goal_of, Plan, PlanRow, PlanSettings};
 use crate::text::shown;
+use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// A front end's option, or a plan's rows, that the loop cannot play: the crate's `Error`
@@ -125,6 +126,46 @@ impl LoopOptions {
         } else {
             LoopSettings::open(noise, self.seed)
         })
+    }
+}
+
+/// What a run of the loop on a plant reports (`run` and `simulate --closed-loop`, `--json`;
+/// Python's `Run.summary`): how it was played, then the loop's summary. The keys are the
+/// fields, in this order.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    /// "closed" or "open".
+    pub mode: &'static str,
+    pub sensor_noise_deg: f64,
+    pub seed: u64,
+    /// Steps of the plan made before the motion (the open-loop plan).
+    pub planned_steps: usize,
+    #[serde(flatten)]
+    pub run: LoopSummary,
+}
+
+impl RunSummary {
+    /// The summary of a run played closed loop (`closed`) or open, with a sensor of
+    /// `sensor_noise_deg` degrees and `seed`, of a plan of `planned_steps` steps.
+    pub fn new(
+        closed: bool,
+        sensor_noise_deg: f64,
+        seed: u64,
+        planned_steps: usize,
+        run: LoopSummary,
+    ) -> RunSummary {
+        RunSummary {
+            mode: if closed { "closed" } else { "open" },
+            sensor_noise_deg,
+            seed,
+            planned_steps,
+            run,
+        }
+    }
+
+    /// The summary of a run played as `o` says.
+    pub fn of(o: &LoopOptions, planned_steps: usize, run: LoopSummary) -> RunSummary {
+        RunSummary::new(o.closed, o.noise_deg, o.seed, planned_steps, run)
     }
 }
 
