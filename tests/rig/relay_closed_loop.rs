@@ -6,7 +6,9 @@
 //! closes or sends garbage mid-run: every coil off on both boards, the sensor named.
 
 use crate::common::relay_support;
-use crate::common::scripted::{board, line_of, offline, Ball, Received, Script, Shared};
+use crate::common::scripted::{
+    board, line_of, offline, quat_csv_end, Ball, Next, Received, Script, Shared,
+};
 
 use relay_support::{lcus_all_off, path_of, pty, GUARD};
 use serialport::{SerialPort, TTYPort};
@@ -120,33 +122,18 @@ enum Fault {
 }
 
 /// A quat-csv far end: prints the plant's orientation every 10 ms until `done`.
-fn printer(
-    mut port: TTYPort,
-    plant: Shared,
-    fault: Fault,
-    done: Arc<AtomicBool>,
-) -> JoinHandle<()> {
-    std::thread::spawn(move || {
-        let start = Instant::now();
-        while !done.load(Ordering::SeqCst) && start.elapsed() < GUARD {
-            let (at, q) = {
-                let p = plant.lock().unwrap();
-                (p.at, p.now())
-            };
-            let line = match fault {
-                Fault::Close(k) if at == Some(k) => return,
-                Fault::Garbage(k, text) if at == Some(k) => text.to_string(),
-                Fault::Always(text) if at.is_some() => text.to_string(),
-                Fault::Silent if at.is_some() => {
-                    std::thread::sleep(Duration::from_millis(10));
-                    continue;
-                }
-                _ => line_of(&q),
-            };
-            if port.write_all(format!("{line}\r\n").as_bytes()).is_err() {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(10));
+fn printer(port: TTYPort, plant: Shared, fault: Fault, done: Arc<AtomicBool>) -> JoinHandle<()> {
+    quat_csv_end(port, done, move || {
+        let (at, q) = {
+            let p = plant.lock().unwrap();
+            (p.at, p.now())
+        };
+        match fault {
+            Fault::Close(k) if at == Some(k) => Next::Close,
+            Fault::Garbage(k, text) if at == Some(k) => Next::Line(text.to_string()),
+            Fault::Always(text) if at.is_some() => Next::Line(text.to_string()),
+            Fault::Silent if at.is_some() => Next::Skip,
+            _ => Next::Line(line_of(&q)),
         }
     })
 }
