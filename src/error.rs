@@ -1,9 +1,13 @@
-//! The library's one error type, [`Error`], with the relay boards' and the sensors' errors as
-//! variants. Every message names where the problem is (file, field, setting or argument) and
-//! what was expected; the library names a replay's settings by their fields, and the command
-//! line words them as its flags ([`Error::worded`]).
+//! The library's one error type, [`Error`], with the relay boards', the sensors' and the rig's
+//! (the closed loop on the hardware) errors as variants, each gathered once. Every message
+//! names where the problem is (file, field, setting or argument) and what was expected; the
+//! library names a replay's settings by their fields, and the command line words them as its
+//! flags ([`Error::worded`]).
 
-use crate::relay::{RelayError, Wording};
+use crate::physics::well_curve::StepError;
+use crate::planning::options::OptionError;
+use crate::relay::{ConfigError, RelayError, Wording};
+use crate::rig::RigError;
 use crate::sensor::SensorError;
 use std::path::PathBuf;
 
@@ -112,6 +116,48 @@ pub enum Error {
     /// An orientation sensor failed (the message names the sensor and its port).
     #[error(transparent)]
     Sensor(#[from] SensorError),
+    /// A closed loop on the hardware stopped: on a board's error, the sensor's, or its own
+    /// (the message says how far it got and that every coil was switched off).
+    #[error(transparent)]
+    Rig(#[from] RigError),
+}
+
+impl From<ConfigError> for Error {
+    /// A `[relay]` section's or a map file's error, as the crate's `Field` or `Parse`.
+    fn from(e: ConfigError) -> Error {
+        match e {
+            ConfigError::Field {
+                file,
+                field,
+                expected,
+            } => Error::Field {
+                file,
+                field,
+                expected,
+            },
+            ConfigError::Parse { file, message } => Error::Parse { file, message },
+        }
+    }
+}
+
+impl From<OptionError> for Error {
+    /// A loop option's or a plan's rows' refusal, as the crate's `Arg` or `Parse`.
+    fn from(e: OptionError) -> Error {
+        match e {
+            OptionError::Arg { arg, expected } => Error::Arg { arg, expected },
+            OptionError::Parse { file, message } => Error::Parse { file, message },
+        }
+    }
+}
+
+impl From<StepError> for Error {
+    /// A well curve's step that is not allowed, as the crate's `Input` about `step_deg`.
+    fn from(e: StepError) -> Error {
+        Error::Input {
+            input: Input::WellStep,
+            expected: e.expected,
+        }
+    }
 }
 
 /// The parameter of a library call an [`Error::Input`] is about.
@@ -152,6 +198,7 @@ impl Error {
     pub fn worded(&self, w: &dyn Wording) -> String {
         match self {
             Error::Relay(e) => e.worded(w),
+            Error::Rig(e) => e.worded(w),
             e => e.to_string(),
         }
     }

@@ -26,8 +26,8 @@ pyo3::create_exception!(
 );
 
 /// The library's error as a `spherestep.Error`, with its message.
-pub(crate) fn lib_err(e: spherestep::Error) -> PyErr {
-    Error::new_err(e.to_string())
+pub(crate) fn lib_err(e: impl Into<spherestep::Error>) -> PyErr {
+    Error::new_err(e.into().to_string())
 }
 
 /// An argument of a Python call that is not allowed, worded as the library words its

@@ -2,7 +2,7 @@
 //! well curve and a run, each with numpy columns, its summary as a dict (the keys of the
 //! command line's `--json`) and its CSV (the command line's bytes).
 
-use crate::convert::{column, json_to_py, pair_tuples, q_array, q_rows, summary_dict};
+use crate::convert::{column, pair_tuples, q_array, q_rows, summary_dict};
 use crate::lib_err;
 use crate::table::{self, push_q, Columns};
 use numpy::prelude::*;
@@ -16,6 +16,7 @@ use spherestep::io::planfile::write_plan;
 use spherestep::io::simfile::write_sim;
 use spherestep::io::table::csv_bytes;
 use spherestep::planning::holding::Holding;
+use spherestep::planning::options::RunSummary;
 use spherestep::planning::simulate::summary as sim_summary;
 use spherestep::{LoopRun, Pair, PlanSettings, SimRow, WellSummary};
 use std::path::PathBuf;
@@ -788,19 +789,14 @@ impl Run {
     /// The summary, with the keys of `spherestep run --json`.
     #[getter]
     fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let d = PyDict::new(py);
-        d.set_item("mode", if self.closed_loop { "closed" } else { "open" })?;
-        d.set_item("sensor_noise_deg", self.sensor_noise_deg)?;
-        d.set_item("seed", self.seed)?;
-        d.set_item("planned_steps", self.planned_steps)?;
-        let v = serde_json::to_value(&self.run.summary)
-            .map_err(|e| lib_err(spherestep::Error::json("the run summary", e)))?;
-        if let serde_json::Value::Object(o) = v {
-            for (k, x) in &o {
-                d.set_item(k, json_to_py(py, x)?)?;
-            }
-        }
-        Ok(d.into_any())
+        let s = RunSummary::new(
+            self.closed_loop,
+            self.sensor_noise_deg,
+            self.seed,
+            self.planned_steps,
+            self.run.summary.clone(),
+        );
+        summary_dict(py, &s)
     }
     /// The run as CSV text: what `spherestep run --out` writes.
     fn csv(&self) -> PyResult<String> {

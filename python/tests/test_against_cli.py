@@ -181,4 +181,5 @@ def test_closed_loop_run_matches_the_cli(cli, prototype_toml, tmp_path):
     for k in summary:
         if not k.startswith("replan_ms"):  # wall time, reported, never decided on
             assert s[k] == summary[k], k
+    assert list(s) == list(summary)  # the same keys in the same order: the library's RunSummary
     assert s["mode"] == "closed" and s["seed"] == 3

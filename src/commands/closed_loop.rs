@@ -13,7 +13,6 @@ use crate::planning::options::{LoopNames, LoopPlan, RowsFrom};
 use crate::planning::plan::{PlanRow, PlanSettings};
 use crate::planning::planner::plan;
 use crate::text::printable;
-use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
 
@@ -26,18 +25,7 @@ pub struct Report<'a> {
     pub note: &'a mut dyn Write,
 }
 
-/// What `run` and `simulate --closed-loop` report.
-#[derive(Debug, Clone, Serialize)]
-pub struct RunSummary {
-    /// "closed" or "open".
-    pub mode: &'static str,
-    pub sensor_noise_deg: f64,
-    pub seed: u64,
-    /// Steps of the plan made before the motion (the open-loop plan).
-    pub planned_steps: usize,
-    #[serde(flatten)]
-    pub run: crate::planning::closed_loop::LoopSummary,
-}
+pub use crate::planning::options::RunSummary;
 
 /// What the command line calls the loop's options.
 pub const LOOP_OPTION_NAMES: LoopNames = LoopNames {
@@ -48,12 +36,12 @@ pub const LOOP_OPTION_NAMES: LoopNames = LoopNames {
 
 /// Checks the loop's options as the command line gives them ([`LoopOptions::check`]).
 pub fn check_loop_options(o: &LoopOptions) -> Result<()> {
-    o.check(&LOOP_OPTION_NAMES)
+    Ok(o.check(&LOOP_OPTION_NAMES)?)
 }
 
 /// The loop's settings from the command line's options, checked ([`LoopOptions::settings`]).
 pub fn loop_settings(o: &LoopOptions, planned_steps: usize) -> Result<LoopSettings> {
-    o.settings(planned_steps, &LOOP_OPTION_NAMES)
+    Ok(o.settings(planned_steps, &LOOP_OPTION_NAMES)?)
 }
 
 /// `spherestep run`: plans in `sc` (the model) with `settings`, plays the plan on `plant` as
@@ -98,7 +86,11 @@ pub fn plan_file_loop(
     plan_path: &Path,
 ) -> Result<LoopPlan> {
     super::check_plan_pairs(sc, &rows, plan_path)?;
-    LoopPlan::of_rows(settings, rows, RowsFrom::File(plan_path))
+    Ok(LoopPlan::of_rows(
+        settings,
+        rows,
+        RowsFrom::File(plan_path),
+    )?)
 }
 
 /// Plays `p` on the plant and reports.
@@ -122,13 +114,7 @@ fn play(
         note,
     } = report;
     let out = emit_csv(&csv, file, json, out, note)?;
-    let summary = RunSummary {
-        mode: if o.closed { "closed" } else { "open" },
-        sensor_noise_deg: o.noise_deg,
-        seed: o.seed,
-        planned_steps,
-        run: run.summary,
-    };
+    let summary = RunSummary::of(o, planned_steps, run.summary);
     let w = |e| Error::io("<stdout>", e);
     if json {
         let text =

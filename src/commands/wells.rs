@@ -79,7 +79,7 @@ pub fn wells_command(
     }
     let well = &sc.torques.well;
     let curve =
-        well_curve(well, step_deg).map_err(|e| as_flag(e, Input::WellStep, "--step-deg"))?;
+        well_curve(well, step_deg).map_err(|e| as_flag(e.into(), Input::WellStep, "--step-deg"))?;
     let csv = curve_csv(&curve)?;
     let out = emit_csv(&csv, out_file, json, out, note)?;
     let mut pictures = Vec::new();

@@ -3,7 +3,6 @@
 //! (the peak pull, the width, the stiffness). What `spherestep wells` and
 //! [`crate::Motor::wells`] compute.
 
-use crate::error::{Error, Input, Result};
 use crate::physics::torque::Well;
 use crate::text::shown;
 use serde::Serialize;
@@ -19,12 +18,20 @@ pub const MIN_STEP_DEG: f64 = 0.001;
 /// The coarsest angle step of a curve, degrees.
 pub const MAX_STEP_DEG: f64 = 10.0;
 
+/// A curve's angle step that is not allowed: the crate's `Error` gathers it as its `Input`
+/// about `step_deg` (`Input::WellStep`), with the same message.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("`step_deg`: expected {expected}")]
+pub struct StepError {
+    /// What the step may be.
+    pub expected: String,
+}
+
 /// The torque curve of a well: (angle, deg; torque, N m) from 0 to the cut-off, both included,
 /// the step in [`MIN_STEP_DEG`, `MAX_STEP_DEG`].
-pub fn well_curve(well: &Well, step_deg: f64) -> Result<Vec<(f64, f64)>> {
+pub fn well_curve(well: &Well, step_deg: f64) -> Result<Vec<(f64, f64)>, StepError> {
     if !(step_deg.is_finite() && (MIN_STEP_DEG..=MAX_STEP_DEG).contains(&step_deg)) {
-        return Err(Error::Input {
-            input: Input::WellStep,
+        return Err(StepError {
             expected: format!(
                 "an angle step in [{MIN_STEP_DEG}, {MAX_STEP_DEG}] degrees, got {}",
                 shown(step_deg)

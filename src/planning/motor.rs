@@ -2,10 +2,9 @@
 //! scenario's physics, copied out of it by [`crate::Scenario::motor`]), each the free function
 //! of its layer with the motor's torques, body and settle parameters filled in.
 
-use crate::error::Result;
 use crate::model::geometry::{Orientation, Pair};
 use crate::physics::dynamics::{self, SettleResult};
-use crate::physics::well_curve::{summarise, well_curve, WellSummary};
+use crate::physics::well_curve::{summarise, well_curve, StepError, WellSummary};
 use crate::planning::closed_loop::{run_closed_loop, LoopRun, LoopSettings};
 use crate::planning::commutation::Motor;
 use crate::planning::plan::{Plan, PlanRow, PlanSettings};
@@ -151,8 +150,8 @@ impl Motor {
     ///
     /// # Errors
     ///
-    /// [`crate::Error::Input`] ([`crate::error::Input::WellStep`]) for a `step_deg` that is
-    /// not a number in [`MIN_STEP_DEG`, `MAX_STEP_DEG`].
+    /// [`StepError`] (which [`crate::Error`] gathers as its `Input` about `step_deg`) for a
+    /// `step_deg` that is not a number in [`MIN_STEP_DEG`, `MAX_STEP_DEG`].
     ///
     /// # Examples
     ///
@@ -164,7 +163,7 @@ impl Motor {
     /// assert_eq!(summary.rows, curve.len());
     /// assert!(summary.peak_torque_nm > 0.8 && summary.peak_angle_deg > 5.0);
     /// ```
-    pub fn wells(&self, step_deg: f64) -> Result<(Vec<(f64, f64)>, WellSummary)> {
+    pub fn wells(&self, step_deg: f64) -> Result<(Vec<(f64, f64)>, WellSummary), StepError> {
         let curve = well_curve(&self.torques.well, step_deg)?;
         let summary = summarise(&self.torques.well, &curve);
         Ok((curve, summary))

@@ -5,12 +5,37 @@
 //! or a plan's rows aimed at their own target). A refusal names the option as the front end
 //! calls it ([`LoopNames`]), or where the rows came from ([`RowsFrom`]).
 
-use crate::error::{Error, Result};
 use crate::model::geometry::{Orientation, Radians};
-use crate::planning::closed_loop::{target_of, LoopSettings};
+use crate::planning::closed_loop::{target_of, LoopSettings, LoopSummary};
 use crate::planning::plan::{goal_of, Plan, PlanRow, PlanSettings};
 use crate::text::shown;
-use std::path::Path;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// A front end's option, or a plan's rows, that the loop cannot play: the crate's `Error`
+/// gathers it as its `Arg` and `Parse` (the same messages).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OptionError {
+    /// An option (as the front end names it) holds a value that is not allowed.
+    #[error("argument {arg}: expected {expected}")]
+    Arg {
+        /// The option, as the front end calls it.
+        arg: String,
+        /// What the option may be.
+        expected: String,
+    },
+    /// A plan file whose rows the loop cannot play.
+    #[error("{file}: {message}")]
+    Parse {
+        /// The plan file.
+        file: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+}
+
+/// Result with the options' error.
+pub type Result<T> = std::result::Result<T, OptionError>;
 
 /// How to play a plan on the plant.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,11 +91,11 @@ pub fn default_max_steps(planned_steps: usize) -> usize {
 
 impl LoopOptions {
     /// Checks the options before anything is computed: the noise within
-    /// [0, [`MAX_SENSOR_NOISE_DEG`]] degrees, at least one step; a refusal is [`Error::Arg`]
+    /// [0, [`MAX_SENSOR_NOISE_DEG`]] degrees, at least one step; a refusal is [`OptionError::Arg`]
     /// naming the option by `names`.
     pub fn check(&self, names: &LoopNames) -> Result<()> {
         if !(self.noise_deg.is_finite() && (0.0..=MAX_SENSOR_NOISE_DEG).contains(&self.noise_deg)) {
-            return Err(Error::Arg {
+            return Err(OptionError::Arg {
                 arg: names.noise_deg.into(),
                 expected: format!(
                     "a noise in [0, {MAX_SENSOR_NOISE_DEG}] degrees (the goal tolerance is twice \
@@ -80,7 +105,7 @@ impl LoopOptions {
             });
         }
         if self.max_steps == Some(0) {
-            return Err(Error::Arg {
+            return Err(OptionError::Arg {
                 arg: names.max_steps.into(),
                 expected: "a whole number >= 1, got 0".into(),
             });
@@ -104,6 +129,46 @@ impl LoopOptions {
     }
 }
 
+/// What a run of the loop on a plant reports (`run` and `simulate --closed-loop`, `--json`;
+/// Python's `Run.summary`): how it was played, then the loop's summary. The keys are the
+/// fields, in this order.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    /// "closed" or "open".
+    pub mode: &'static str,
+    pub sensor_noise_deg: f64,
+    pub seed: u64,
+    /// Steps of the plan made before the motion (the open-loop plan).
+    pub planned_steps: usize,
+    #[serde(flatten)]
+    pub run: LoopSummary,
+}
+
+impl RunSummary {
+    /// The summary of a run played closed loop (`closed`) or open, with a sensor of
+    /// `sensor_noise_deg` degrees and `seed`, of a plan of `planned_steps` steps.
+    pub fn new(
+        closed: bool,
+        sensor_noise_deg: f64,
+        seed: u64,
+        planned_steps: usize,
+        run: LoopSummary,
+    ) -> RunSummary {
+        RunSummary {
+            mode: if closed { "closed" } else { "open" },
+            sensor_noise_deg,
+            seed,
+            planned_steps,
+            run,
+        }
+    }
+
+    /// The summary of a run played as `o` says.
+    pub fn of(o: &LoopOptions, planned_steps: usize, run: LoopSummary) -> RunSummary {
+        RunSummary::new(o.closed, o.noise_deg, o.seed, planned_steps, run)
+    }
+}
+
 /// A plan as the loop plays it: the planning settings the loop replans with, aimed at the
 /// plan's goal, the plan (the open-loop one) and the goal.
 #[derive(Debug, Clone)]
@@ -115,13 +180,13 @@ pub struct LoopPlan {
 
 impl LoopPlan {
     /// The plan `plan` just made with `settings` (`run`), aimed at the settings' goal. A plan
-    /// without a step (so without a goal: none without row 0) is refused as [`Error::Arg`]
+    /// without a step (so without a goal: none without row 0) is refused as [`OptionError::Arg`]
     /// naming the motion by `names`.
     pub fn planned(settings: &PlanSettings, plan: Plan, names: &LoopNames) -> Result<LoopPlan> {
         let goal = match goal_of(settings, &plan.rows) {
             Some(goal) if plan.rows.len() >= 2 => goal,
             _ => {
-                return Err(Error::Arg {
+                return Err(OptionError::Arg {
                     arg: names.motion.into(),
                     expected: format!(
                         "a motion the model can plan: {}",
@@ -141,7 +206,7 @@ impl LoopPlan {
     /// closed-loop replay): `settings` (the model's and the limits) aimed at the rows' own
     /// target (the rotation from row 0 to the last row, from row 0's orientation), the rows as
     /// the open-loop plan and the last orientation the goal. Rows that do not turn the ball are
-    /// refused, naming where they came from: [`Error::Parse`] of the file, or [`Error::Arg`].
+    /// refused, naming where they came from: [`OptionError::Parse`] of the file, or [`OptionError::Arg`].
     pub fn of_rows(
         settings: &PlanSettings,
         rows: Vec<PlanRow>,
@@ -149,11 +214,11 @@ impl LoopPlan {
     ) -> Result<LoopPlan> {
         const TURNS: &str = "a plan that turns the ball (its last row is where its first is)";
         let (axis, angle) = target_of(&rows).ok_or_else(|| match from {
-            RowsFrom::File(file) => Error::Parse {
+            RowsFrom::File(file) => OptionError::Parse {
                 file: file.to_path_buf(),
                 message: format!("expected {TURNS}"),
             },
-            RowsFrom::Argument(name) => Error::Arg {
+            RowsFrom::Argument(name) => OptionError::Arg {
                 arg: name.into(),
                 expected: TURNS.into(),
             },

@@ -4,9 +4,8 @@
 //! (`relay.boards[1].channels`) and what was expected. The coil map that goes with a list of
 //! boards (`coil = "board:channel"`) is read in `config`.
 
-use super::fields::Fields;
+use super::fields::{Fields, Result};
 use super::{BoardKind, BoardSpec};
-use crate::error::Result;
 use serde::Deserialize;
 use std::time::Duration;
 

@@ -6,9 +6,8 @@
 
 use super::boards::{self, reply_timeout, BoardConfig};
 pub use super::boards::{DEFAULT_SLAVE_ADDRESS, DEFAULT_TIMEOUT_MS, MAX_TIMEOUT_MS};
-use super::fields::{coil_key, Fields};
+use super::fields::{coil_key, ConfigError, Fields, Result};
 use super::{BoardKind, BoardSpec, Channel, Slot};
-use crate::error::{Error, Result};
 use crate::model::geometry::CoilId;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -221,7 +220,7 @@ impl RelaySettings {
 
     /// Parses relay settings written as a TOML map file (the `[relay]` keys at the top level).
     pub fn from_map_toml(text: &str, path: &Path) -> Result<RelaySettings> {
-        let raw: RelayConfig = toml::from_str(text).map_err(|e| Error::Parse {
+        let raw: RelayConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
             file: path.to_path_buf(),
             message: e.to_string().trim_end().to_string(),
         })?;

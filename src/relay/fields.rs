@@ -3,11 +3,39 @@
 //! durations within their bounds, coil keys. Shared by the single-board settings
 //! (`config`) and the board list (`boards`).
 
-use crate::error::{Error, Result};
 use crate::model::geometry::CoilId;
 use crate::text::shown;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
+
+/// A `[relay]` section (or a `--map` file) that cannot be used: the relay layer's own error
+/// for its settings, which the crate's `Error` gathers as its `Field` and `Parse` (the same
+/// messages).
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// A field holds a value that is not allowed.
+    #[error("{file}: field `{field}`: expected {expected}")]
+    Field {
+        /// The scenario or map file.
+        file: PathBuf,
+        /// The field, as the file names it (`relay.max_coils_on`, or `max_coils_on` in a map
+        /// file).
+        field: String,
+        /// What the field may hold.
+        expected: String,
+    },
+    /// A map file could not be parsed at all (syntax, unknown key, wrong type).
+    #[error("{file}: {message}")]
+    Parse {
+        /// The map file.
+        file: PathBuf,
+        /// The parser's message.
+        message: String,
+    },
+}
+
+/// Result with the relay settings' error.
+pub type Result<T> = std::result::Result<T, ConfigError>;
 
 /// How the fields of a `[relay]` section are named in errors: the file and the prefix.
 pub(super) struct Fields<'a> {
@@ -16,8 +44,12 @@ pub(super) struct Fields<'a> {
 }
 
 impl Fields<'_> {
-    pub(super) fn err(&self, field: &str, expected: String) -> Error {
-        Error::field(self.file, &format!("{}{field}", self.prefix), expected)
+    pub(super) fn err(&self, field: &str, expected: String) -> ConfigError {
+        ConfigError::Field {
+            file: self.file.to_path_buf(),
+            field: format!("{}{field}", self.prefix),
+            expected,
+        }
     }
 
     /// An optional integer in `lo..=hi`.

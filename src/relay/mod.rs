@@ -20,6 +20,7 @@ pub mod watch;
 
 pub use boards::BoardConfig;
 pub use config::{CoilMap, RelayConfig, RelaySettings, SwitchOrder};
+pub use fields::ConfigError;
 pub use link::Link;
 
 use crate::model::geometry::CoilId;
@@ -309,39 +310,6 @@ pub enum RelayError {
         error: Box<RelayError>,
         resume: usize,
     },
-    /// The orientation sensor of a closed-loop replay failed (its message names the sensor
-    /// and its port): a `sensor::SensorError`, put here by the rig (`crate::rig`), since this
-    /// layer knows no sensor.
-    #[error(transparent)]
-    Sensor(Box<dyn std::error::Error + Send + Sync>),
-    /// The closed loop cannot go on (the controller found no plan from the measurement, or the
-    /// plan in force ran out).
-    #[error("closed loop stuck after step {step}: {message}")]
-    Stuck { step: usize, message: String },
-    /// The closed loop took its most steps (`max`) without reaching the goal.
-    #[error("{}", self.worded(&Fields))]
-    MaxSteps {
-        steps: usize,
-        max: usize,
-        distance_deg: f64,
-    },
-    /// A replanned plan failed the checks of a schedule (coils mapped, coils on at once from
-    /// what is on now, on-time across the joint) before anything of it was switched.
-    #[error("{}", self.worded(&Fields))]
-    ReplanRefused {
-        step: usize,
-        replan: usize,
-        cause: Box<RelayError>,
-    },
-    /// The closed-loop replay stopped on an error; every coil was switched off afterwards.
-    #[error("{}", self.worded(&Fields))]
-    LoopStopped {
-        cause: Box<RelayError>,
-        steps: usize,
-        replans: usize,
-        /// The last measurement's angle from the goal, degrees (`None` before any).
-        distance_deg: Option<f64>,
-    },
     /// Something failed on one board of several (`[[relay.boards]]`): which board, on which
     /// port (the configured one in a dry run), and what.
     #[error("{}", self.worded(&Fields))]
@@ -460,46 +428,6 @@ impl RelayError {
             | RelayError::EndOffFailed(_)
             | RelayError::OffFailed { .. }
             | RelayError::OffFailedResume { .. } => self.stopped(w),
-            RelayError::MaxSteps {
-                steps,
-                max,
-                distance_deg,
-            } => format!(
-                "closed loop: {steps} step(s) without reaching the goal ({} {max}); the last \
-                 measurement is {distance_deg:.2} deg from it",
-                w.name(Setting::MaxSteps)
-            ),
-            RelayError::ReplanRefused {
-                step,
-                replan,
-                cause,
-            } => {
-                // a replan planned within the limit with its reserve: what it kept on is over
-                // only when the search took longer than that
-                let hint = match **cause {
-                    RelayError::OnTooLong { .. } => {
-                        " (the replan counted relay.replan_reserve_ms for its own search, which \
-                         took longer: raise it)"
-                    }
-                    _ => "",
-                };
-                format!(
-                    "the plan replanned after step {step} (replan {replan}) is refused before \
-                     switching anything of it: {}{hint}",
-                    cause.worded(w)
-                )
-            }
-            RelayError::LoopStopped {
-                cause,
-                steps,
-                replans,
-                distance_deg,
-            } => format!(
-                "{}; all coils switched off (closed loop: {steps} step(s), {replans} \
-                 replan(s){})",
-                cause.worded(w),
-                last_distance(*distance_deg)
-            ),
             RelayError::OnBoard { index, port, error } => {
                 format!("board {index} ({port}): {}", error.worded(w))
             }
@@ -507,7 +435,7 @@ impl RelayError {
                 cause,
                 failed,
                 switched_off,
-            } => boards_off_failed(cause.as_deref(), failed, switched_off, w),
+            } => boards_off_failed(cause.as_ref().map(|c| c.worded(w)), failed, switched_off, w),
             e => e.to_string(),
         }
     }
@@ -525,12 +453,7 @@ impl RelayError {
                  still be on: cut the coil supply",
                 e.worded(w)
             ),
-            RelayError::OffFailed { cause, off } => format!(
-                "{}; then switching all coils off FAILED: {}; the coils may still be on: cut \
-                 the coil supply",
-                cause.worded(w),
-                off.worded(w)
-            ),
+            RelayError::OffFailed { cause, off } => off_failed(&cause.worded(w), off, w),
             RelayError::OffFailedResume { error, resume } => format!(
                 "{}; once every board answers again, resume with {} {resume}",
                 error.worded(w),
@@ -614,9 +537,7 @@ impl RelayError {
     /// The error that started it all (through `Stopped` and `OffFailed`).
     pub fn root(&self) -> &RelayError {
         match self {
-            RelayError::Stopped { cause, .. }
-            | RelayError::OffFailed { cause, .. }
-            | RelayError::LoopStopped { cause, .. } => cause.root(),
+            RelayError::Stopped { cause, .. } | RelayError::OffFailed { cause, .. } => cause.root(),
             RelayError::OnBoard { error, .. } | RelayError::OffFailedResume { error, .. } => {
                 error.root()
             }
@@ -628,10 +549,55 @@ impl RelayError {
     }
 }
 
-/// The end of `RelayError::LoopStopped`'s message: the last measurement's distance.
-fn last_distance(d: Option<f64>) -> String {
-    d.map(|d| format!(", the last measurement {d:.2} deg from the goal"))
-        .unwrap_or_default()
+impl RelayError {
+    /// An all-off that failed at the end of a replay (`EndOffFailed`, or `BoardsOffFailed`
+    /// without a cause) after the replay stopped on `cause`: `OffFailed`, or `BoardsOffFailed`
+    /// with that cause; the all-off's failure as it is without one.
+    pub fn after(self, cause: Option<RelayError>) -> RelayError {
+        match (self, cause) {
+            (RelayError::EndOffFailed(off), Some(c)) => RelayError::OffFailed {
+                cause: Box::new(c),
+                off,
+            },
+            (
+                RelayError::BoardsOffFailed {
+                    cause: None,
+                    failed,
+                    switched_off,
+                },
+                Some(c),
+            ) => RelayError::BoardsOffFailed {
+                cause: Some(Box::new(c)),
+                failed,
+                switched_off,
+            },
+            (e, _) => e,
+        }
+    }
+
+    /// The message of this all-off failure (as [`RelayError::after`] takes it) after a replay
+    /// that stopped on an error of a layer above, already worded: `cause`.
+    pub fn after_text(&self, cause: &str, w: &dyn Wording) -> String {
+        match self {
+            RelayError::EndOffFailed(off) => off_failed(cause, off, w),
+            RelayError::BoardsOffFailed {
+                cause: None,
+                failed,
+                switched_off,
+            } => boards_off_failed(Some(cause.to_string()), failed, switched_off, w),
+            e => format!("{cause}; then {}", e.worded(w)),
+        }
+    }
+}
+
+/// The message of a replay that stopped on `cause` (worded) and whose all-off then failed on
+/// its one board with `off`.
+fn off_failed(cause: &str, off: &RelayError, w: &dyn Wording) -> String {
+    format!(
+        "{cause}; then switching all coils off FAILED: {}; the coils may still be on: cut the \
+         coil supply",
+        off.worded(w)
+    )
 }
 
 /// Where a coil is switched, in messages: `channel 3`, or `board 1, channel 3`.
@@ -645,13 +611,13 @@ fn where_on(board: Option<usize>, channel: Channel) -> String {
 /// The message of `RelayError::BoardsOffFailed`: which boards failed and why, that their coils
 /// may still be on, and which boards were switched off.
 fn boards_off_failed(
-    cause: Option<&RelayError>,
+    cause: Option<String>,
     failed: &[RelayError],
     switched_off: &[String],
     w: &dyn Wording,
 ) -> String {
     let head = match cause {
-        Some(c) => format!("{}; then switching all coils off FAILED on ", c.worded(w)),
+        Some(c) => format!("{c}; then switching all coils off FAILED on "),
         None => "the replay finished, but switching all coils off FAILED on ".to_string(),
     };
     let why: Vec<String> = failed.iter().map(|e| e.worded(w)).collect();

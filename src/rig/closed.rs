@@ -15,6 +15,7 @@
 //! a coil reaches its limit ([`guard_margin`](crate::planning::on_time::guard_margin) ahead of it), then abandons the reading
 //! and the computation through the [`Cancel`] token they were given, and ends the replay.
 
+use super::error::RigError;
 use crate::model::geometry::Orientation;
 use crate::planning::cancel::Cancel;
 use crate::planning::closed_loop::{
@@ -42,8 +43,8 @@ enum Worked {
 }
 
 /// An error of the watched phase that only a bug can cause.
-fn internal(step: usize, what: &str) -> RelayError {
-    RelayError::Stuck {
+fn internal(step: usize, what: &str) -> RigError {
+    RigError::Stuck {
         step,
         message: format!("{what} (an internal error)"),
     }
@@ -86,14 +87,6 @@ pub struct ClosedSummary {
     pub replans: usize,
     /// The last measurement's angle from the goal, degrees.
     pub distance_deg: f64,
-}
-
-impl From<SensorError> for RelayError {
-    /// A sensor's error in a closed-loop replay (the relay layer knows no sensor: its
-    /// [`RelayError::Sensor`] holds it as it is).
-    fn from(e: SensorError) -> RelayError {
-        RelayError::Sensor(Box::new(e))
-    }
 }
 
 /// Refuses the replay options a closed loop cannot honour: a dry run (nothing would measure the
@@ -139,7 +132,7 @@ pub fn execute_closed(
     sensing: Sensing,
     stop: Arc<AtomicBool>,
     out: &mut dyn Write,
-) -> Result<ClosedSummary, RelayError> {
+) -> Result<ClosedSummary, RigError> {
     refuse_options(&prep.drive, links.iter().all(Link::is_dry_run))?;
     let Sensing {
         mut sensor,
@@ -233,20 +226,20 @@ struct Senses {
 impl Hardware<'_, '_, '_> {
     /// All off, then the closed loop ([`drive`]) until the controller is done (`Ok`) or
     /// something stops it.
-    fn run(&mut self, ctl: &mut Controller) -> Result<(), RelayError> {
+    fn run(&mut self, ctl: &mut Controller) -> Result<(), RigError> {
         self.r.start_off()?;
         let (ending, step) = drive(ctl, self)?;
         match ending {
             Ending::Done => match self.senses.last {
                 // the loop decided on its estimate: the measurement must agree
-                Some(d) if d > ctl.goal_tolerance_deg() => Err(RelayError::Stuck {
+                Some(d) if d > ctl.goal_tolerance_deg() => Err(RigError::Stuck {
                     step,
                     message: crate::planning::closed_loop::not_at_goal(d, ctl.goal_tolerance_deg()),
                 }),
-                _ => self.r.mark(step, "goal"),
+                _ => Ok(self.r.mark(step, "goal")?),
             },
-            Ending::Stuck(message) => Err(RelayError::Stuck { step, message }),
-            Ending::MaxSteps => Err(RelayError::MaxSteps {
+            Ending::Stuck(message) => Err(RigError::Stuck { step, message }),
+            Ending::MaxSteps => Err(RigError::MaxSteps {
                 steps: step,
                 max: ctl.max_steps(),
                 distance_deg: self.senses.last.unwrap_or(f64::NAN),
@@ -265,7 +258,7 @@ impl Senses {
         step: usize,
         planned: &Orientation,
         decide: &mut Decide<'_>,
-    ) -> Result<(Orientation, Decision), RelayError> {
+    ) -> Result<(Orientation, Decision), RigError> {
         let cancel = self.cancel.clone();
         let phase = AtomicU8::new(WAITING);
         let goal = self.goal;
@@ -277,7 +270,7 @@ impl Senses {
             let worker = std::thread::Builder::new()
                 .name("closed-loop decision".into())
                 .spawn_scoped(scope, work)
-                .map_err(|e| RelayError::Stuck {
+                .map_err(|e| RigError::Stuck {
                     step,
                     message: format!("cannot start the thread that reads the sensor: {e}"),
                 })?;
@@ -289,7 +282,7 @@ impl Senses {
                             Ok(to_goal) => *last = Some(to_goal),
                             Err(e) => {
                                 cancel.cancel();
-                                break Err(e);
+                                break Err(e.into());
                             }
                         }
                     }
@@ -303,7 +296,7 @@ impl Senses {
                     // off first, then abandon what the worker does
                     let _ = r.all_off();
                     cancel.cancel();
-                    break Err(e);
+                    break Err(e.into());
                 }
             };
             if worker.join().is_err() && outcome.is_ok() {
@@ -315,7 +308,7 @@ impl Senses {
 }
 
 impl Plant for Hardware<'_, '_, '_> {
-    type Error = RelayError;
+    type Error = RigError;
 
     /// Switches the next entry of the plan in force, verifies (`--verify`), dwells, reads the
     /// sensor and decides (watched, see the module comment).
@@ -324,9 +317,9 @@ impl Plant for Hardware<'_, '_, '_> {
         _step: usize,
         row: &PlanRow,
         decide: &mut Decide<'_>,
-    ) -> Result<(Orientation, Decision), RelayError> {
+    ) -> Result<(Orientation, Decision), RigError> {
         let Some(e) = self.entries.get(self.index).cloned() else {
-            return Err(RelayError::Stuck {
+            return Err(RigError::Stuck {
                 step: self.steps,
                 message: "the plan in force has no step left".into(),
             });
@@ -337,7 +330,7 @@ impl Plant for Hardware<'_, '_, '_> {
         let (q, decision) = self.r.play(&e, |r| {
             let decided = senses.sense_and_decide(r, e.step, &row.q, decide)?;
             r.check_stop()?;
-            Ok(decided)
+            Ok::<_, RigError>(decided)
         })?;
         if decision == Decision::Continue {
             self.index += 1;
@@ -348,7 +341,7 @@ impl Plant for Hardware<'_, '_, '_> {
 
     /// The controller replanned after the entry switched last: checks the new plan from what
     /// is on now and makes it the plan in force, or refuses it (nothing of it switched).
-    fn replanned(&mut self, step: usize, ctl: &Controller) -> Result<(), RelayError> {
+    fn replanned(&mut self, step: usize, ctl: &Controller) -> Result<(), RigError> {
         let e = (self.current.clone())
             .ok_or_else(|| internal(step, "a replan before any step was switched"))?;
         let r = &mut *self.r;
@@ -357,7 +350,7 @@ impl Plant for Hardware<'_, '_, '_> {
         for (j, row) in rows.iter_mut().enumerate() {
             row.step = e.step + 1 + j;
         }
-        let refused = |cause| RelayError::ReplanRefused {
+        let refused = |cause| RigError::ReplanRefused {
             step: e.step,
             replan,
             cause: Box::new(cause),
@@ -424,13 +417,29 @@ fn fired(r: &Runner, phase: u8) -> Result<(), RelayError> {
 /// Switches everything off and reports: the summary at the goal, else why it stopped.
 fn finish(
     r: &mut Runner,
-    result: Result<(), RelayError>,
+    result: Result<(), RigError>,
     steps: usize,
     last: Option<f64>,
     replans: usize,
-) -> Result<ClosedSummary, RelayError> {
-    match r.close(result)? {
+) -> Result<ClosedSummary, RigError> {
+    let (off, written) = r.close_off();
+    let result = result.map_err(|e| match e {
+        RigError::Relay(e) => RigError::Relay(r.with_off_time(e)),
+        e => e,
+    });
+    if let Some(off) = off {
+        return Err(match result {
+            Ok(()) => RigError::Relay(off),
+            Err(RigError::Relay(cause)) => RigError::Relay(off.after(Some(cause))),
+            Err(cause) => RigError::OffFailed {
+                cause: Box::new(cause),
+                off: Box::new(off),
+            },
+        });
+    }
+    match result {
         Ok(()) => {
+            written?;
             let d = last.unwrap_or(f64::NAN);
             r.say(&format!(
                 "closed loop done: at the goal after {} step(s), {replans} replan(s); the last measurement {d:.2} deg from the goal; all coils off",
@@ -442,7 +451,7 @@ fn finish(
                 distance_deg: d,
             })
         }
-        Err(cause) => Err(RelayError::LoopStopped {
+        Err(cause) => Err(RigError::LoopStopped {
             cause: Box::new(cause),
             steps,
             replans,

@@ -84,6 +84,20 @@ pub fn sampled_path_deviation_deg(
         .fold(0.0, f64::max)
 }
 
+/// Replay's own check of a plan's rows in `sc` (the dry run's, before any byte is sent): every
+/// coil mapped on a 16-channel Numato board, coils on at once counting the transitions, and
+/// each coil's continuous on-time within `relay.max_on_time_s`, realtime, with the plan's
+/// dwells.
+pub fn replay_check(
+    sc: &Scenario,
+    rows: &[spherestep::PlanRow],
+) -> Result<spherestep::relay::replay::Schedule, spherestep::relay::RelayError> {
+    use spherestep::relay::replay::{schedule, Mode};
+    let board = spherestep::relay::BoardKind::Numato;
+    let stator = sc.stator.points.len();
+    schedule(rows, &sc.relay, board, 16, stator, None, 0, Mode::Realtime)
+}
+
 /// Every file below `dir`, at any depth (folders left out), sorted.
 pub fn files_below(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     let mut out = Vec::new();

@@ -28,6 +28,41 @@ pub fn line_of(q: &Orientation) -> String {
     format!("{},{},{},{}", q.w, q.i, q.j, q.k)
 }
 
+/// What a quat-csv far end does next ([`quat_csv_end`]).
+pub enum Next {
+    /// Print this line (a reading, or garbage).
+    Line(String),
+    /// Print nothing this time.
+    Skip,
+    /// Close its end.
+    Close,
+}
+
+/// A quat-csv far end: every 10 ms, what `next` says, until `done` (or [`GUARD`]), or until its
+/// port cannot be written.
+pub fn quat_csv_end(
+    mut port: TTYPort,
+    done: Arc<AtomicBool>,
+    mut next: impl FnMut() -> Next + Send + 'static,
+) -> JoinHandle<()> {
+    use std::io::Write;
+    std::thread::spawn(move || {
+        let start = Instant::now();
+        while !done.load(Ordering::SeqCst) && start.elapsed() < GUARD {
+            match next() {
+                Next::Close => return,
+                Next::Skip => {}
+                Next::Line(line) => {
+                    if port.write_all(format!("{line}\r\n").as_bytes()).is_err() {
+                        return;
+                    }
+                }
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    })
+}
+
 /// The plant the controller runs on offline: each row switched reports the row's predicted
 /// orientation (as the replay decodes it from a printed line), turned 4 degrees about X after
 /// step `stray`; the script of what was switched and reported.

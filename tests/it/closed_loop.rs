@@ -43,22 +43,27 @@ fn about(sc: &Scenario, axis: &str) -> spherestep::planning::plan::PlanSettings 
 fn play_with(model: &str, plant: &str, axis: &str, o: &LoopOptions) -> (Vec<u8>, RunSummary) {
     let sc = load(model);
     let plant = load(plant);
-    let s = about(&sc, axis);
+    let (summary, csv) = run_in_process(&sc, &plant, &about(&sc, axis), o);
+    (csv, summary.unwrap())
+}
+
+/// `spherestep run` in-process: planned in `sc` with `s`, played on `plant` as `o` says, the
+/// CSV (and any note) into a buffer: the summary, or the refusal, and the CSV.
+fn run_in_process(
+    sc: &Scenario,
+    plant: &Scenario,
+    s: &spherestep::planning::plan::PlanSettings,
+    o: &LoopOptions,
+) -> (spherestep::Result<RunSummary>, Vec<u8>) {
     let (mut csv, mut note) = (Vec::new(), Vec::new());
-    let summary = run_command(
-        &sc,
-        &plant,
-        &s,
-        o,
-        Report {
-            file: None,
-            json: false,
-            out: &mut csv,
-            note: &mut note,
-        },
-    )
-    .unwrap();
-    (csv, summary)
+    let report = Report {
+        file: None,
+        json: false,
+        out: &mut csv,
+        note: &mut note,
+    };
+    let summary = run_command(sc, plant, s, o, report);
+    (summary, csv)
 }
 
 const WORN: &str = "scenarios/plants/broad-wells-worn.toml";
@@ -336,14 +341,7 @@ fn a_sensor_noise_beyond_ten_degrees_is_refused_before_planning() {
         max_steps: None,
         identify: true,
     };
-    let (mut csv, mut note) = (Vec::new(), Vec::new());
-    let report = Report {
-        file: None,
-        json: false,
-        out: &mut csv,
-        note: &mut note,
-    };
-    let e = run_command(&sc, &sc, &s, &o(10.5), report).unwrap_err();
+    let e = run_in_process(&sc, &sc, &s, &o(10.5)).0.unwrap_err();
     assert!(e.to_string().contains("--sensor-noise-deg"), "{e}");
     let cl = spherestep::commands::closed_loop::loop_settings(&o(10.0), 6).unwrap();
     assert!((cl.goal_tolerance.0.to_degrees() - 20.0).abs() < 1e-9);
@@ -444,14 +442,8 @@ fn the_worst_axis_error_of_a_run_leaves_out_rotations_too_small_to_have_an_axis(
         max_steps: None,
         identify: true,
     };
-    let (mut csv, mut note) = (Vec::new(), Vec::new());
-    let report = Report {
-        file: None,
-        json: false,
-        out: &mut csv,
-        note: &mut note,
-    };
-    let summary = run_command(&sc, &plant, &s, &o, report).unwrap();
+    let (summary, csv) = run_in_process(&sc, &plant, &s, &o);
+    let summary = summary.unwrap();
     let text = String::from_utf8(csv).unwrap();
     let rows: Vec<(f64, f64)> = text
         .lines()

@@ -18,6 +18,7 @@ mod coilsets;
 mod front_door;
 mod identify;
 mod input_checks;
+mod layers;
 mod memory;
 mod path_deviation;
 mod physical;

@@ -4,8 +4,6 @@
 
 use spherestep::commands::{plan_settings, PlanOverrides};
 use spherestep::io::scenario::Scenario;
-use spherestep::relay::replay::{schedule, Mode};
-use spherestep::relay::BoardKind;
 use std::path::Path;
 
 #[test]
@@ -26,16 +24,7 @@ fn the_default_plans_pass_replays_schedule_check() {
         let p = sc.motor().plan(&s);
         let off = p.summary(&s).final_orientation_error_deg;
         assert!(off < 2.0, "about {axis}: {:?}", p.message);
-        let checked = schedule(
-            &p.rows,
-            &sc.relay,
-            BoardKind::Numato,
-            16,
-            sc.stator.points.len(),
-            None,
-            0,
-            Mode::Realtime,
-        );
+        let checked = crate::common::replay_check(&sc, &p.rows);
         assert!(checked.is_ok(), "about {axis}: {:?}", checked.err());
     }
 }

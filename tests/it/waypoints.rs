@@ -7,8 +7,6 @@ use crate::common;
 
 use spherestep::io::planfile::{parse_plan_waypoints, write_waypoint_plan};
 use spherestep::io::waypoints::read_waypoints;
-use spherestep::relay::replay::{schedule, Mode};
-use spherestep::relay::BoardKind;
 use spherestep::{Scenario, WaypointPlan};
 use std::path::Path;
 
@@ -80,16 +78,7 @@ fn check_path(sc: &Scenario, p: &WaypointPlan, tolerance_deg: f64, name: &str) {
     );
     assert!(sim.iter().all(|s| s.settled), "{name}: an unsettled step");
     // and replay takes it: coils on at once, counting the transitions, and every on-time
-    let checked = schedule(
-        &p.rows,
-        &sc.relay,
-        BoardKind::Numato,
-        16,
-        sc.stator.points.len(),
-        None,
-        0,
-        Mode::Realtime,
-    );
+    let checked = common::replay_check(sc, &p.rows);
     assert!(checked.is_ok(), "{name}: {:?}", checked.err());
 }
 

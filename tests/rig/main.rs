@@ -9,6 +9,13 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+/// `examples/hardware_check.rs`, the wiring check, called as its `main` calls it.
+#[path = "../../examples/hardware_check.rs"]
+#[allow(dead_code)]
+mod example;
+
+mod hardware;
+mod hardware_check;
 mod relay_boards;
 mod relay_closed_loop;
 mod relay_safety;

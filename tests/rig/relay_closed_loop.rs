@@ -6,7 +6,9 @@
 //! closes or sends garbage mid-run: every coil off on both boards, the sensor named.
 
 use crate::common::relay_support;
-use crate::common::scripted::{board, line_of, offline, Ball, Received, Script, Shared};
+use crate::common::scripted::{
+    board, line_of, offline, quat_csv_end, Ball, Next, Received, Script, Shared,
+};
 
 use relay_support::{lcus_all_off, path_of, pty, GUARD};
 use serialport::{SerialPort, TTYPort};
@@ -17,6 +19,7 @@ use spherestep::model::geometry::Radians;
 use spherestep::planning::closed_loop::{run_closed_loop, LoopSettings};
 use spherestep::relay::{Link, RelayError};
 use spherestep::rig::ClosedSummary;
+use spherestep::rig::RigError;
 use spherestep::sensor::bno055::FusionMode;
 use spherestep::sensor::{self, quat_csv::parse_line, SensorFormat};
 use std::collections::BTreeSet;
@@ -119,33 +122,18 @@ enum Fault {
 }
 
 /// A quat-csv far end: prints the plant's orientation every 10 ms until `done`.
-fn printer(
-    mut port: TTYPort,
-    plant: Shared,
-    fault: Fault,
-    done: Arc<AtomicBool>,
-) -> JoinHandle<()> {
-    std::thread::spawn(move || {
-        let start = Instant::now();
-        while !done.load(Ordering::SeqCst) && start.elapsed() < GUARD {
-            let (at, q) = {
-                let p = plant.lock().unwrap();
-                (p.at, p.now())
-            };
-            let line = match fault {
-                Fault::Close(k) if at == Some(k) => return,
-                Fault::Garbage(k, text) if at == Some(k) => text.to_string(),
-                Fault::Always(text) if at.is_some() => text.to_string(),
-                Fault::Silent if at.is_some() => {
-                    std::thread::sleep(Duration::from_millis(10));
-                    continue;
-                }
-                _ => line_of(&q),
-            };
-            if port.write_all(format!("{line}\r\n").as_bytes()).is_err() {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(10));
+fn printer(port: TTYPort, plant: Shared, fault: Fault, done: Arc<AtomicBool>) -> JoinHandle<()> {
+    quat_csv_end(port, done, move || {
+        let (at, q) = {
+            let p = plant.lock().unwrap();
+            (p.at, p.now())
+        };
+        match fault {
+            Fault::Close(k) if at == Some(k) => Next::Close,
+            Fault::Garbage(k, text) if at == Some(k) => Next::Line(text.to_string()),
+            Fault::Always(text) if at.is_some() => Next::Line(text.to_string()),
+            Fault::Silent if at.is_some() => Next::Skip,
+            _ => Next::Line(line_of(&q)),
         }
     })
 }
@@ -194,7 +182,7 @@ fn bno055(
 
 /// What one closed-loop replay gave.
 struct Ran {
-    result: Result<ClosedSummary, RelayError>,
+    result: Result<ClosedSummary, RigError>,
     text: String,
     frames: [Vec<u8>; 2],
     /// What the boards' far ends received, with when.
@@ -268,8 +256,8 @@ fn run_with(
     let log = std::fs::read_to_string(inputs.prep.drive.log.as_ref().unwrap()).unwrap_or_default();
     Ran {
         result: result.map_err(|e| match e {
-            spherestep::Error::Relay(r) => r,
-            other => panic!("expected a relay error, got: {other}"),
+            spherestep::Error::Rig(r) => r,
+            other => panic!("expected the rig's error, got: {other}"),
         }),
         text: String::from_utf8_lossy(&out).into_owned(),
         frames,
@@ -566,8 +554,10 @@ fn faulty(fault: Fault) -> (Ran, String) {
         Ok(s) => panic!("the replay went on: {s:?}\n{}", ran.text),
         Err(e) => e.to_string(),
     };
+    // the sensor's error arrives as the sensor's, inside the loop's stop
     assert!(
-        matches!(ran.result, Err(RelayError::LoopStopped { .. })),
+        matches!(&ran.result, Err(RigError::LoopStopped { cause, .. })
+            if matches!(**cause, RigError::Sensor(_))),
         "{e}"
     );
     assert_eq!(
@@ -628,11 +618,12 @@ fn switched_off_before_the_limit(ran: &Ran, limit: Duration, phase: &str) {
         Ok(s) => panic!("the replay went on: {s:?}\n{}", ran.text),
         Err(e) => e,
     };
-    let Err(RelayError::LoopStopped { cause, .. }) = &ran.result else {
+    let Err(RigError::LoopStopped { cause, .. }) = &ran.result else {
         panic!("{e}");
     };
     assert!(
-        matches!(&**cause, RelayError::OnTimeReached { phase: p, .. } if p.ends_with(phase)),
+        matches!(&**cause, RigError::Relay(RelayError::OnTimeReached { phase: p, .. })
+            if p.ends_with(phase)),
         "{e}\n{}",
         ran.text
     );

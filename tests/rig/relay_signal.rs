@@ -58,6 +58,14 @@ fn signal_mid_replay(signal: &str) {
     assert!(killed.success());
     let got = read_n(&mut board, 32);
     assert_eq!(got, all_off_lcus());
+    interrupted(child);
+    assert!(leftover(&mut board).is_empty());
+    drop(computer);
+}
+
+/// The output of a replay stopped by a signal: it failed, saying every coil was switched off
+/// and to resume from step 0.
+fn interrupted(child: std::process::Child) -> std::process::Output {
     let out = child.wait_with_output().unwrap();
     assert!(!out.status.success(), "exit status {:?}", out.status);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -66,8 +74,7 @@ fn signal_mid_replay(signal: &str) {
             .contains("interrupted by a signal; all coils switched off; resume with --from-step 0"),
         "{stderr}"
     );
-    assert!(leftover(&mut board).is_empty());
-    drop(computer);
+    out
 }
 
 #[test]
@@ -191,14 +198,7 @@ fn sigterm_mid_replay_on_two_boards_sends_all_off_to_both() {
     assert!(killed.success());
     assert_eq!(read_n(&mut board0, 32), all_off_lcus());
     assert_eq!(read_n(&mut board1, 32), all_off_lcus());
-    let out = child.wait_with_output().unwrap();
-    assert!(!out.status.success(), "exit status {:?}", out.status);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        stderr
-            .contains("interrupted by a signal; all coils switched off; resume with --from-step 0"),
-        "{stderr}"
-    );
+    let out = interrupted(child);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.starts_with("replaying on 2 boards: make-before-break, realtime, steps 0..=1"),

@@ -8,7 +8,7 @@
 //! bad mounting is refused naming the file and the field.
 
 use crate::common::relay_support;
-use crate::common::scripted::{board, line_of, offline, Ball, Script, Shared};
+use crate::common::scripted::{board, line_of, offline, quat_csv_end, Ball, Next, Script, Shared};
 
 use relay_support::{path_of, pty, GUARD};
 use serialport::{SerialPort, TTYPort};
@@ -93,25 +93,10 @@ fn prepared(dir: &Path, sensor: Option<&str>, format: SensorFormat) -> ClosedInp
 }
 
 /// A quat-csv far end printing what the sensor reads every 10 ms (nothing when `silent`).
-fn printer(
-    mut port: TTYPort,
-    plant: Shared,
-    silent: bool,
-    done: Arc<AtomicBool>,
-) -> JoinHandle<()> {
-    std::thread::spawn(move || {
-        let start = Instant::now();
-        while !done.load(Ordering::SeqCst) && start.elapsed() < GUARD {
-            let s = plant.lock().unwrap().sensed();
-            if !silent
-                && port
-                    .write_all(format!("{}\r\n", line_of(&s)).as_bytes())
-                    .is_err()
-            {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
+fn printer(port: TTYPort, plant: Shared, silent: bool, done: Arc<AtomicBool>) -> JoinHandle<()> {
+    quat_csv_end(port, done, move || match silent {
+        true => Next::Skip,
+        false => Next::Line(line_of(&plant.lock().unwrap().sensed())),
     })
 }
 

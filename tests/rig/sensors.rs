@@ -85,6 +85,19 @@ fn one(line: &str) -> Vec<Vec<u8>> {
     vec![line.as_bytes().to_vec()]
 }
 
+/// Reads `s`, which must time out after [`TIMEOUT`] (within a second more) saying `message`.
+fn times_out(s: &mut dyn OrientationSensor, message: &str) {
+    let t = Instant::now();
+    let e = s.read().unwrap_err();
+    let took = t.elapsed();
+    assert!(matches!(e, SensorError::Timeout { .. }), "{e:?}");
+    assert_eq!(e.to_string(), message);
+    assert!(
+        took >= TIMEOUT && took < TIMEOUT + Duration::from_secs(1),
+        "{took:?}"
+    );
+}
+
 fn quat_csv_on(slave: TTYPort, timeout: Duration) -> Box<dyn OrientationSensor> {
     sensor::from_port(SensorFormat::QuatCsv, Box::new(slave), "pty", timeout)
         .expect("a quat-csv sensor")
@@ -250,17 +263,9 @@ fn quat_csv_control_bytes_are_escaped_in_messages() {
 fn quat_csv_silence_is_a_timeout() {
     let (mut master, slave) = pty();
     let mut s = quat_csv_on(slave, TIMEOUT);
-    let t = Instant::now();
-    let e = s.read().unwrap_err();
-    let took = t.elapsed();
-    assert!(matches!(e, SensorError::Timeout { .. }), "{e:?}");
-    assert_eq!(
-        e.to_string(),
-        "sensor pty (quat-csv): no reading within 300 ms (nothing received)"
-    );
-    assert!(
-        took >= TIMEOUT && took < TIMEOUT + Duration::from_secs(1),
-        "{took:?}"
+    times_out(
+        s.as_mut(),
+        "sensor pty (quat-csv): no reading within 300 ms (nothing received)",
     );
     // Only stale lines: still a timeout, which says so.
     master.write_all(b"1,0,0,0\n0,1,0,0\n").unwrap();
@@ -594,17 +599,9 @@ fn bno055_silence_and_half_replies_are_timeouts_and_a_late_rest_is_drained() {
         ],
         TIMEOUT,
     );
-    let t = Instant::now();
-    let e = s.read().unwrap_err();
-    let took = t.elapsed();
-    assert!(matches!(e, SensorError::Timeout { .. }), "{e:?}");
-    assert_eq!(
-        e.to_string(),
-        "sensor pty (bno055): no complete reply to read QUA_Data (0x20, 8 bytes) within 300 ms (nothing received)"
-    );
-    assert!(
-        took >= TIMEOUT && took < TIMEOUT + Duration::from_secs(1),
-        "{took:?}"
+    times_out(
+        s.as_mut(),
+        "sensor pty (bno055): no complete reply to read QUA_Data (0x20, 8 bytes) within 300 ms (nothing received)",
     );
 
     let e = s.read().unwrap_err();

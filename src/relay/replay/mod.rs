@@ -28,9 +28,9 @@ mod stdin;
 pub use log::{check_log, LOG_HEADER, LOG_HEADER_BOARDS, LOG_SENSOR_COLUMNS};
 #[cfg(feature = "hardware")]
 pub use ports::open_ports;
-pub use ports::{prepare, Drive, Prepared};
+pub use ports::{prepare, prepare_check, Drive, Prepared};
 pub use runner::{execute, execute_on, Summary};
-pub use schedule::{dwell, schedule, schedule_on, Entry, Mode, Schedule, Switch};
+pub use schedule::{coil_check, dwell, schedule, schedule_on, Entry, Mode, Schedule, Switch};
 pub use stdin::stdin_lines;
 
 pub(crate) use log::LogKind;

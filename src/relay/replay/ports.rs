@@ -1,7 +1,8 @@
 //! The replay's boards resolved from the settings and the command line, and their serial
 //! ports opened (the boards already open switched off when one fails to open).
 
-use super::schedule::{schedule_on, Mode, Schedule};
+use super::schedule::{coil_check, schedule_on, Mode, Schedule};
+use crate::model::geometry::CoilId;
 use crate::planning::plan::PlanRow;
 use crate::relay::{
     connect, BoardKind, BoardSpec, Fields, Link, RelayError, RelaySettings, Setting, Wording,
@@ -65,11 +66,7 @@ pub fn prepare(
     stator_coils: usize,
     drive: Drive,
 ) -> Result<Prepared, RelayError> {
-    let boards = if settings.boards.is_empty() {
-        vec![single_board(&settings, &drive)?]
-    } else {
-        listed_boards(&settings, &drive)?
-    };
+    let boards = boards_of(&settings, &drive)?;
     let schedule = schedule_on(
         rows,
         &settings,
@@ -86,6 +83,62 @@ pub fn prepare(
         drive,
         wording: &Fields,
     })
+}
+
+/// Resolves the boards of `settings` as [`prepare`] does and works out the checked schedule of
+/// a wiring check ([`coil_check`]: each of `coils`, or every coil a channel drives, on alone
+/// for `drive.dwell_ms`, then off for as long), to play with the runner of a replay
+/// ([`execute_on`](super::execute_on)) under its limits. `drive.mode` must be realtime and
+/// `drive.from_step` 0 (step mode and a resume are a plan's).
+pub fn prepare_check(
+    coils: Option<&[CoilId]>,
+    settings: RelaySettings,
+    stator_coils: usize,
+    drive: Drive,
+) -> Result<Prepared, RelayError> {
+    let refuse = |setting, expected: &str| RelayError::Setting {
+        setting,
+        expected: expected.into(),
+    };
+    if drive.mode != Mode::Realtime {
+        return Err(refuse(
+            Setting::Mode,
+            "realtime (a wiring check waits for no Enter)",
+        ));
+    }
+    if drive.from_step != 0 {
+        return Err(refuse(
+            Setting::FromStep,
+            "0 (a wiring check has no step to resume from)",
+        ));
+    }
+    let on = match drive.dwell_ms {
+        Some(ms) if ms > 0 => Duration::from_millis(ms),
+        _ => {
+            return Err(refuse(
+                Setting::Dwell,
+                "how long each coil of a wiring check stays on, over 0 ms",
+            ))
+        }
+    };
+    let boards = boards_of(&settings, &drive)?;
+    let schedule = coil_check(coils, &settings, &boards, stator_coils, on)?;
+    Ok(Prepared {
+        settings,
+        boards,
+        schedule,
+        drive,
+        wording: &Fields,
+    })
+}
+
+/// The boards of `settings` under the overrides of `drive`: the single board, or the listed ones.
+fn boards_of(settings: &RelaySettings, drive: &Drive) -> Result<Vec<BoardSpec>, RelayError> {
+    if settings.boards.is_empty() {
+        Ok(vec![single_board(settings, drive)?])
+    } else {
+        listed_boards(settings, drive)
+    }
 }
 
 /// The board of the single-board form: `--board`/`--baud` over the settings, one `--port`.

@@ -650,7 +650,7 @@ impl Runner<'_> {
 
     /// The guard's error `e` (if it is one) with the on-time its coil had when its board's
     /// all-off went out.
-    fn with_off_time(&self, mut e: RelayError) -> RelayError {
+    pub(crate) fn with_off_time(&self, mut e: RelayError) -> RelayError {
         if let RelayError::OnTimeReached {
             board,
             channel,
@@ -667,29 +667,18 @@ impl Runner<'_> {
         e
     }
 
-    /// The error of a replay that ended (with `cause`, or finished) with an all-off that
-    /// failed on the `failed` boards.
-    fn off_failed(
-        &self,
-        cause: Option<RelayError>,
-        mut failed: Vec<(usize, RelayError)>,
-    ) -> RelayError {
+    /// The error of a replay whose all-off failed on the `failed` boards (`EndOffFailed`, or
+    /// `BoardsOffFailed` without a cause: [`RelayError::after`] adds the replay's error).
+    fn off_failed(&self, mut failed: Vec<(usize, RelayError)>) -> RelayError {
         if !self.listed && failed.len() == 1 {
-            let off = Box::new(failed.remove(0).1);
-            return match cause {
-                None => RelayError::EndOffFailed(off),
-                Some(c) => RelayError::OffFailed {
-                    cause: Box::new(c),
-                    off,
-                },
-            };
+            return RelayError::EndOffFailed(Box::new(failed.remove(0).1));
         }
         let switched_off = (0..self.boards.len())
             .filter(|i| failed.iter().all(|(j, _)| j != i))
             .map(|i| format!("board {i} ({})", self.boards[i].port))
             .collect();
         RelayError::BoardsOffFailed {
-            cause: cause.map(Box::new),
+            cause: None,
             failed: failed.into_iter().map(|(i, e)| self.on(i, e)).collect(),
             switched_off,
         }
@@ -762,17 +751,25 @@ impl Runner<'_> {
         &mut self,
         result: Result<T, RelayError>,
     ) -> Result<Result<T, RelayError>, RelayError> {
-        let (failed, shown) = self.all_off();
+        let (off, written) = self.close_off();
         let result = result.map_err(|e| self.with_off_time(e));
-        let flushed = self.flush_log();
-        if !failed.is_empty() {
-            return Err(self.off_failed(result.err(), failed));
+        if let Some(off) = off {
+            return Err(off.after(result.err()));
         }
         if result.is_ok() {
-            shown?;
-            flushed?;
+            written?;
         }
         Ok(result)
+    }
+
+    /// Switches every board all off (tried whatever happened), records it and flushes the
+    /// log: the all-off's failure, if any (`EndOffFailed` or `BoardsOffFailed` without a
+    /// cause: see [`RelayError::after`]), and whether the all-off was printed and logged.
+    pub(crate) fn close_off(&mut self) -> (Option<RelayError>, Result<(), RelayError>) {
+        let (failed, shown) = self.all_off();
+        let flushed = self.flush_log();
+        let off = (!failed.is_empty()).then(|| self.off_failed(failed));
+        (off, shown.and(flushed))
     }
 
     /// The all-off before the first step (the boards' state is unknown), stopping at a board
@@ -792,11 +789,11 @@ impl Runner<'_> {
     /// `then` (where the rig's closed loop reads the sensor and decides, under its watch) and
     /// marks the step done. The one step sequence of the open-loop replay and of the closed
     /// loop.
-    pub(crate) fn play<T>(
+    pub(crate) fn play<T, E: From<RelayError>>(
         &mut self,
         e: &Entry,
-        then: impl FnOnce(&mut Self) -> Result<T, RelayError>,
-    ) -> Result<T, RelayError> {
+        then: impl FnOnce(&mut Self) -> Result<T, E>,
+    ) -> Result<T, E> {
         self.next_step = if e.hold { e.step + 1 } else { e.step };
         self.switch(e)?;
         self.verify_entry(e)?;
@@ -846,7 +843,7 @@ impl Runner<'_> {
                     return Ok(true);
                 }
             }
-            self.play(e, |_| Ok(()))?;
+            self.play(e, |_| Ok::<(), RelayError>(()))?;
         }
         if self.mode == Mode::Step {
             // Enter or q: either way everything goes off now.

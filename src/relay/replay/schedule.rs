@@ -183,30 +183,95 @@ pub(crate) fn entries_from(
     dwell_override: Option<Duration>,
     from: Resume,
 ) -> Result<Vec<Entry>, RelayError> {
+    let targets = rows.iter().map(|row| Target {
+        step: row.step,
+        coils: row.active.iter().map(|p| p.coil).collect(),
+        dwell: dwell(row, settings, dwell_override),
+        unsettled: !row.settled && dwell_override.is_none(),
+    });
+    entries_of(targets, settings, boards, stator_coils, from)
+}
+
+/// What one entry switches to: the coils on after it, and its dwell.
+struct Target {
+    step: usize,
+    coils: Vec<CoilId>,
+    dwell: Duration,
+    unsettled: bool,
+}
+
+/// The entries switching to each of `targets` in turn from what `from` says is on, checked as
+/// [`entries_from`] says.
+fn entries_of(
+    targets: impl Iterator<Item = Target>,
+    settings: &RelaySettings,
+    boards: &[BoardSpec],
+    stator_coils: usize,
+    from: Resume,
+) -> Result<Vec<Entry>, RelayError> {
     let mut entries = Vec::new();
     let mut prev = from.on;
-    for (k, row) in rows.iter().enumerate() {
+    for (k, t) in targets.enumerate() {
         let mut target = BTreeMap::new();
-        for p in &row.active {
-            let slot = slot_of(p.coil, row.step, settings, boards, stator_coils)?;
-            target.insert(slot, p.coil);
+        for &coil in &t.coils {
+            let slot = slot_of(coil, t.step, settings, boards, stator_coils)?;
+            target.insert(slot, coil);
         }
         let (switches, peak) = transition(&prev, &target, settings.order);
         if peak > settings.max_coils_on {
-            return Err(too_many_on(row.step, peak, &prev, &target, settings));
+            return Err(too_many_on(t.step, peak, &prev, &target, settings));
         }
         entries.push(Entry {
-            step: row.step,
+            step: t.step,
             hold: k == 0 && from.hold_first,
             switches,
             on_after: target.clone(),
             peak,
-            dwell: dwell(row, settings, dwell_override),
-            unsettled: !row.settled && dwell_override.is_none(),
+            dwell: t.dwell,
+            unsettled: t.unsettled,
         });
         prev = target;
     }
     Ok(entries)
+}
+
+/// The schedule of a wiring check (`examples/hardware_check.rs`): each of `coils` on alone
+/// for `on` (entry `2k` for the k-th coil), then nothing on for `on` (entry `2k + 1`); `None`:
+/// every coil of the stator that a channel of the boards drives, in order. Checked as a plan's
+/// schedule is (the coils mapped, coils on at once, each coil's on-time), so that the runner
+/// plays it under the limits of a replay.
+pub fn coil_check(
+    coils: Option<&[CoilId]>,
+    settings: &RelaySettings,
+    boards: &[BoardSpec],
+    stator_coils: usize,
+    on: Duration,
+) -> Result<Schedule, RelayError> {
+    let driven = |c: CoilId| slot_of(c, 0, settings, boards, stator_coils);
+    let coils: Vec<CoilId> = match coils {
+        Some(c) => c.to_vec(),
+        None => (0..stator_coils)
+            .map(CoilId)
+            .filter(|&c| driven(c).is_ok())
+            .collect(),
+    };
+    if coils.is_empty() {
+        // no coil is driven: why not the first
+        driven(CoilId(0))?;
+    }
+    let targets = coils.iter().enumerate().flat_map(|(k, &coil)| {
+        let target = |step, coils| Target {
+            step,
+            coils,
+            dwell: on,
+            unsettled: false,
+        };
+        [target(2 * k, vec![coil]), target(2 * k + 1, Vec::new())]
+    });
+    let entries = entries_of(targets, settings, boards, stator_coils, Resume::default())?;
+    let listed = !settings.boards.is_empty();
+    check_on_time(&entries, settings.max_on_time, listed, BTreeMap::new())?;
+    Ok(Schedule { entries })
 }
 
 /// The switching from what is on (`prev`, by board and channel) to `target`, in the order it
