@@ -11,9 +11,9 @@
 //!   of `magnetics`.
 //! - [`RealParts::torque_y`]: one energised coil's pull on one magnet. With a point magnet it
 //!   is the sum of `magnetics`' exact loop torques over a Gauss-Legendre grid of loops across
-//!   the winding's cross-section ([`GRID_ORDER`] x [`GRID_ORDER`]); with a finite magnet it is minus the Lorentz torque on those
-//!   loops (each sampled at [`LOOP_POINTS`] points) in the magnet's field, about the rotor
-//!   centre (the pair's total torque is zero).
+//!   the winding's cross-section ([`GRID_ORDER`] x [`GRID_ORDER`]); with a finite magnet it is
+//!   minus the Lorentz torque on those loops (each sampled at [`LOOP_POINTS`] points) in the
+//!   magnet's field, about the rotor centre (the pair's total torque is zero).
 //! - [`WellTable`]: the well f(d) = g(d) / sin d tabulated once (cubic Hermite on a uniform grid
 //!   over [0, pi], slopes by fourth-order differences of the nodes, f being even about 0 and pi),
 //!   so that a settle evaluates a table, never the quadrature.
