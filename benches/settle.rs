@@ -14,8 +14,10 @@
 //!   time over 4,000);
 //! - `plan_y_dynamic3/angle/A`: the search planner, dynamic model, 3 pairs per step, about Y,
 //!   against the target angle A in degrees;
-//! - `dipole/rhs/W` and `dipole/settle/W`: physical magnets (`scenarios/prototype-physical.toml`,
-//!   W = dipole) against the prototype's gaussian wells with the same "coils" interaction
+//! - `dipole/rhs/W` and `dipole/settle/W`: physical magnets, real parts
+//!   (`scenarios/prototype-physical.toml`, W = real: the disc and the winding, through their
+//!   table) and a point dipole passing a thin loop (`tests/data/prototype-physical-point.toml`,
+//!   W = dipole), against the prototype's gaussian wells with the same "coils" interaction
 //!   (W = gaussian): one evaluation with 3 coils on over the 80 magnets, and one settle of a
 //!   2-coil set (each coil's nearest magnet at the start).
 //!
@@ -218,12 +220,13 @@ fn bench_planner(c: &mut Criterion) {
 }
 
 fn bench_dipole(c: &mut Criterion) {
-    let physical = load("scenarios/prototype-physical.toml");
+    let real = load("scenarios/prototype-physical.toml");
+    let point = load("tests/data/prototype-physical-point.toml");
     let mut gaussian = load("scenarios/prototype.toml");
     gaussian.torques.interaction = Interaction::Coils;
     let q0 = start();
     let mut g = c.benchmark_group("dipole");
-    for (name, sc) in [("dipole", &physical), ("gaussian", &gaussian)] {
+    for (name, sc) in [("real", &real), ("dipole", &point), ("gaussian", &gaussian)] {
         let three = set_of(sc, 3, &q0);
         let sys = RotorDynamics::new(&sc.torques, &three, sc.body);
         let y = turning(&q0);

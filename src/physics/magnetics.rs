@@ -15,8 +15,10 @@
 //! SI units throughout (m, T, A, A m^2, N, N m, J); the world frame has its origin at the rotor
 //! centre.
 
+use crate::physics::real_parts::{RealParts, WellTable};
 use nalgebra::{Matrix3, Unit, Vector3};
 use std::f64::consts::{FRAC_PI_2, PI};
+use std::sync::Arc;
 
 /// The vacuum permeability mu0 = 4 pi 1e-7 T m / A (the pre-2019 exact value; the SI value
 /// differs by 1e-10 relative).
@@ -501,6 +503,16 @@ fn positive(name: &str, value: f64, expected: &str) -> Result<(), String> {
     }
 }
 
+/// The grid step (rad) of a well's scans for its peak and reach: a 64th of its angular scale,
+/// the closest the magnets (on radius `r`) come to a loop of radius `a` whose plane is `gap`
+/// beyond them, seen from the centre (`sqrt(D^2 + a^2) - R` without the cancellation), within
+/// [pi / 200000, pi / 1024].
+fn scan_step(r: f64, a: f64, gap: f64) -> f64 {
+    let wire = (r + gap).hypot(a);
+    let scale = ((gap * (2.0 * r + gap) + a * a) / (wire + r) / r).min(1.0);
+    (PI / 1024.0).min(scale / 64.0).max(PI / 200_000.0)
+}
+
 /// The magnet on `p` (position `R p`, moment `m p`) and the coil on `s`, both normalised here
 /// (a zero vector gives NaN).
 fn magnet_and_coil(
@@ -535,14 +547,23 @@ pub fn energy_of_magnet(parts: &DipoleParts, p: &Vector3<f64>, s: &Vector3<f64>)
 /// The sign convention is `torque::Well::g`'s: `g = dU/dd`, positive for an attraction (the
 /// pull -dU/dd points back to the coil). Unlike theirs, this g changes sign: beyond the
 /// winding the coil's return field pushes the magnet away (g < 0).
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// With real parts ([`RealParts`]: a magnet of finite size, a winding) the pull is a
+/// quadrature, tabulated once when the well is made ([`WellTable`]); g, the potential and the
+/// stiffness are then the table's.
+#[derive(Debug, Clone, PartialEq)]
 pub struct DipoleWell {
     parts: DipoleParts,
     /// Grid step (rad) of the scans for the peak and the reach.
     step: f64,
     peak_d: f64,
     peak_g: f64,
+    /// The real parts and their tabulated well (None: a point dipole and a thin loop).
+    real: Option<Arc<(RealParts, WellTable)>>,
 }
+
+/// Cells of a real parts' table per step of the well's scans (see [`DipoleWell::real`]).
+const TABLE_CELLS_PER_STEP: f64 = 1.0;
 
 impl DipoleWell {
     /// The well of `parts`, which must validate and attract (`coil_turns_amps > 0`).
@@ -554,19 +575,66 @@ impl DipoleWell {
                 crate::text::shown(parts.coil_turns_amps)
             ));
         }
-        // the well's angular scale: the closest the magnets come to the wire, seen from the
-        // centre, sqrt(D^2 + a^2) - R without the cancellation
-        let (r, a, gap) = (parts.ball_radius_m, parts.coil_radius_m, parts.gap_m);
-        let wire = (r + gap).hypot(a);
-        let scale = ((gap * (2.0 * r + gap) + a * a) / (wire + r) / r).min(1.0);
-        let step = (PI / 1024.0).min(scale / 64.0).max(PI / 200_000.0);
-        let mut well = DipoleWell {
+        let step = scan_step(parts.ball_radius_m, parts.coil_radius_m, parts.gap_m);
+        let well = DipoleWell {
             parts,
             step,
             peak_d: 0.0,
             peak_g: 0.0,
+            real: None,
         };
-        let (d, g) = well.find_peak();
+        well.with_peak()
+    }
+
+    /// The well of real parts: [`DipoleWell::new`]'s own for a point magnet and a thin loop
+    /// (the same well, to the bit); otherwise the pull [`RealParts::torque_y`] tabulated once
+    /// on [0, pi] in cells of the scans' step, set by the winding's nearest loop (its inner
+    /// radius at its face).
+    pub fn real(real: RealParts) -> Result<Self, String> {
+        if real.is_point_and_loop() {
+            return Self::new(real.loop_parts);
+        }
+        let parts = real.loop_parts;
+        parts.validate()?;
+        if parts.coil_turns_amps <= 0.0 {
+            return Err(format!(
+                "coil_turns_amps: expected > 0 for a well (an attracting coil), got {}",
+                crate::text::shown(parts.coil_turns_amps)
+            ));
+        }
+        let nearest_radius = real
+            .winding
+            .map_or(parts.coil_radius_m, |w| w.inner_radius_m);
+        let step = scan_step(parts.ball_radius_m, nearest_radius, real.face_gap_m());
+        // f's limits at 0 (the stiffness) and at pi, by the 4th-order difference of the odd g
+        let h = 0.16 * step;
+        let g = |d: f64| real.torque_y(d);
+        let f0 = (8.0 * g(h) - g(2.0 * h)) / (6.0 * h);
+        let f_pi = (8.0 * g(PI - h) - g(PI - 2.0 * h)) / (6.0 * h);
+        let cells = (PI / (TABLE_CELLS_PER_STEP * step)).ceil() as usize;
+        let table = WellTable::new(g, f0, f_pi, cells);
+        let well = DipoleWell {
+            parts,
+            step,
+            peak_d: 0.0,
+            peak_g: 0.0,
+            real: Some(Arc::new((real, table))),
+        };
+        well.with_peak()
+    }
+
+    /// The real parts the well was built from, if any (a magnet of finite size, a winding).
+    pub fn real_parts(&self) -> Option<&RealParts> {
+        self.real.as_deref().map(|(r, _)| r)
+    }
+
+    /// The table a real parts' well is evaluated through, if any.
+    pub fn table(&self) -> Option<&WellTable> {
+        self.real.as_deref().map(|(_, t)| t)
+    }
+
+    fn with_peak(mut self) -> Result<Self, String> {
+        let (d, g) = self.find_peak();
         if g.is_nan() || g <= 0.0 {
             return Err(format!(
                 "parts whose coil attracts a magnet somewhere, got a largest pull of {} N m \
@@ -574,9 +642,9 @@ impl DipoleWell {
                 crate::text::shown(g)
             ));
         }
-        well.peak_d = d;
-        well.peak_g = g;
-        Ok(well)
+        self.peak_d = d;
+        self.peak_g = g;
+        Ok(self)
     }
 
     /// The parts the well was built from.
@@ -592,6 +660,9 @@ impl DipoleWell {
     /// The torque magnitude g(d) (N m) at angle `d` (rad, in [0, pi]) between magnet and coil
     /// axis, from the 3-D torque: signed, positive pulling p towards s. It is `dU/dd`.
     pub fn g(&self, d: f64) -> f64 {
+        if let Some((_, table)) = self.real.as_deref() {
+            return table.g(d);
+        }
         // p x s = -sin(d) Y: the unit vector along it is -Y on (0, pi)
         -torque_on_magnet(&self.parts, &Self::magnet_at(d), &Vector3::z()).y
     }
@@ -599,11 +670,17 @@ impl DipoleWell {
     /// The potential U(d) (J): the interaction energy `-m . B` of the magnet at angle `d`
     /// (zero at infinite separation, so U(pi) is not 0); `dU/dd = g(d)`.
     pub fn potential(&self, d: f64) -> f64 {
+        if let Some((_, table)) = self.real.as_deref() {
+            return table.potential(d);
+        }
         energy_of_magnet(&self.parts, &Self::magnet_at(d), &Vector3::z())
     }
 
     /// The stiffness dg/dd at d = 0 (N m / rad): 4th-order central difference of the odd g.
     pub fn stiffness(&self) -> f64 {
+        if let Some((_, table)) = self.real.as_deref() {
+            return table.f(0.0);
+        }
         let h = 0.16 * self.step;
         (8.0 * self.g(h) - self.g(2.0 * h)) / (6.0 * h)
     }

@@ -7,6 +7,7 @@
 
 mod changes;
 mod checked;
+mod parts;
 mod raw;
 
 pub use changes::{ChangeNames, PlanChanges, PlanInput, RowsFrom};

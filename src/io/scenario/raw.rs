@@ -121,27 +121,47 @@ pub(super) struct RawMagnets {
     pub(super) coil_radius_m: Option<f64>,
     pub(super) gap_m: Option<f64>,
     pub(super) core_gain: Option<f64>,
+    // real parts: the magnet's shape and a block's sides, a coil's winding
+    pub(super) magnet_shape: Option<RawMagnetShape>,
+    pub(super) magnet_size_m: Option<[f64; 3]>,
+    pub(super) coil_inner_radius_m: Option<f64>,
+    pub(super) coil_outer_radius_m: Option<f64>,
+    pub(super) coil_length_m: Option<f64>,
+}
+
+/// `magnet_shape`: a rotor magnet as a point dipole, a disc or a block.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum RawMagnetShape {
+    Point,
+    Cylinder,
+    Cuboid,
 }
 
 impl RawMagnets {
     /// The dipole keys given, by name (refused unless shape = "dipole").
     pub(super) fn dipole_keys(&self) -> Vec<&'static str> {
         [
-            ("ball_radius_m", self.ball_radius_m),
-            ("magnet_moment_am2", self.magnet_moment_am2),
-            ("remanence_t", self.remanence_t),
-            ("magnet_volume_m3", self.magnet_volume_m3),
-            ("magnet_diameter_m", self.magnet_diameter_m),
-            ("magnet_thickness_m", self.magnet_thickness_m),
-            ("coil_turns", self.coil_turns),
-            ("coil_current_a", self.coil_current_a),
-            ("coil_ampere_turns", self.coil_ampere_turns),
-            ("coil_radius_m", self.coil_radius_m),
-            ("gap_m", self.gap_m),
-            ("core_gain", self.core_gain),
+            ("ball_radius_m", self.ball_radius_m.is_some()),
+            ("magnet_moment_am2", self.magnet_moment_am2.is_some()),
+            ("remanence_t", self.remanence_t.is_some()),
+            ("magnet_volume_m3", self.magnet_volume_m3.is_some()),
+            ("magnet_diameter_m", self.magnet_diameter_m.is_some()),
+            ("magnet_thickness_m", self.magnet_thickness_m.is_some()),
+            ("coil_turns", self.coil_turns.is_some()),
+            ("coil_current_a", self.coil_current_a.is_some()),
+            ("coil_ampere_turns", self.coil_ampere_turns.is_some()),
+            ("coil_radius_m", self.coil_radius_m.is_some()),
+            ("gap_m", self.gap_m.is_some()),
+            ("core_gain", self.core_gain.is_some()),
+            ("magnet_shape", self.magnet_shape.is_some()),
+            ("magnet_size_m", self.magnet_size_m.is_some()),
+            ("coil_inner_radius_m", self.coil_inner_radius_m.is_some()),
+            ("coil_outer_radius_m", self.coil_outer_radius_m.is_some()),
+            ("coil_length_m", self.coil_length_m.is_some()),
         ]
         .into_iter()
-        .filter(|(_, v)| v.is_some())
+        .filter(|(_, given)| *given)
         .map(|(k, _)| k)
         .collect()
     }
