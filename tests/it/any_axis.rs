@@ -60,8 +60,10 @@ fn the_default_planner_turns_hard_axes_within_15_degrees_and_its_plans_replay() 
         let worst = max_axis_error_deg(&p.rows);
         // the paper's bound is 15 degrees; the default planner keeps within 10 (the stretch)
         assert!(worst <= 10.0, "{text}: worst cumulative axis error {worst}");
+        // the turn about the axis is within the final error's bound: the landing aims at the
+        // target orientation, not at the angle
         let last = p.rows.last().unwrap().cum_angle_deg;
-        assert!((89.5..100.0).contains(&last), "{text}: ends at {last}");
+        assert!((last - 90.0).abs() < 2.0, "{text}: ends at {last}");
         for (prev, r) in p.rows.iter().zip(&p.rows[1..]) {
             assert!((2..=4).contains(&r.active.len()), "{text}: {:?}", r.active);
             // the supply powers 4 coils: the held and the new set are on together for a moment
