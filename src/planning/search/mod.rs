@@ -656,7 +656,9 @@ impl Frontiers {
 /// the best solution are pruned (a plan's worst error never falls along it). Two partial plans
 /// from the same root that end in the same state (same key, orientation within
 /// [`SAME_STATE_RAD`]) are one: only the better goes on. The greedy plans are solutions from
-/// the start, so the search is never worse than them. The budget is counted in settles, so the
+/// the start, so the search is never worse than them. Its best plan is then landed,
+/// straightened and repaired ([`repair`]: the search run again from before its worst row, with
+/// the fifth of the budget the first search leaves). The budget is counted in settles, so the
 /// plan is the same on any machine and any number of threads.
 fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan {
     let Some(root) = roots.first().cloned() else {
