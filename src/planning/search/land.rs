@@ -63,7 +63,7 @@ const WIDE: Leeway = Leeway {
 
 /// Where a complete plan was sent: the target orientation when the settings give one, else
 /// the target rotation applied to its row 0.
-fn goal_of_node(p: &Node, s: &PlanSettings) -> Orientation {
+pub(super) fn goal_of_node(p: &Node, s: &PlanSettings) -> Orientation {
     // a node always has its row 0
     crate::planning::plan::goal_of(s, &p.rows).unwrap_or(p.state.q)
 }

@@ -11,10 +11,9 @@
 //! goes mostly into the early rows of many plans (they have strayed least), while the row that
 //! decides a complete plan's measure often lies later. The repair spends where that row is.
 
-use super::{
-    departure, explore, land, node_of, score, straighten, strayed, Node, StepSource, SAME_STATE_RAD,
-};
-use crate::planning::plan::{goal_of, PlanSettings};
+use super::{explore, land, node_of, score, straighten, strayed, Node, StepSource, SAME_STATE_RAD};
+use crate::planning::plan::PlanSettings;
+use straighten::departures;
 
 /// The repair's share of the settle budget: one part in this many (the first search spends
 /// the rest).
@@ -35,11 +34,8 @@ pub(super) fn repair(
     let mut spent = 0usize;
     'better: while spent < budget {
         // the path alone is weighed: the settings of a plan sent to its goal orientation
-        let Some(goal) = goal_of(s, &best.rows) else {
-            break;
-        };
         let sp = PlanSettings {
-            target: Some(goal),
+            target: Some(land::goal_of_node(&best, s)),
             ..s.clone()
         };
         let Some(k) = worst_row(&best, &sp) else {
@@ -123,16 +119,8 @@ const END_SHARE: f64 = 0.75;
 /// turn about an axis), and ends within [`END_SHARE`] of the tolerance from its goal
 /// orientation (or no further from it than `b`).
 fn better(c: &Node, b: &Node, s: &PlanSettings) -> bool {
-    let off = |n: &Node| {
-        let goal = goal_of(s, &n.rows).unwrap_or(n.state.q);
-        n.state.q.angle_to(&goal)
-    };
-    let path = |n: &Node| {
-        let q0 = n.rows[0].q;
-        (n.rows.iter())
-            .map(|r| departure(&r.q, &q0, s))
-            .fold(0.0, f64::max)
-    };
+    let off = |n: &Node| n.state.q.angle_to(&land::goal_of_node(n, s));
+    let path = |n: &Node| departures(&n.rows, s).into_iter().fold(0.0, f64::max);
     let near = off(c) <= (END_SHARE * s.tolerance.0).max(off(b) + SAME_STATE_RAD);
     near && path(c) < path(b) - MIN_GAIN && score(c, s) <= score(b, s) + 1e-9
 }

@@ -5,10 +5,12 @@
 //! so once a plan is found its worst row is what a better plan must beat: the straightening
 //! looks for exactly that, locally, where the search spent its budget going on.
 
-use super::{departure, node_of, tired_after_last, Node, StepSource, CENTRED, SAME_STATE_RAD};
+use super::{
+    departure, land, node_of, tired_after_last, Node, StepSource, CENTRED, SAME_STATE_RAD,
+};
 use crate::model::geometry::nearest_on_geodesic;
 use crate::planning::commutation::{Step, StepModel};
-use crate::planning::plan::{goal_of, PlanRow, PlanSettings};
+use crate::planning::plan::{PlanRow, PlanSettings};
 
 /// The straightening may spend this fraction of the search's settle budget (a tenth).
 const STRAIGHTEN_SHARE: usize = 10;
@@ -42,7 +44,7 @@ pub(super) fn straighten(src: &dyn StepSource, s: &PlanSettings, plan: Node) -> 
 }
 
 /// Each row's departure from the straight way of the plan (rad).
-fn departures(rows: &[PlanRow], s: &PlanSettings) -> Vec<f64> {
+pub(super) fn departures(rows: &[PlanRow], s: &PlanSettings) -> Vec<f64> {
     let q0 = rows[0].q;
     rows.iter().map(|r| departure(&r.q, &q0, s)).collect()
 }
@@ -82,7 +84,7 @@ fn better_way(
         return (skip, spent);
     }
     let q0 = plan.rows[0].q;
-    let goal = goal_of(s, &plan.rows).unwrap_or(plan.state.q);
+    let goal = land::goal_of_node(plan, s);
     let aim = nearest_on_geodesic(&plan.rows[k].q, &q0, &goal);
     let tired = tired_after_last(&parent, s);
     let at = parent.frontier(&tired, CENTRED, s);
