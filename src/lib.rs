@@ -67,11 +67,8 @@ pub mod error;
 #[cfg(feature = "figures")]
 #[doc(hidden)]
 pub mod figures;
-#[doc(hidden)]
 pub mod io;
-#[doc(hidden)]
 pub mod model;
-#[doc(hidden)]
 pub mod physics;
 #[doc(hidden)]
 pub mod planning;
@@ -81,9 +78,7 @@ pub mod rehearse;
 pub mod relay;
 #[doc(hidden)]
 pub mod rig;
-#[doc(hidden)]
 pub mod sensor;
-#[doc(hidden)]
 pub mod serial;
 pub mod text;
 

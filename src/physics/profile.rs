@@ -6,7 +6,7 @@
 //! to [`TOLERANCE`]; otherwise the well is evaluated exactly.
 
 /// The largest error a profile may have anywhere within the cut-off, relative to |f| there
-/// (and to [`FLOOR`] times the largest |f| where f is near zero). The wells' own formulas carry
+/// (and to 1e-3 times the largest |f| where f is near zero). The wells' own formulas carry
 /// a few times 1e-15 (the angle from u, the exponential); 1e-13 is far below anything a settle
 /// or a plan can see (the fast path's tolerances are 1e-2, the reference's 1e-10).
 pub const TOLERANCE: f64 = 1e-13;
@@ -19,7 +19,7 @@ const MAX_PIECES: usize = 1024;
 /// Checks of the fit per piece, between its nodes and at both ends.
 const CHECKS: usize = 16;
 
-/// f(u) on [0, u_max] as `pieces` polynomials of degree [`DEGREE`] in z in [-1, 1].
+/// f(u) on [0, u_max] as `pieces` polynomials of degree 7 in z in [-1, 1].
 #[derive(Debug, Clone)]
 pub struct Profile {
     u_max: f64,

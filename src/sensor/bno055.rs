@@ -109,9 +109,13 @@ impl std::str::FromStr for FusionMode {
 /// The calibration status CALIB_STAT reports: each 0 (uncalibrated) to 3 (fully calibrated).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Calibration {
+    /// The fusion system's level (bits 7-6).
     pub system: u8,
+    /// The gyroscope's level (bits 5-4): the closed loop needs it above 0.
     pub gyroscope: u8,
+    /// The accelerometer's level (bits 3-2).
     pub accelerometer: u8,
+    /// The magnetometer's level (bits 1-0; not used in the IMU mode).
     pub magnetometer: u8,
 }
 
