@@ -13,10 +13,19 @@
 //! received, for the replay's log. Every error names the sensor format and the port.
 //! A driver sits on the serial layer's [`Port`] (anything `Read + Write + Send`: a serial port,
 //! or a pseudo-terminal in the tests).
+//!
+//! Entry points: `open` (with the `hardware` feature: a device path, a [`SensorFormat`] and a
+//! baud rate) and [`from_port`] (any open [`Port`]) start a driver ([`QuatCsv`], [`Bno055`] in
+//! a [`FusionMode`]) as a boxed [`OrientationSensor`]; [`Tared`] maps its readings to the ball
+//! through a [`Frame`]; every failure is a [`SensorError`].
 
 pub mod bno055;
 pub mod frame;
 pub mod quat_csv;
+
+pub use bno055::{Bno055, Calibration, FusionMode};
+pub use frame::{Frame, Tared};
+pub use quat_csv::QuatCsv;
 
 use crate::model::geometry::Orientation;
 pub use crate::planning::cancel::Cancel;

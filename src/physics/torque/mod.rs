@@ -304,7 +304,7 @@ pub enum Interaction {
 }
 
 /// A pair potential: its shape and the maximum distance of attraction (g = 0 beyond it), with
-/// the [`Profile`] its torques are evaluated through where its shape has one.
+/// the fitted profile its torques are evaluated through where its shape has one.
 #[derive(Debug, Clone)]
 pub struct Well {
     shape: WellShape,
@@ -374,7 +374,7 @@ impl Well {
         self.max_attraction
     }
 
-    /// Whether the torques are evaluated through a fitted [`Profile`] (else by the formula).
+    /// Whether the torques are evaluated through a fitted profile (else by the formula).
     pub fn has_profile(&self) -> bool {
         self.profile.is_some()
     }
