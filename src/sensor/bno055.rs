@@ -146,9 +146,9 @@ pub const QUA_DATA_W_LSB: u8 = 0x20;
 pub const QUATERNION_LSB: f64 = 16384.0;
 
 /// Switching time from any operating mode into CONFIGMODE (table 3-6).
-pub const TO_CONFIG: Duration = Duration::from_millis(19);
+pub(crate) const TO_CONFIG: Duration = Duration::from_millis(19);
 /// Switching time from CONFIGMODE into any operating mode (table 3-6).
-pub const FROM_CONFIG: Duration = Duration::from_millis(7);
+pub(crate) const FROM_CONFIG: Duration = Duration::from_millis(7);
 /// How many times a request is sent at most when the sensor answers a transient status.
 pub const ATTEMPTS: u32 = 4;
 /// The pause before sending a request again.
