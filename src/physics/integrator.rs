@@ -10,7 +10,7 @@
 
 /// A right-hand side dy/dt = f(y) of an autonomous system with `N` states.
 pub trait OdeSystem<const N: usize> {
-    /// Writes f(y) into `dy` (every component: `dy` holds the previous call's values).
+    /// Writes f(y) into `dy`, every component (`dy` may hold an earlier stage's values).
     fn rhs(&self, y: &[f64; N], dy: &mut [f64; N]);
 }
 

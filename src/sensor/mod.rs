@@ -234,7 +234,8 @@ pub enum SensorError {
         port: String,
         /// The request: "write OPR_MODE (0x3D) = 0x0C (NDOF)".
         request: String,
-        /// The status byte after `0xEE` (datasheet 4.7: `0x07` a read failed, ...).
+        /// The status byte after `0xEE` (datasheet 4.7: `0x07` BUS_OVER_RUN_ERROR, ...;
+        /// [`bno055::status_name`]).
         status: u8,
         /// How many times the request was sent.
         attempts: u32,

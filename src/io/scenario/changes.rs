@@ -21,11 +21,12 @@ pub struct PlanChanges<'a> {
     pub axis: Option<UnitVec>,
     /// The angle to turn (degrees), for `plan.angle_deg`.
     pub angle_deg: Option<f64>,
-    /// The planner's name (`greedy`, `search`, ...), for `plan.scheme`.
+    /// The planner's name (`search`, `min-axis-error`, ...), for `plan.scheme`.
     pub scheme: Option<&'a str>,
-    /// The step model's name (`pivot`, `dynamic:K`, `coils`, ...), for `plan.model`.
+    /// The step model's name (`pivot`, `dynamic` or `coils`), for `plan.model`; without
+    /// `pairs`, the model's default pairs per step.
     pub model: Option<&'a str>,
-    /// How many pairs a step may switch on, for the model's `:K` or `:2-K`.
+    /// How many pairs a step switches on (the `K` or `2-K` of `plan.model`).
     pub pairs: Option<PairsPerStep>,
     /// The ball's orientation at the start (body to world), for `plan.start`.
     pub start: Option<Orientation>,
@@ -37,19 +38,19 @@ pub struct PlanChanges<'a> {
 /// in Python).
 #[derive(Debug, Clone, Copy)]
 pub struct ChangeNames {
-    /// The name of [`PlanChanges::axis`] (`--axis`).
+    /// The name of [`PlanChanges::axis`] (on the command line `--axis`).
     pub axis: &'static str,
-    /// The name of [`PlanChanges::angle_deg`] (`--angle`).
+    /// The name of [`PlanChanges::angle_deg`] (on the command line `--angle`).
     pub angle: &'static str,
-    /// The name of [`PlanChanges::scheme`] (`--scheme`).
+    /// The name of [`PlanChanges::scheme`] (on the command line `--scheme`).
     pub scheme: &'static str,
-    /// The name of [`PlanChanges::model`] (`--model`).
+    /// The name of [`PlanChanges::model`] (on the command line `--model`).
     pub model: &'static str,
-    /// The name of [`PlanChanges::pairs`] (`--pairs`).
+    /// The name of [`PlanChanges::pairs`] (on the command line `--pairs`).
     pub pairs: &'static str,
-    /// The name of [`PlanChanges::start`] (`--from`).
+    /// The name of [`PlanChanges::start`] (on the command line `--from`).
     pub start: &'static str,
-    /// The name of [`PlanChanges::to`] (`--to`).
+    /// The name of [`PlanChanges::to`] (on the command line `--to`).
     pub to: &'static str,
 }
 
