@@ -57,9 +57,10 @@
 
 #![warn(missing_docs)]
 
-// The layers' modules are public so that the tests, examples and benchmarks can reach every
-// part, but hidden from the documentation: the library's interface is what this root
-// re-exports (and `error`).
+// The layers' modules are public and documented: each opens with what it holds and names its
+// entry points, most of them re-exported at the layer's root (`spherestep::physics::settle`);
+// the few types most uses need are re-exported here as well. What only the crate uses is
+// `pub(crate)` or private.
 #[cfg(feature = "cli")]
 #[doc(hidden)]
 pub mod commands;
@@ -67,11 +68,8 @@ pub mod error;
 #[cfg(feature = "figures")]
 #[doc(hidden)]
 pub mod figures;
-#[doc(hidden)]
 pub mod io;
-#[doc(hidden)]
 pub mod model;
-#[doc(hidden)]
 pub mod physics;
 #[doc(hidden)]
 pub mod planning;
@@ -81,9 +79,7 @@ pub mod rehearse;
 pub mod relay;
 #[doc(hidden)]
 pub mod rig;
-#[doc(hidden)]
 pub mod sensor;
-#[doc(hidden)]
 pub mod serial;
 pub mod text;
 

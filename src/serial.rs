@@ -2,6 +2,8 @@
 //! over ([`Port`]: anything `Read + Write + Send`, a serial port or a pseudo-terminal in the
 //! tests), the one way a device is opened (8N1, no flow control, always with a timeout:
 //! serialport's default is 0 ms; with the `hardware` feature) and how bytes are shown.
+//!
+//! Entry points: [`Port`], `open_8n1` (with the `hardware` feature) and [`hex`].
 
 use std::io::{Read, Write};
 #[cfg(feature = "hardware")]

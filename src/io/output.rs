@@ -53,7 +53,7 @@ pub fn temp_path_of(target: &Path, host: &str, pid: u32) -> PathBuf {
 }
 
 /// This process's temporary file for `target`.
-pub fn temp_path(target: &Path) -> PathBuf {
+pub(crate) fn temp_path(target: &Path) -> PathBuf {
     temp_path_of(target, &host_tag(), std::process::id())
 }
 
@@ -144,7 +144,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 
 /// Whether `a` and `b` name the same existing file: the same canonical path, or (on Unix) the
 /// same device and inode (a hard link). A path that does not exist is no file's.
-pub fn same_file(a: &Path, b: &Path) -> bool {
+pub(crate) fn same_file(a: &Path, b: &Path) -> bool {
     let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
         return false;
     };

@@ -26,7 +26,9 @@ pub const SIM_COLUMNS: [&str; 5] = ["step", "qx", "qy", "qz", "qw"];
 /// One row of `simulate` results read back: the simulated orientation after a plan step.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimRecord {
+    /// The plan step it followed (the file's `step` column).
     pub step: usize,
+    /// Where the ball settled (body to world; columns `qx,qy,qz,qw`).
     pub q: Orientation,
     /// The file's `deviation_deg` column, if it has one.
     pub deviation_deg: Option<f64>,

@@ -15,7 +15,7 @@ pub struct Table {
 }
 
 /// An error in line `line` of the CSV file `path`.
-pub fn row_error(path: &Path, line: usize, message: String) -> Error {
+pub(crate) fn row_error(path: &Path, line: usize, message: String) -> Error {
     Error::Row {
         file: path.to_path_buf(),
         line,

@@ -23,12 +23,14 @@ pub struct Degrees(pub f64);
 pub struct Radians(pub f64);
 
 impl Degrees {
+    /// The same angle in radians.
     pub fn to_radians(self) -> Radians {
         Radians(self.0.to_radians())
     }
 }
 
 impl Radians {
+    /// The same angle in degrees.
     pub fn to_degrees(self) -> Degrees {
         Degrees(self.0.to_degrees())
     }

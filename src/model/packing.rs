@@ -12,6 +12,7 @@ use serde::Serialize;
 /// Points on the unit sphere.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Packing {
+    /// The points in their order: index `i` is magnet (body frame) or coil (world frame) `i`.
     pub points: Vec<UnitVec>,
 }
 
@@ -19,19 +20,26 @@ pub struct Packing {
 /// optionally kept only inside a spherical cap.
 #[derive(Debug, Clone)]
 pub struct SemiRegular {
+    /// The rotation group whose orbits make the packing.
     pub group: Group,
+    /// The generator points; each contributes its orbit under `group`, in this order.
     pub generators: Vec<UnitVec>,
+    /// Keeps only the points inside this cap (a stator cap); `None` keeps the whole sphere.
     pub cap: Option<Cap>,
 }
 
 /// A spherical cap: the points within `radius` of `center`.
 #[derive(Debug, Clone, Copy)]
 pub struct Cap {
+    /// The cap's centre on the sphere.
     pub center: UnitVec,
+    /// Its angular radius (radians).
     pub radius: Radians,
 }
 
 impl Cap {
+    /// Whether `p` is within the cap's radius of its centre (1e-9 rad of slack, so that
+    /// points on the rim count).
     pub fn contains(&self, p: &UnitVec) -> bool {
         angular_distance(&self.center, p).0 <= self.radius.0 + 1e-9
     }
@@ -58,10 +66,12 @@ impl SemiRegular {
 }
 
 impl Packing {
+    /// The number of points.
     pub fn len(&self) -> usize {
         self.points.len()
     }
 
+    /// Whether there are no points.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }
@@ -215,22 +225,35 @@ fn binned_center_lengths(points: &[UnitVec], tol: Radians) -> Vec<(Radians, usiz
 /// One line of the compatibility report: a stator center length and the nearest rotor one.
 #[derive(Debug, Clone, Serialize)]
 pub struct CenterLengthMatch {
+    /// The stator center length (an angle between two coils), degrees.
     pub stator_deg: f64,
+    /// How many coil pairs are that far apart.
     pub stator_pairs: usize,
+    /// The rotor center length nearest to it, degrees (NaN when the rotor has none).
     pub nearest_rotor_deg: f64,
+    /// `|nearest_rotor_deg - stator_deg|`, degrees.
     pub mismatch_deg: f64,
 }
 
 /// The packing report of `spherestep packing`.
 #[derive(Debug, Clone, Serialize)]
 pub struct PackingReport {
+    /// The number of rotor magnets.
     pub rotor_magnets: usize,
+    /// The number of stator coils.
     pub stator_coils: usize,
+    /// The smallest angle between two magnets, degrees.
     pub rotor_min_separation_deg: f64,
+    /// The smallest angle between two coils, degrees.
     pub stator_min_separation_deg: f64,
+    /// The angle from -Z (the cap's pole) to the furthest coil, degrees.
     pub stator_cap_radius_deg: f64,
+    /// The rotor's distinct center lengths (merged within [`CENTER_LENGTH_TOL`]), ascending,
+    /// degrees.
     pub rotor_center_lengths_deg: Vec<f64>,
+    /// Each distinct stator center length, ascending, with its nearest rotor one.
     pub stator_center_lengths: Vec<CenterLengthMatch>,
+    /// The largest `mismatch_deg` of `stator_center_lengths`, degrees (0 with no coils).
     pub worst_mismatch_deg: f64,
 }
 

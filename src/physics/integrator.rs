@@ -10,6 +10,7 @@
 
 /// A right-hand side dy/dt = f(y) of an autonomous system with `N` states.
 pub trait OdeSystem<const N: usize> {
+    /// Writes f(y) into `dy`, every component (`dy` may hold an earlier stage's values).
     fn rhs(&self, y: &[f64; N], dy: &mut [f64; N]);
 }
 
@@ -17,18 +18,22 @@ pub trait OdeSystem<const N: usize> {
 /// `atol + rtol * |y|` in the root-mean-square sense.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tolerances {
+    /// The relative tolerance (a fraction of |y|).
     pub rtol: f64,
+    /// The absolute tolerance, in the state's own units.
     pub atol: f64,
 }
 
 /// Where an integration ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Outcome<const N: usize> {
-    /// Time and state of the last accepted step.
+    /// The time of the last accepted step (the system's unit; seconds for the settle).
     pub t: f64,
+    /// The state at `t`.
     pub y: [f64; N],
-    /// Right-hand-side evaluations and accepted steps.
+    /// Right-hand-side evaluations, rejected steps included.
     pub evaluations: u32,
+    /// Accepted steps.
     pub steps: u32,
     /// Whether the stop test passed (otherwise `t_max` was reached, or the step size collapsed).
     pub stopped: bool,

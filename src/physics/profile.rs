@@ -6,10 +6,10 @@
 //! to [`TOLERANCE`]; otherwise the well is evaluated exactly.
 
 /// The largest error a profile may have anywhere within the cut-off, relative to |f| there
-/// (and to [`FLOOR`] times the largest |f| where f is near zero). The wells' own formulas carry
+/// (and to 1e-3 times the largest |f| where f is near zero). The wells' own formulas carry
 /// a few times 1e-15 (the angle from u, the exponential); 1e-13 is far below anything a settle
 /// or a plan can see (the fast path's tolerances are 1e-2, the reference's 1e-10).
-pub const TOLERANCE: f64 = 1e-13;
+pub(crate) const TOLERANCE: f64 = 1e-13;
 /// See [`TOLERANCE`].
 const FLOOR: f64 = 1e-3;
 /// Polynomial degree of each piece.
@@ -19,9 +19,9 @@ const MAX_PIECES: usize = 1024;
 /// Checks of the fit per piece, between its nodes and at both ends.
 const CHECKS: usize = 16;
 
-/// f(u) on [0, u_max] as `pieces` polynomials of degree [`DEGREE`] in z in [-1, 1].
+/// f(u) on [0, u_max] as `pieces` polynomials of degree 7 in z in [-1, 1].
 #[derive(Debug, Clone)]
-pub struct Profile {
+pub(crate) struct Profile {
     u_max: f64,
     /// pieces / u_max
     inv_h: f64,
@@ -33,7 +33,7 @@ impl Profile {
     /// The profile of `f` (finite on [0, u_max]) with the fewest pieces that meets
     /// [`TOLERANCE`], or `None`: a kink or a singularity that no polynomial follows, or a
     /// non-finite value.
-    pub fn fit(f: impl Fn(f64) -> f64, u_max: f64) -> Option<Profile> {
+    pub(crate) fn fit(f: impl Fn(f64) -> f64, u_max: f64) -> Option<Profile> {
         if !(u_max > 0.0 && u_max <= 2.0) {
             return None;
         }
@@ -79,7 +79,7 @@ impl Profile {
 
     /// f(u): 0 beyond u_max (the cut-off), the last piece continued for u < 0 by rounding.
     #[inline(always)]
-    pub fn value(&self, u: f64) -> f64 {
+    pub(crate) fn value(&self, u: f64) -> f64 {
         if u > self.u_max {
             return 0.0;
         }
@@ -94,7 +94,7 @@ impl Profile {
 
     /// f(u) and df/du (both 0 beyond u_max).
     #[inline]
-    pub fn value_and_slope(&self, u: f64) -> (f64, f64) {
+    pub(crate) fn value_and_slope(&self, u: f64) -> (f64, f64) {
         if u > self.u_max {
             return (0.0, 0.0);
         }

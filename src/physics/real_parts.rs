@@ -73,10 +73,18 @@ const CUBOID_TURNS: usize = 4;
 pub enum MagnetShape {
     /// A point dipole (today's model).
     Point,
-    /// A disc: its diameter and thickness (along the radius), m.
-    Cylinder { diameter_m: f64, thickness_m: f64 },
-    /// A block: its two sides across the radius and its thickness along it, m.
-    Cuboid { size_m: [f64; 3] },
+    /// A disc, its axis along the ball's radius.
+    Cylinder {
+        /// Its diameter, m.
+        diameter_m: f64,
+        /// Its thickness along the radius, m.
+        thickness_m: f64,
+    },
+    /// A block.
+    Cuboid {
+        /// Its two sides across the radius, then its thickness along it, m.
+        size_m: [f64; 3],
+    },
 }
 
 impl MagnetShape {
@@ -110,8 +118,11 @@ impl MagnetShape {
 /// A coil's winding: its inner and outer radius and its length along the axis, m.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Winding {
+    /// The winding's inner radius (the core's), m.
     pub inner_radius_m: f64,
+    /// Its outer radius, m (at least `inner_radius_m`, more than 0).
     pub outer_radius_m: f64,
+    /// Its length along the coil's axis, m.
     pub length_m: f64,
 }
 
@@ -121,8 +132,12 @@ pub struct Winding {
 /// and `winding` the winding (None: the thin loop itself).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RealParts {
+    /// The ball, the magnet's moment, the ampere-turns, the core gain and the equivalent thin
+    /// loop.
     pub loop_parts: DipoleParts,
+    /// The magnet's shape.
     pub magnet: MagnetShape,
+    /// The coil's winding (`None`: the thin loop of `loop_parts`).
     pub winding: Option<Winding>,
 }
 

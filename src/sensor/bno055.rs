@@ -109,9 +109,13 @@ impl std::str::FromStr for FusionMode {
 /// The calibration status CALIB_STAT reports: each 0 (uncalibrated) to 3 (fully calibrated).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Calibration {
+    /// The fusion system's level (bits 7-6).
     pub system: u8,
+    /// The gyroscope's level (bits 5-4): the closed loop needs it above 0.
     pub gyroscope: u8,
+    /// The accelerometer's level (bits 3-2).
     pub accelerometer: u8,
+    /// The magnetometer's level (bits 1-0; not used in the IMU mode).
     pub magnetometer: u8,
 }
 
@@ -142,9 +146,9 @@ pub const QUA_DATA_W_LSB: u8 = 0x20;
 pub const QUATERNION_LSB: f64 = 16384.0;
 
 /// Switching time from any operating mode into CONFIGMODE (table 3-6).
-pub const TO_CONFIG: Duration = Duration::from_millis(19);
+pub(crate) const TO_CONFIG: Duration = Duration::from_millis(19);
 /// Switching time from CONFIGMODE into any operating mode (table 3-6).
-pub const FROM_CONFIG: Duration = Duration::from_millis(7);
+pub(crate) const FROM_CONFIG: Duration = Duration::from_millis(7);
 /// How many times a request is sent at most when the sensor answers a transient status.
 pub const ATTEMPTS: u32 = 4;
 /// The pause before sending a request again.

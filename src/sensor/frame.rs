@@ -98,6 +98,7 @@ impl Tared {
         Tared { inner, frame }
     }
 
+    /// The mounting and reference offset its readings are mapped through.
     pub fn frame(&self) -> Frame {
         self.frame
     }

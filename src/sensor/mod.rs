@@ -13,10 +13,19 @@
 //! received, for the replay's log. Every error names the sensor format and the port.
 //! A driver sits on the serial layer's [`Port`] (anything `Read + Write + Send`: a serial port,
 //! or a pseudo-terminal in the tests).
+//!
+//! Entry points: `open` (with the `hardware` feature: a device path, a [`SensorFormat`] and a
+//! baud rate) and [`from_port`] (any open [`Port`]) start a driver ([`QuatCsv`], [`Bno055`] in
+//! a [`FusionMode`]) as a boxed [`OrientationSensor`]; [`Tared`] maps its readings to the ball
+//! through a [`Frame`]; every failure is a [`SensorError`].
 
 pub mod bno055;
 pub mod frame;
 pub mod quat_csv;
+
+pub use bno055::{Bno055, Calibration, FusionMode};
+pub use frame::{Frame, Tared};
+pub use quat_csv::QuatCsv;
 
 use crate::model::geometry::Orientation;
 pub use crate::planning::cancel::Cancel;
@@ -49,6 +58,7 @@ pub enum SensorFormat {
 }
 
 impl SensorFormat {
+    /// Every supported format, in the order messages list them.
     pub const ALL: [SensorFormat; 2] = [SensorFormat::QuatCsv, SensorFormat::Bno055];
 
     /// The name used on the command line and in messages.
@@ -139,33 +149,46 @@ pub enum SensorError {
     /// The serial port could not be opened.
     #[error("sensor {port} ({sensor}): cannot open the serial port: {message} (is the sensor plugged in, and are you in the `dialout` group?)")]
     Open {
+        /// The sensor's protocol.
         sensor: SensorFormat,
+        /// The port the sensor is on, as given (`/dev/ttyACM0`).
         port: String,
+        /// serialport's reason.
         message: String,
     },
     /// Reading or writing the port failed.
     #[error("sensor {port} ({sensor}): {op} failed: {source}")]
     Io {
+        /// The sensor's protocol.
         sensor: SensorFormat,
+        /// The port the sensor is on, as given (`/dev/ttyACM0`).
         port: String,
+        /// What was being done: "reading", "writing a request".
         op: &'static str,
+        /// The operating system's error.
         #[source]
         source: std::io::Error,
     },
     /// The other end went away (unplugged sensor, closed pseudo-terminal).
     #[error("sensor {port} ({sensor}): the sensor end closed the connection while {op}")]
     Closed {
+        /// The sensor's protocol.
         sensor: SensorFormat,
+        /// The port the sensor is on, as given (`/dev/ttyACM0`).
         port: String,
+        /// What was being done when it closed: "reading", "waiting for a reply".
         op: &'static str,
     },
     /// Nothing complete arrived in time.
     #[error("sensor {port} ({sensor}): no {what} within {} ms{}", timeout.as_millis(), got_suffix(got))]
     Timeout {
+        /// The sensor's protocol.
         sensor: SensorFormat,
+        /// The port the sensor is on, as given (`/dev/ttyACM0`).
         port: String,
         /// What was awaited: "reading", "reply to ...".
         what: String,
+        /// How long it waited.
         timeout: Duration,
         /// What had arrived of it (empty: nothing).
         got: String,
@@ -178,9 +201,13 @@ pub enum SensorError {
         printable(reason)
     )]
     Garbage {
+        /// The sensor's protocol.
         sensor: SensorFormat,
+        /// The port the sensor is on, as given (`/dev/ttyACM0`).
         port: String,
+        /// The line, without its line end.
         line: String,
+        /// Why it is not a reading.
         reason: String,
     },
     /// A binary reply the protocol does not allow, or a quaternion that is not one.
@@ -189,18 +216,26 @@ pub enum SensorError {
         hex(got)
     )]
     BadReply {
+        /// The sensor's protocol.
         sensor: SensorFormat,
+        /// The port the sensor is on, as given (`/dev/ttyACM0`).
         port: String,
+        /// What the protocol allows there.
         expected: String,
+        /// The bytes received.
         got: Vec<u8>,
     },
     /// The BNO055 answered a request with an error status (`0xEE <status>`).
     #[error("sensor {port} ({sensor}): {request} answered EE {status:02X} {} ({}){}", bno055::status_name(*status), bno055::status_meaning(*status), attempts_suffix(*attempts))]
     Status {
+        /// The sensor's protocol.
         sensor: SensorFormat,
+        /// The port the sensor is on, as given (`/dev/ttyACM0`).
         port: String,
         /// The request: "write OPR_MODE (0x3D) = 0x0C (NDOF)".
         request: String,
+        /// The status byte after `0xEE` (datasheet 4.7: `0x07` BUS_OVER_RUN_ERROR, ...;
+        /// [`bno055::status_name`]).
         status: u8,
         /// How many times the request was sent.
         attempts: u32,
@@ -208,19 +243,35 @@ pub enum SensorError {
     /// The gyroscope is not calibrated: the orientation would drift.
     #[error("sensor {port} ({sensor}): the gyroscope is not calibrated ({calibration}): keep the ball still for a few seconds with every coil off, then start again")]
     Uncalibrated {
+        /// The sensor's protocol.
         sensor: SensorFormat,
+        /// The port the sensor is on, as given (`/dev/ttyACM0`).
         port: String,
+        /// The calibration levels the sensor reported.
         calibration: bno055::Calibration,
     },
     /// The wait for a reading was given up from outside (the replay is switching off).
     #[error("sensor {port} ({sensor}): the wait for a reading was abandoned (everything is being switched off)")]
-    Abandoned { sensor: SensorFormat, port: String },
+    Abandoned {
+        /// The sensor's protocol.
+        sensor: SensorFormat,
+        /// The port the sensor is on, as given (`/dev/ttyACM0`).
+        port: String,
+    },
     /// The tare reading, taken before any coil is switched, failed.
     #[error("{cause}; it was the tare reading (the ball at rest at the plan's start), taken before any coil is switched: no coil was switched")]
-    Tare { cause: Box<SensorError> },
+    Tare {
+        /// The reading's own error.
+        cause: Box<SensorError>,
+    },
     /// The BNO055 reports the zero quaternion: its fusion is not running (yet).
     #[error("sensor {port} ({sensor}): the quaternion is all zero: sensor fusion is not running yet (it starts shortly after a fusion mode is set; a reset returns the sensor to CONFIG mode)")]
-    NotFused { sensor: SensorFormat, port: String },
+    NotFused {
+        /// The sensor's protocol.
+        sensor: SensorFormat,
+        /// The port the sensor is on, as given (`/dev/ttyACM0`).
+        port: String,
+    },
 }
 
 fn got_suffix(got: &str) -> String {

@@ -2,7 +2,7 @@
 //! `w,x,y,z` per reading, ended by `\n` or `\r\n`, as fast as it likes.
 //!
 //! Freshness: a reader thread reads the port all the time and stamps each line with the
-//! moment its first byte was read. [`QuatCsv::read`] skips every line whose first byte was read
+//! moment its first byte was read. [`QuatCsv::read`](super::OrientationSensor::read) skips every line whose first byte was read
 //! before the call began (stale: everything buffered, and a line half received at the call),
 //! skips blank lines, and decodes the next complete line; none within the timeout is
 //! [`SensorError::Timeout`]. "Before the call" holds to within the reader thread's latency (it
@@ -208,7 +208,7 @@ pub struct QuatCsv {
 }
 
 impl QuatCsv {
-    /// Starts the reader thread on `port`; `timeout` bounds every [`read`](Self::read).
+    /// Starts the reader thread on `port`; `timeout` bounds every [`read`](super::OrientationSensor::read).
     pub fn start(port: Box<dyn Port>, name: &str, timeout: Duration) -> Result<Self, SensorError> {
         let id = Ident {
             sensor: SensorFormat::QuatCsv,

@@ -17,11 +17,18 @@ use std::path::Path;
 /// scenario's value); the scheme and the model by name, as a user gives them.
 #[derive(Debug, Clone, Default)]
 pub struct PlanChanges<'a> {
+    /// The axis of rotation (world frame), for `plan.axis`.
     pub axis: Option<UnitVec>,
+    /// The angle to turn (degrees), for `plan.angle_deg`.
     pub angle_deg: Option<f64>,
+    /// The planner's name (`search`, `min-axis-error`, ...), for `plan.scheme`.
     pub scheme: Option<&'a str>,
+    /// The step model's name (`pivot`, `dynamic` or `coils`), for `plan.model`; without
+    /// `pairs`, the model's default pairs per step.
     pub model: Option<&'a str>,
+    /// How many pairs a step switches on (the `K` or `2-K` of `plan.model`).
     pub pairs: Option<PairsPerStep>,
+    /// The ball's orientation at the start (body to world), for `plan.start`.
     pub start: Option<Orientation>,
     /// A target orientation (instead of an axis and an angle).
     pub to: Option<Orientation>,
@@ -31,12 +38,19 @@ pub struct PlanChanges<'a> {
 /// in Python).
 #[derive(Debug, Clone, Copy)]
 pub struct ChangeNames {
+    /// The name of [`PlanChanges::axis`] (on the command line `--axis`).
     pub axis: &'static str,
+    /// The name of [`PlanChanges::angle_deg`] (on the command line `--angle`).
     pub angle: &'static str,
+    /// The name of [`PlanChanges::scheme`] (on the command line `--scheme`).
     pub scheme: &'static str,
+    /// The name of [`PlanChanges::model`] (on the command line `--model`).
     pub model: &'static str,
+    /// The name of [`PlanChanges::pairs`] (on the command line `--pairs`).
     pub pairs: &'static str,
+    /// The name of [`PlanChanges::start`] (on the command line `--from`).
     pub start: &'static str,
+    /// The name of [`PlanChanges::to`] (on the command line `--to`).
     pub to: &'static str,
 }
 
@@ -44,9 +58,13 @@ pub struct ChangeNames {
 /// holds (a plan made before) given as its argument `argument`.
 #[derive(Debug, Clone)]
 pub enum PlanInput<'a> {
+    /// A plan CSV to read (`spherestep plan --out`'s format).
     File(&'a Path),
+    /// Rows already in memory.
     Rows {
+        /// The plan's rows, row 0 the start.
         rows: Vec<PlanRow>,
+        /// The front end's name for the argument that held them, for refusals.
         argument: &'a str,
     },
 }

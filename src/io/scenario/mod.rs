@@ -27,9 +27,11 @@ use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 
 /// Defaults of the `[magnets]` section (docs/scenario-format.md; scenarios/prototype.toml says
-/// where each comes from).
+/// where each comes from): `strength_j`, a well's strength k (joules).
 pub const DEFAULT_STRENGTH_J: f64 = 0.25;
+/// `magnets.width_deg`: the sigma of a gaussian well (degrees).
 pub const DEFAULT_WIDTH_DEG: f64 = 10.0;
+/// `magnets.max_attraction_deg`: no pull beyond this angle between coil and magnet (degrees).
 pub const DEFAULT_MAX_ATTRACTION_DEG: f64 = 30.0;
 /// The radius of the magnets' centres (m) of shape = "dipole" when not given: the prototype's
 /// 12 inch ball.
@@ -37,8 +39,9 @@ pub const DEFAULT_BALL_RADIUS_M: f64 = 0.1524;
 /// Two magnets (or two coils) closer than this (chord of the unit sphere, about 6e-5 degrees)
 /// are the same place: refused.
 pub const COINCIDENT_TOL: f64 = 1e-6;
-/// Defaults of the `[body]` section.
+/// Defaults of the `[body]` section: `inertia_kg_m2`, the ball's moment of inertia (kg m^2).
 pub const DEFAULT_INERTIA_KG_M2: f64 = 0.023;
+/// `body.damping_nms`: the viscous damping c (N m s).
 pub const DEFAULT_DAMPING_NMS: f64 = 1.0;
 
 /// The `[report]` section: what the pictures compare against.
@@ -46,6 +49,7 @@ pub const DEFAULT_DAMPING_NMS: f64 = 1.0;
 pub struct ReportSettings {
     /// A reference axis error (e.g. the paper's bound), drawn as a line, degrees.
     pub reference_deg: Option<f64>,
+    /// The reference line's label (`None`: "paper: <reference_deg> deg").
     pub reference_label: Option<String>,
 }
 
@@ -53,8 +57,11 @@ pub struct ReportSettings {
 /// motions x schemes x models).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sweep {
+    /// The axes of rotation (world frame).
     pub axes: Vec<UnitVec>,
+    /// The target angles (radians), each in (0, 180] degrees.
     pub angles: Vec<Radians>,
+    /// The planners each case is planned with.
     pub schemes: Vec<Scheme>,
     /// (model, pairs per step)
     pub models: Vec<(StepModel, PairsPerStep)>,
@@ -68,8 +75,11 @@ pub struct Sweep {
 /// One motion of a random-motion sweep: from `start`, `angle` about `axis`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Motion {
+    /// The ball's orientation at the start (body to world).
     pub start: Orientation,
+    /// The axis of rotation (world frame).
     pub axis: UnitVec,
+    /// The angle to turn about `axis` (radians).
     pub angle: Radians,
 }
 

@@ -60,8 +60,10 @@ pub struct SettleParams {
     pub torque_tol: f64,
     /// Give up (not settled) at this simulated time, s.
     pub t_max: f64,
-    /// Relative and absolute tolerances of the integrator.
+    /// The integrator's relative tolerance (`settle.rtol`).
     pub rtol: f64,
+    /// The integrator's absolute tolerance (`settle.atol`), on the state: the quaternion's
+    /// components and the angular velocity in rad/s.
     pub atol: f64,
     /// The integrator.
     pub method: Method,
@@ -195,10 +197,15 @@ impl From<End> for Stop {
 /// The most steps the Dopri5 path (the reference, and the fast path's tight fallback) takes.
 pub const REFERENCE_MAX_STEPS: u32 = 1_000_000;
 
-/// The equations of motion for one active set.
+/// The equations of motion for one active set, on the state `y = [x, y, z, w, wx, wy, wz]`:
+/// the orientation (body to world, quaternion `x, y, z, w`) and the body-frame angular
+/// velocity (rad/s).
 pub struct RotorDynamics<'a, M: TorqueModel> {
+    /// The magnet wells' torques.
     pub model: &'a M,
+    /// The coil:magnet pairs that are on.
     pub active: &'a [Pair],
+    /// The ball's inertia and damping.
     pub body: Body,
     /// 1 / I, per axis.
     inv_inertia: Vector3<f64>,
@@ -207,6 +214,7 @@ pub struct RotorDynamics<'a, M: TorqueModel> {
 }
 
 impl<'a, M: TorqueModel> RotorDynamics<'a, M> {
+    /// The equations of `model` under `active` for `body` (its inverse inertia computed once).
     pub fn new(model: &'a M, active: &'a [Pair], body: Body) -> Self {
         RotorDynamics {
             model,

@@ -153,6 +153,7 @@ pub struct QuaternionRotation {
 }
 
 impl QuaternionRotation {
+    /// The rotation of `[x, y, z, w]` (any non-zero norm).
     #[inline]
     pub fn new(&[x, y, z, w]: &[f64; 4]) -> Self {
         let (xx, yy, zz, ww) = (x * x, y * y, z * z, w * w);
@@ -186,9 +187,17 @@ impl QuaternionRotation {
 #[derive(Debug, Clone, PartialEq)]
 pub enum WellShape {
     /// U = -k exp(-d^2 / (2 sigma^2)): a sharp well (custom-wound coils).
-    Gaussian { strength_j: f64, width: Radians },
+    Gaussian {
+        /// The well's depth k (U = -k at d = 0), J.
+        strength_j: f64,
+        /// Its width sigma, radians.
+        width: Radians,
+    },
     /// U = -k cos d: a broad well (off-the-shelf coils).
-    Cosine { strength_j: f64 },
+    Cosine {
+        /// The well's depth k (U = -k at d = 0), J.
+        strength_j: f64,
+    },
     /// g(d) = U'(d) read from a measured or computed curve, linearly interpolated.
     Table(TorqueTable),
     /// Physical magnets: a radial point dipole passing a coil's current loop, g(d) from the
@@ -295,7 +304,7 @@ pub enum Interaction {
 }
 
 /// A pair potential: its shape and the maximum distance of attraction (g = 0 beyond it), with
-/// the [`Profile`] its torques are evaluated through where its shape has one.
+/// the fitted profile its torques are evaluated through where its shape has one.
 #[derive(Debug, Clone)]
 pub struct Well {
     shape: WellShape,
@@ -365,12 +374,12 @@ impl Well {
         self.max_attraction
     }
 
-    /// Whether the torques are evaluated through a fitted [`Profile`] (else by the formula).
+    /// Whether the torques are evaluated through a fitted profile (else by the formula).
     pub fn has_profile(&self) -> bool {
         self.profile.is_some()
     }
 
-    /// Whether the torque jumps at the cut-off (g there above [`JUMP_FLOOR`] of its peak): only
+    /// Whether the torque jumps at the cut-off (g there above a millionth of its peak): only
     /// then can a magnet grazing it send the ball elsewhere than a small error would (the
     /// settle's graze test).
     pub fn jumps_at_cutoff(&self) -> bool {
