@@ -61,11 +61,9 @@
 // part, but hidden from the documentation: the library's interface is what this root
 // re-exports (and `error`).
 #[cfg(feature = "cli")]
-#[doc(hidden)]
 pub mod commands;
 pub mod error;
 #[cfg(feature = "figures")]
-#[doc(hidden)]
 pub mod figures;
 #[doc(hidden)]
 pub mod io;
@@ -73,13 +71,9 @@ pub mod io;
 pub mod model;
 #[doc(hidden)]
 pub mod physics;
-#[doc(hidden)]
 pub mod planning;
-#[doc(hidden)]
 pub mod rehearse;
-#[doc(hidden)]
 pub mod relay;
-#[doc(hidden)]
 pub mod rig;
 #[doc(hidden)]
 pub mod sensor;

@@ -121,10 +121,13 @@ impl Link {
         }
     }
 
+    /// Whether the link only records (a dry run: no port is open).
     pub fn is_dry_run(&self) -> bool {
         self.port.is_none()
     }
 
+    /// The link's name in messages: the name it was opened with (its serial device), or `<dry
+    /// run>`.
     pub fn name(&self) -> &str {
         &self.name
     }

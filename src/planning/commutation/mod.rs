@@ -210,6 +210,7 @@ pub fn settled_states(
 /// A candidate pair from the distance array.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
+    /// The coil and the magnet.
     pub pair: Pair,
     /// D_ij, the angular distance of the magnet from the coil.
     pub distance: Radians,
@@ -221,8 +222,11 @@ pub struct Candidate {
 /// particular), switch `new` on, and end at `to`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
+    /// The pair held through the step (`None`: a coil-set step).
     pub pivot: Option<Pair>,
+    /// The pairs switched on.
     pub new: Vec<Pair>,
+    /// The state the step ends in: the set on and where it leaves the ball.
     pub to: CommutationState,
     /// Rotation of the step about the desired axis (signed), rad.
     pub angle: Radians,
