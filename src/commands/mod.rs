@@ -1,5 +1,12 @@
 //! The commands behind the command line, as library functions that take plain arguments and
-//! write to a given output, so that they are testable without spawning the binary.
+//! write to a given output, so that they are testable without spawning the binary. The entry
+//! points, one per command: [`settle_one`] and [`settle_sets`] (`settle`), [`plan_command`]
+//! (`plan`; [`waypoints::plan_waypoints_command`] with `--waypoints`), [`simulate_plan`]
+//! (`simulate`; [`closed_loop::simulate_closed_loop`] with `--closed-loop`),
+//! [`closed_loop::run_command`] (`run`), [`replay::run`] and [`closed_replay::run`] (`replay`,
+//! open and closed loop), [`rehearse::run`] (`virtual`), [`wells::wells_command`] (`wells`),
+//! [`packing_report`] (`packing`), [`write_prototype`] (`prototype`) and
+//! [`batch::run_batch`] (`batch`); [`args`] parses the typed arguments they share.
 
 pub mod args;
 pub mod batch;

@@ -17,8 +17,8 @@
 //!   the replans marked;
 //! - [`waypoint_plot`]: a plan through waypoints: the ball's path and the waypoints, as
 //!   rotation vectors projected on the two world axes the waypoints spread along most;
-//! - [`plot_csv`]: `spherestep plot`, the figure that suits an existing result CSV, with
-//!   [`sweep_csv`] reading a sweep CSV's points;
+//! - [`plot_csv`](mod@plot_csv): `spherestep plot`, the figure that suits an existing result
+//!   CSV, with [`sweep_csv`] reading a sweep CSV's points;
 //! - [`view`]: `spherestep view`, the interactive 3-D page of a plan;
 //! - [`batch_pictures`]: the pictures and page `batch --plots` draws for each result;
 //! - [`well_plot`]: `spherestep wells`, the torque on one magnet passing one coil against the

@@ -1,7 +1,9 @@
 //! A virtual motor to rehearse the hardware path without hardware (`spherestep virtual`):
 //! relay boards and an orientation sensor played on pseudo-terminals, byte for byte as the
 //! real devices answer, driving a ball that moves under the plant's equations of motion in
-//! real time, with the hardware limits watched and faults injected on request.
+//! real time, with the hardware limits watched and faults injected on request. The entry point
+//! is `live::run` (with the `hardware` feature, on Unix), given the [`Options`] and returning
+//! a [`Summary`]; the emulators below it can be fed bytes directly.
 //!
 //! - [`boards`]: the four relay protocols' far end (frames parsed, replies, relays held);
 //! - [`sensor`]: the quat-csv lines and the BNO055's register protocol;

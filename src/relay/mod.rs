@@ -1,5 +1,11 @@
-//! Relay boards that switch the stator coils: one driver per board type behind one trait
-//! (`RelayBoard`, in the spirit of the crelay project), the serial link they talk over, the
+//! Relay boards that switch the stator coils. The entry points are [`replay::prepare`] (a
+//! plan's checked [`Schedule`](replay::Schedule) on the boards of a [`RelaySettings`]),
+//! [`replay::open_ports`] and [`replay::execute_on`] (the replay played on the boards' links,
+//! every coil off at the end), and the [`RelayBoard`] trait with its four drivers
+//! ([`lcus`], [`kmtronic`], [`numato`], [`modbus`]); the errors are [`RelayError`].
+//!
+//! One driver per board type behind one trait (`RelayBoard`, in the spirit of the crelay
+//! project), the serial link they talk over, the
 //! coil-to-channel map and replay settings (`[relay]` in a scenario, or a `--map` file; one
 //! board, or several as `[[relay.boards]]`), and the hardware replay of a plan (`replay`), which
 //! drives one driver per board, open loop (the closed loop through an orientation sensor is

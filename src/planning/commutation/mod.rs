@@ -505,7 +505,7 @@ pub type Proposal = (Pair, Vec<Pair>);
 
 /// Every proposal from `state` whose candidates pass the filter within `bound` (with the
 /// dynamic model's combinations of up to `pairs.max - 1` of the `limits.max_candidates` best
-/// candidates of each pivot) and that the supply can switch ([`within_supply`]), in a
+/// candidates of each pivot) and that the supply can switch ([`fits_supply`]), in a
 /// deterministic order.
 pub fn proposals_within(
     motor: &Motor,
