@@ -38,7 +38,7 @@ pub struct Link {
 
 impl Link {
     /// Opens a serial port, 8N1, no flow control, waiting at most `timeout` for every reply
-    /// and write (the port itself polls every [`PORT_POLL`]).
+    /// and write (the port itself polls every `PORT_POLL`).
     ///
     /// # Errors
     ///

@@ -4,25 +4,26 @@
 //! every coil off at the end), and the [`RelayBoard`] trait with its four drivers
 //! ([`lcus`], [`kmtronic`], [`numato`], [`modbus`]); the errors are [`RelayError`].
 //!
-//! One driver per board type behind one trait (`RelayBoard`, in the spirit of the crelay
-//! project), the serial link they talk over, the
-//! coil-to-channel map and replay settings (`[relay]` in a scenario, or a `--map` file; one
-//! board, or several as `[[relay.boards]]`), and the hardware replay of a plan (`replay`), which
-//! drives one driver per board, open loop (the closed loop through an orientation sensor is
-//! the rig's, `crate::rig`, above this layer). Channels are numbered from 1, as printed on the
-//! boards; each driver converts to its own wire numbering. Boards are numbered from 0, in list
-//! order.
+//! One driver per board type behind one trait (`RelayBoard`, in the spirit of the crelay project),
+//! the serial link they talk over, the coil-to-channel map and replay settings (`[relay]` in a
+//! scenario, or a `--map` file; one board, or several as `[[relay.boards]]`), and the hardware
+//! replay of a plan (`replay`), which drives one driver per board, open loop (the closed loop
+//! through an orientation sensor is the rig's, `crate::rig`, above this layer). Channels are
+//! numbered from 1, as printed on the boards; each driver converts to its own wire numbering.
+//! Boards are numbered from 0, in list order. Private files: the link (`link.rs`, re-exported as
+//! [`Link`]), a `[[relay.boards]]` entry (`boards.rs`, [`BoardConfig`]) and the runner's watch of
+//! every coil deadline (`watch.rs`).
 
-pub mod boards;
+mod boards;
 pub mod config;
 mod fields;
 pub mod kmtronic;
 pub mod lcus;
-pub mod link;
+mod link;
 pub mod modbus;
 pub mod numato;
 pub mod replay;
-pub mod watch;
+mod watch;
 
 pub use boards::BoardConfig;
 pub use config::{CoilMap, RelayConfig, RelaySettings, SwitchOrder};
@@ -202,8 +203,8 @@ pub enum RelayError {
         partial: Vec<u8>,
     },
     /// A wait for a board (its reply, or a blocked write) ended before the board's timeout
-    /// because a coil reached its guard ([`watch`]); the runner turns it into
-    /// [`RelayError::OnTimeReached`] naming the board.
+    /// because a coil reached its guard (the runner's watch, `relay/watch.rs`); the runner turns
+    /// it into [`RelayError::OnTimeReached`] naming the board.
     #[error("serial port {port}: {op} given up after {} ms (of its {} ms timeout) to keep every coil within its on-time limit", waited.as_millis(), timeout.as_millis())]
     WaitCut {
         /// The serial device.
