@@ -78,7 +78,8 @@ pub enum Shape {
         /// The wells' width, degrees.
         width_deg: f64,
     },
-    /// Cosine wells (the energy falls as the cosine of the angle, the torque as its sine).
+    /// Cosine wells: a pair's energy goes as minus the cosine of its angle, its torque as the
+    /// sine.
     Cosine,
 }
 
