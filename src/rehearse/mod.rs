@@ -73,7 +73,7 @@ pub struct Options {
     pub max_on_time: Duration,
     /// The ball at its start.
     pub ball: plant::Ball,
-    /// The sensor's line protocol (`None`: no sensor port).
+    /// The sensor's protocol, quat-csv lines or the BNO055's registers (`None`: no sensor port).
     pub sensor: Option<SensorFormat>,
     /// The standard deviation of the sensor's noise, radians.
     pub sensor_noise: Radians,
