@@ -62,22 +62,16 @@
 // the few types most uses need are re-exported here as well. What only the crate uses is
 // `pub(crate)` or private.
 #[cfg(feature = "cli")]
-#[doc(hidden)]
 pub mod commands;
 pub mod error;
 #[cfg(feature = "figures")]
-#[doc(hidden)]
 pub mod figures;
 pub mod io;
 pub mod model;
 pub mod physics;
-#[doc(hidden)]
 pub mod planning;
-#[doc(hidden)]
 pub mod rehearse;
-#[doc(hidden)]
 pub mod relay;
-#[doc(hidden)]
 pub mod rig;
 pub mod sensor;
 pub mod serial;

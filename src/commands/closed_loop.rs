@@ -19,9 +19,13 @@ use std::path::Path;
 /// Where a run's CSV and summary go: the CSV to `file` (atomically), else alone to `out`; the
 /// summary (text, or JSON) to `out`, or to `note` when the CSV took `out`.
 pub struct Report<'a> {
+    /// The CSV's file (`None`: the CSV goes to `out`).
     pub file: Option<&'a Path>,
+    /// Whether the summary is JSON (else text).
     pub json: bool,
+    /// Standard output, or what stands for it.
     pub out: &'a mut dyn Write,
+    /// Where the summary goes when the CSV took `out`.
     pub note: &'a mut dyn Write,
 }
 

@@ -60,6 +60,7 @@ impl SensorOptions {
         }
     }
 
+    /// The sensor's baud rate, bits per second: `--sensor-baud`, else the format's default.
     pub fn baud(&self) -> u32 {
         self.baud.unwrap_or(self.format.default_baud())
     }
@@ -69,6 +70,7 @@ impl SensorOptions {
         self.mode.unwrap_or_default()
     }
 
+    /// How long a reading is awaited: `--sensor-timeout-ms`, else the sensor layer's default.
     pub fn timeout(&self) -> Duration {
         self.timeout_ms
             .map_or(sensor::DEFAULT_TIMEOUT, Duration::from_millis)
@@ -79,12 +81,15 @@ impl SensorOptions {
 pub struct ClosedInputs {
     /// The replay of the plan as it is, checked as a whole.
     pub prep: Prepared,
+    /// The scenario, the map applied.
     pub scenario: Scenario,
     /// The scenario's plan settings with the plan file's target.
     pub settings: PlanSettings,
+    /// The plan as read from its file (the open-loop plan the loop starts from).
     pub open: Plan,
     /// The plan's last orientation.
     pub goal: Orientation,
+    /// The controller's settings, worked out from the options and the plan.
     pub cl: LoopSettings,
 }
 

@@ -1,5 +1,12 @@
 //! The commands behind the command line, as library functions that take plain arguments and
-//! write to a given output, so that they are testable without spawning the binary.
+//! write to a given output, so that they are testable without spawning the binary. The entry
+//! points, one per command: [`settle_one`] and [`settle_sets`] (`settle`), [`plan_command`]
+//! (`plan`; [`waypoints::plan_waypoints_command`] with `--waypoints`), [`simulate_plan`]
+//! (`simulate`; [`closed_loop::simulate_closed_loop`] with `--closed-loop`),
+//! [`closed_loop::run_command`] (`run`), [`replay::run`] and [`closed_replay::run`] (`replay`,
+//! open and closed loop), [`rehearse::run`] (`virtual`), [`wells::wells_command`] (`wells`),
+//! [`packing_report`] (`packing`), [`write_prototype`] (`prototype`) and
+//! [`batch::run_batch`] (`batch`); [`args`] parses the typed arguments they share.
 
 pub mod args;
 pub mod batch;
@@ -131,7 +138,8 @@ fn or_none(pairs: &[Pair]) -> String {
     }
 }
 
-pub fn active_text(active: &[Pair]) -> String {
+/// The pairs as a plan file writes its `active` column.
+pub(crate) fn active_text(active: &[Pair]) -> String {
     crate::model::geometry::pairs_text(active)
 }
 
@@ -280,12 +288,17 @@ pub fn settle_sets(
 /// Command-line overrides of a scenario's `[plan]` section.
 #[derive(Debug, Clone, Default)]
 pub struct PlanOverrides {
+    /// `--axis`: the desired rotation axis, `x,y,z` in the world frame.
     pub axis: Option<String>,
+    /// `--angle`: the target rotation angle, degrees.
     pub angle_deg: Option<f64>,
+    /// `--scheme`: the planner's scheme by name (min-axis-error, max-angle, weighted or search).
     pub scheme: Option<String>,
+    /// `--model`: the step model by name (pivot, dynamic, coils).
     pub model: Option<String>,
     /// `K` (exactly K pairs after each step) or `2-K` (2 to K, chosen per step).
     pub pairs: Option<String>,
+    /// `--from`: the start orientation, `qx,qy,qz,qw`.
     pub from: Option<String>,
     /// A target orientation `qx,qy,qz,qw` instead of `axis` and `angle_deg`.
     pub to: Option<String>,

@@ -28,21 +28,31 @@ pub struct VirtualOptions {
     pub board: Option<BoardKind>,
     /// A sensor's pseudo-terminal, answering this protocol.
     pub sensor: Option<SensorFormat>,
+    /// The sensor's noise, degrees (0 to 10; seeded).
     pub sensor_noise_deg: f64,
+    /// The seed of the sensor's noise and of its garbled readings.
     pub seed: u64,
+    /// The virtual clock runs this many times as fast as the wall clock (above 0, at most
+    /// [`MAX_SPEED`]).
     pub speed: f64,
     /// `qx,qy,qz,qw`: the sensor's mounting on the ball.
     pub mount: Option<String>,
+    /// A directory for stable names of the ports (`board0`, ..., `sensor`).
     pub link_dir: Option<PathBuf>,
+    /// A CSV log of every frame and event.
     pub log: Option<PathBuf>,
     /// A plan whose pairs say which magnet each coil pulls (pair interaction), and whose row
     /// 0 is where the ball starts.
     pub plan: Option<PathBuf>,
     /// The board the board faults act on (default 0).
     pub fault_board: usize,
+    /// Fault: that board's port vanishes after this many frames.
     pub drop_after_frames: Option<usize>,
+    /// Fault: that board stops answering after this many frames, its port open.
     pub silent_after_frames: Option<usize>,
+    /// Fault: the sensor goes silent after this many readings.
     pub sensor_stall_after: Option<usize>,
+    /// Fault: this fraction (0 to 1) of the sensor's readings are corrupted.
     pub sensor_garble: f64,
     /// `CH` (board 0) or `B:CH`.
     pub stuck_relay: Option<String>,
@@ -307,8 +317,10 @@ pub fn run(
 /// Why `virtual` failed.
 #[derive(Debug, thiserror::Error)]
 pub enum VirtualError {
+    /// The options, the plant's scenario or its plan were refused.
     #[error(transparent)]
     Input(#[from] Error),
+    /// The virtual motor could not run (its pseudo-terminals, links or log).
     #[error(transparent)]
     Rehearse(#[from] crate::rehearse::RehearseError),
 }

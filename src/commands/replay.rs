@@ -86,11 +86,13 @@ pub struct ReplayOptions {
     pub board: Option<BoardKind>,
     /// Overrides `relay.baud` (single board only).
     pub baud: Option<u32>,
+    /// Realtime (the dwells) or step mode (Enter between steps).
     pub mode: Mode,
     /// A fixed dwell for every step instead of settle time x factor (used as given: the floor is for the derived dwells).
     pub dwell_ms: Option<u64>,
     /// First step to replay; the step before is re-energised first to hold the ball.
     pub from_step: usize,
+    /// A dry run: nothing is opened or sent, the clock is simulated.
     pub dry_run: bool,
     /// CSV log of what was sent when (appended to when it exists).
     pub log: Option<PathBuf>,

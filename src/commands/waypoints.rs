@@ -19,7 +19,9 @@ use std::path::Path;
 /// waypoint must be reached within.
 #[derive(Debug, Clone, Copy)]
 pub struct WaypointJob<'a> {
+    /// The waypoints file (CSV).
     pub file: &'a Path,
+    /// How near each waypoint must be reached, degrees.
     pub tolerance_deg: f64,
 }
 
@@ -128,8 +130,10 @@ pub struct WaypointCheck {
 /// where the simulated ball is at each waypoint.
 #[derive(Debug, Clone, Serialize)]
 pub struct SimulatedWaypoints<'a> {
+    /// The simulation's figures, as `simulate` reports them.
     #[serde(flatten)]
     pub simulation: &'a crate::planning::simulate::SimSummary,
+    /// Where the simulated ball is at each waypoint.
     pub waypoints: &'a [WaypointCheck],
 }
 

@@ -19,14 +19,18 @@ use std::ops::Range;
 /// One line of an [`AxisErrorPlot`]: a scheme's (cum_angle_deg, cum_axis_error_deg) points.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ErrorSeries {
+    /// The series' name in the legend (the scheme's).
     pub name: String,
+    /// (cumulative angle, deg; cumulative axis error, deg), one point per step, in plan order.
     pub points: Vec<(f64, f64)>,
 }
 
 /// A horizontal reference line, e.g. the paper's bound (3 deg about Z, 15 deg about Y).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReferenceLine {
+    /// Its label in the plot.
     pub label: String,
+    /// Its height: an axis error, degrees.
     pub value_deg: f64,
 }
 
@@ -36,8 +40,11 @@ pub struct ReferenceLine {
 /// series to the last, so identical series stay visible one inside the other.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisErrorPlot {
+    /// The title drawn above the plot.
     pub title: String,
+    /// The series, drawn in order, each in the style [`series_style`] gives its index.
     pub series: Vec<ErrorSeries>,
+    /// A horizontal reference line, if any.
     pub reference: Option<ReferenceLine>,
     /// The target rotation angle (deg), marked by a vertical line.
     pub target_deg: Option<f64>,

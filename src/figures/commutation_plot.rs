@@ -18,6 +18,7 @@ use plotters::prelude::*;
 /// Figure 5: the commutation state projected on the X-Y plane.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CommutationPlot {
+    /// The title drawn above the plot.
     pub title: String,
     /// Stator coil i at `coils[i]`: world (x, y).
     pub coils: Vec<[f64; 2]>,

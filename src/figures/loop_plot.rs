@@ -12,6 +12,7 @@ use plotters::prelude::*;
 /// One run's rows, as drawn.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LoopPlot {
+    /// The title drawn above the plot.
     pub title: String,
     /// (step, true distance to the goal, deg; true cumulative angle, deg; replanned).
     pub rows: Vec<(usize, f64, f64, bool)>,

@@ -40,10 +40,15 @@ pub const SERIES_COLORS: [RGBColor; 7] = [
 /// The marker of a series of an [`AxisErrorPlot`](super::AxisErrorPlot) (drawn hollow).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Marker {
+    /// A circle.
     Circle,
+    /// A square.
     Square,
+    /// A triangle, point up.
     Triangle,
+    /// A square turned 45 degrees.
     Diamond,
+    /// A diagonal cross.
     Cross,
 }
 
@@ -62,8 +67,11 @@ const DASHES: [(u32, u32); 4] = [(0, 0), (10, 5), (3, 4), (16, 4)];
 /// dash each differ from those of every other of the first seven series.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SeriesStyle {
+    /// The line's and the markers' colour.
     pub color: RGBColor,
+    /// The marker drawn at each point.
     pub marker: Marker,
+    /// The line's dash pattern: (dash, gap) in pixels; (0, 0) is solid.
     pub dash: (u32, u32),
 }
 

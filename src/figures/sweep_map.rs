@@ -18,6 +18,7 @@ use plotters::style::RGBColor;
 /// rings ("no result").
 #[derive(Debug, Clone, PartialEq)]
 pub struct SweepMap {
+    /// The title drawn above the map.
     pub title: String,
     /// What the colour means, e.g. "worst axis error (deg)".
     pub value_label: String,

@@ -51,14 +51,19 @@ pub struct ViewOptions {
 /// The data embedded in the page (read by `view.js`).
 #[derive(Debug, Clone, Serialize)]
 pub struct ViewData {
+    /// The format of this data, for `view.js` (1).
     pub version: u32,
+    /// The page's title.
     pub title: String,
+    /// The scenario's name.
     pub scenario: String,
     /// Rotor magnets, body frame, unit vectors.
     pub rotor: Vec<[f64; 3]>,
     /// Stator coils, world frame, unit vectors.
     pub stator: Vec<[f64; 3]>,
+    /// The desired rotation axis, world frame, when given or inferred.
     pub desired_axis: Option<DesiredAxis>,
+    /// The plan's steps, row 0 (the initial commutation state) first.
     pub steps: Vec<ViewStep>,
     /// Simulated orientations, when given (not every step needs one).
     pub sim: Option<Vec<ViewSim>>,
@@ -67,24 +72,35 @@ pub struct ViewData {
 /// The desired axis and where it came from.
 #[derive(Debug, Clone, Serialize)]
 pub struct DesiredAxis {
+    /// The axis, world frame, unit vector.
     pub axis: [f64; 3],
+    /// Where it came from.
     pub source: AxisSource,
 }
 
 /// One plan step as the page shows it.
 #[derive(Debug, Clone, Serialize)]
 pub struct ViewStep {
+    /// The plan row's step number (0: the initial commutation state).
     pub step: usize,
     /// Orientation after the step, (qx, qy, qz, qw), body to world.
     pub q: [f64; 4],
     /// Energised pairs after the step, as [coil, magnet].
     pub active: Vec<[usize; 2]>,
+    /// The pivot pair held through the step, as [coil, magnet] (none for row 0 or the coil-set
+    /// model).
     pub pivot: Option<[usize; 2]>,
+    /// The pairs switched on by the step, as [coil, magnet].
     pub new: Vec<[usize; 2]>,
+    /// The step's rotation angle, degrees (the plan file's `step_angle_deg`).
     pub step_angle_deg: f64,
+    /// The step's axis error, degrees (`step_axis_error_deg`).
     pub step_axis_error_deg: f64,
+    /// The cumulative rotation angle after the step, degrees (`cum_angle_deg`).
     pub cum_angle_deg: f64,
+    /// The cumulative axis error after the step, degrees (`cum_axis_error_deg`).
     pub cum_axis_error_deg: f64,
+    /// The step's predicted settle time, seconds (`settle_time_s`).
     pub settle_time_s: f64,
     /// Axis of this step's rotation R_k R_{k-1}^T (none for step 0 or a zero step).
     pub step_axis: Option<[f64; 3]>,
@@ -97,7 +113,9 @@ pub struct ViewStep {
 /// One simulated orientation as the page shows it.
 #[derive(Debug, Clone, Serialize)]
 pub struct ViewSim {
+    /// The plan step the orientation was simulated for.
     pub step: usize,
+    /// The simulated orientation after the step, (qx, qy, qz, qw), body to world.
     pub q: [f64; 4],
     /// Angle between the simulated and the predicted orientation, degrees: the file's
     /// `deviation_deg` when it has one, else computed from the quaternions.

@@ -22,6 +22,7 @@ use plotters::style::RGBColor;
 /// Figure 6: a 3-D view of the rotor, the stator coils and the rotation axes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct View3d {
+    /// The title drawn above the view.
     pub title: String,
     /// Stator coil i at `coils[i]`: world unit vector (drawn 10% outside the ball).
     pub coils: Vec<[f64; 3]>,

@@ -13,6 +13,7 @@ use plotters::prelude::*;
 /// A waypoint plan, as drawn: rotation vectors in degrees (world frame), x, y, z.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WaypointPlot {
+    /// The title drawn above the plot.
     pub title: String,
     /// Each row's orientation, in step order.
     pub path: Vec<[f64; 3]>,

@@ -11,6 +11,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 /// A torque curve g(d) to draw.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WellPlot {
+    /// The title drawn above the plot.
     pub title: String,
     /// (angle, deg; torque, N m), by increasing angle.
     pub points: Vec<(f64, f64)>,

@@ -100,6 +100,7 @@ pub const TRACK_DEG: f64 = 0.25;
 /// each depth, and how deep it looks at most (fewer where fewer steps are left). A replan is
 /// made while the coils hold the ball: on 2 cores it takes tens of milliseconds.
 pub const REPLAN_BEAM: usize = 4;
+/// The replan's search looks at most this many steps deep (see [`REPLAN_BEAM`]).
 pub const REPLAN_DEPTH: usize = 6;
 /// The replan's search settles this many of each state's coil sets, those whose cheap
 /// prediction lies nearest the goal.
@@ -107,6 +108,8 @@ pub const REPLAN_SETS: usize = 10;
 /// A replan whose path gains less than [`SLOW_DEG`] a step towards the goal (and does not
 /// reach it) is searched again settling this many sets per state; the nearer end is taken.
 pub const REPLAN_SETS_WIDE: usize = 24;
+/// A replan gaining less than this towards the goal per step, degrees, is searched again wider
+/// ([`REPLAN_SETS_WIDE`]).
 pub const SLOW_DEG: f64 = 5.0;
 
 /// One step played on the plant.
@@ -125,21 +128,27 @@ pub struct LoopRow {
     /// The true cumulative rotation R_k R_0^T: its angle about the target axis and its axis
     /// error, degrees.
     pub cum_angle_deg: f64,
+    /// The true cumulative axis error, degrees (see `cum_angle_deg`).
     pub cum_axis_error_deg: f64,
     /// The true orientation's angle from the goal R_target R_0, degrees.
     pub error_to_goal_deg: f64,
     /// Whether the rest of the motion was replanned after this step's measurement.
     pub replanned: bool,
+    /// Whether the plant's settle of the step came to rest.
     pub settled: bool,
+    /// The step's settle time, seconds: until the ball stayed within `settle.arrival_deg` of its
+    /// rest.
     pub settle_time_s: f64,
 }
 
 /// How a closed-loop run ended.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LoopSummary {
+    /// Steps played after the initial commutation state.
     pub steps: usize,
     /// The true orientation's angle from the goal at the end, degrees.
     pub final_error_deg: f64,
+    /// The true cumulative rotation's angle about the target axis at the end, degrees.
     pub final_angle_deg: f64,
     /// Worst true cumulative axis error over the steps that turned the ball at least
     /// [`MIN_AXIS_ANGLE_DEG`], degrees.
@@ -148,12 +157,14 @@ pub struct LoopSummary {
     /// from one of them to the nearest point of the geodesic (the slerp) from the run's start
     /// (the plan's row 0) to its goal; what the loop saw, sensor noise included.
     pub max_path_deviation_deg: f64,
+    /// How many times the controller replanned.
     pub replans: usize,
     /// The loop ended at the goal by its estimate (as the hardware loop decides) and its last
     /// measurement is within the goal tolerance too.
     pub reached: bool,
     /// The last measurement's angle from the goal, degrees.
     pub final_measured_error_deg: f64,
+    /// Why the loop did not reach the goal, in words (`None` when it did).
     pub message: Option<String>,
     /// The fitted wells that steered the loop at the end (`None`: the model's own) ...
     pub fitted: Option<String>,
@@ -164,13 +175,16 @@ pub struct LoopSummary {
     /// The wall time of the replans (the whole decision after a measurement: the fit and the
     /// search), median and largest, ms (0 without replans). Reported, never decided on.
     pub replan_ms_median: f64,
+    /// The largest replan's wall time, ms (see `replan_ms_median`).
     pub replan_ms_max: f64,
 }
 
 /// A closed-loop run: the rows and its summary.
 #[derive(Debug, Clone)]
 pub struct LoopRun {
+    /// The steps played, row 0 (the initial commutation state) first.
     pub rows: Vec<LoopRow>,
+    /// How the run ended.
     pub summary: LoopSummary,
     /// The wall time of each replan, ms, in order (the summary has their median and largest).
     pub replan_ms: Vec<f64>,
@@ -307,6 +321,7 @@ impl<'a> Controller<'a> {
         &self.rows[self.next.min(self.rows.len() - 1)]
     }
 
+    /// The goal orientation the loop steers to, as given to [`Controller::new`].
     pub fn goal(&self) -> Orientation {
         self.goal
     }
@@ -318,6 +333,7 @@ impl<'a> Controller<'a> {
         &self.rows
     }
 
+    /// How many times the controller has replanned so far.
     pub fn replans(&self) -> usize {
         self.replans
     }

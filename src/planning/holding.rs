@@ -9,7 +9,9 @@ use crate::planning::commutation::pair_gap;
 /// The pairs of a set that hold the ball, and those out of reach.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Holding {
+    /// The pairs whose magnet is within the well's reach of its coil, in the set's order.
     pub held: Vec<Pair>,
+    /// The pairs whose magnet is beyond that reach, in the set's order.
     pub not_held: Vec<Pair>,
 }
 

@@ -46,6 +46,7 @@ pub const MIN_SCALE: f64 = 0.2 * std::f64::consts::PI / 180.0;
 /// How many candidates are refined after each step (the best of each kind: gaussian or cosine,
 /// pairs or every coil), and how many polls each refinement makes at most.
 pub const REFINED: usize = 4;
+/// The most polls one refinement makes (see [`REFINED`]).
 pub const POLLS: usize = 12;
 /// The settles all refinements after one step may spend together (counted, so that the same
 /// steps give the same fit on any machine): it bounds the time a step's fit takes.
@@ -61,8 +62,11 @@ pub const KEPT_REFINED: usize = 24;
 /// One measured step: the ball at rest at `from`, `active` switched on, measured at `to`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observation {
+    /// The ball's orientation at rest before the step.
     pub from: Orientation,
+    /// The pairs switched on (as the model names them).
     pub active: Vec<Pair>,
+    /// The orientation measured after the step.
     pub to: Orientation,
 }
 
@@ -71,8 +75,11 @@ pub struct Observation {
 pub enum Shape {
     /// Gaussian wells of this width (degrees).
     Gaussian {
+        /// The wells' width, degrees.
         width_deg: f64,
     },
+    /// Cosine wells: a pair's energy goes as minus the cosine of its angle, its torque as the
+    /// sine.
     Cosine,
 }
 
@@ -80,11 +87,13 @@ pub enum Shape {
 /// shape the scenario allows).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WellParams {
+    /// The wells' shape.
     pub shape: Shape,
     /// The maximum attraction distance, degrees.
     pub reach_deg: f64,
     /// The single-pair stiffness at alignment, N m/rad.
     pub stiffness: f64,
+    /// Which coils pull which magnets.
     pub interaction: Interaction,
 }
 
@@ -175,6 +184,7 @@ impl WellParams {
 /// A candidate model of the wells.
 #[derive(Debug, Clone)]
 pub struct Candidate {
+    /// Its torques on the model's packings.
     pub torques: MagnetTorques,
     /// What it is, in words ("cosine wells reaching 40.0 deg, every coil pulls ...").
     pub name: String,
@@ -490,14 +500,17 @@ impl Identifier {
         Radians((e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt())
     }
 
+    /// Candidate `k` (below [`Identifier::len`]).
     pub fn candidate(&self, k: usize) -> &Candidate {
         &self.candidates[k]
     }
 
+    /// How many candidates are kept.
     pub fn len(&self) -> usize {
         self.candidates.len()
     }
 
+    /// Whether no candidate is kept.
     pub fn is_empty(&self) -> bool {
         self.candidates.is_empty()
     }

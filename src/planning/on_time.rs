@@ -125,7 +125,9 @@ pub fn dwell(settle_time_s: f64, factor: f64, floor: Duration) -> Duration {
 /// A relay that is on: the step it went on in and how long it has been on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Held {
+    /// The plan step it went on in, as the plan numbers it.
     pub since_step: usize,
+    /// How long it has been on.
     pub on: Duration,
 }
 

@@ -56,7 +56,9 @@ pub struct LoopOptions {
 /// line, `sensor_noise_deg` in Python).
 #[derive(Debug, Clone, Copy)]
 pub struct LoopNames {
+    /// The sensor noise option's name (`--sensor-noise-deg`, `sensor_noise_deg`).
     pub noise_deg: &'static str,
+    /// The most-steps option's name (`--max-steps`, `max_steps`).
     pub max_steps: &'static str,
     /// The motion asked for (`--axis/--angle` on the command line), refused when the model
     /// cannot plan it ([`LoopPlan::planned`]).
@@ -67,7 +69,9 @@ pub struct LoopNames {
 /// file, and the line), or a front end's argument (named with the step).
 #[derive(Debug, Clone, Copy)]
 pub enum RowsFrom<'a> {
+    /// A plan file.
     File(&'a Path),
+    /// A front end's argument, by the name it goes by.
     Argument(&'a str),
 }
 
@@ -136,10 +140,13 @@ impl LoopOptions {
 pub struct RunSummary {
     /// "closed" or "open".
     pub mode: &'static str,
+    /// The sensor's noise (its standard deviation), degrees.
     pub sensor_noise_deg: f64,
+    /// The seed of the sensor's noise.
     pub seed: u64,
     /// Steps of the plan made before the motion (the open-loop plan).
     pub planned_steps: usize,
+    /// The loop's summary, its keys flattened into this one.
     #[serde(flatten)]
     pub run: LoopSummary,
 }
@@ -173,8 +180,11 @@ impl RunSummary {
 /// plan's goal, the plan (the open-loop one) and the goal.
 #[derive(Debug, Clone)]
 pub struct LoopPlan {
+    /// The planning settings the loop replans with, aimed at the plan's goal.
     pub settings: PlanSettings,
+    /// The plan the loop plays (the open-loop one).
     pub plan: Plan,
+    /// The goal orientation, world frame.
     pub goal: Orientation,
 }
 

@@ -87,6 +87,7 @@ pub enum Scheme {
 }
 
 impl Scheme {
+    /// Every scheme, in the order the messages list them.
     pub const ALL: [Scheme; 4] = [
         Scheme::MinAxisError,
         Scheme::MaxAngle,
@@ -94,6 +95,8 @@ impl Scheme {
         Scheme::Search,
     ];
 
+    /// The scheme's name as a scenario and `--scheme` write it (`min-axis-error`, `max-angle`,
+    /// `weighted`, `search`).
     pub fn name(self) -> &'static str {
         match self {
             Scheme::MinAxisError => "min-axis-error",
@@ -103,6 +106,7 @@ impl Scheme {
         }
     }
 
+    /// The scheme named exactly `s` (see [`Scheme::name`]), or `None`.
     pub fn from_name(s: &str) -> Option<Scheme> {
         Scheme::ALL.into_iter().find(|x| x.name() == s)
     }

@@ -33,7 +33,7 @@ pub use crate::planning::plan::{
 /// Plans a motion, with the settings' step model. With a target orientation
 /// ([`PlanSettings::target`]) the motion is planned twice: as asked (the turn from the start),
 /// and again from where the first plan's initial commutation leaves the ball, aimed at the
-/// target from there ([`replanned_from_row0`]); the plan kept is the one that reaches the
+/// target from there (`replanned_from_row0`); the plan kept is the one that reaches the
 /// target, of two that do the one that strays less from the straight way (its worst path
 /// deviation), of two that do not the one that ends nearer (the first on a tie), with the
 /// settles of both.

@@ -21,6 +21,7 @@ use std::collections::BTreeMap;
 /// 16 costs half the settles (about 5,000 to 80,000 a search) and gives the closed-loop tables
 /// of docs/closed-loop.md.
 pub const BEAM: usize = 16;
+/// How many steps deep the search looks at most (see [`BEAM`]).
 pub const DEPTH: usize = 12;
 
 /// A physics to steer in, and the goal.
@@ -31,7 +32,9 @@ pub struct Seek<'a> {
     pub torques: &'a MagnetTorques,
     /// Coils on after each step, and at most this many on while a step switches.
     pub per_step: PairsPerStep,
+    /// The most coils on at once while a step switches (the supply).
     pub max_coils_on: usize,
+    /// The orientation to steer to, world frame.
     pub goal: Orientation,
     /// Settle only this many of a state's coil sets, those whose cheap prediction (the
     /// least-squares alignment of each coil with its nearest magnet,
@@ -41,6 +44,7 @@ pub struct Seek<'a> {
     /// been on: a step that would keep a coil on past the limit is not taken, as the planners
     /// do not take one ([`crate::planning::on_time`]).
     pub on_time: Option<OnTimeLimit>,
+    /// How long each coil on at the root has been on (empty without an on-time limit).
     pub held: OnTimes<CoilId>,
     /// Coil sets (sorted) not taken as the first step: those a closed loop took before from
     /// where the ball is again, which led it round in a circle.
@@ -110,6 +114,7 @@ pub struct Path {
     pub states: Vec<CommutationState>,
     /// Per depth (1 first), the nearest any state came to the goal (rad).
     pub nearest_by_depth: Vec<f64>,
+    /// The settles the search spent.
     pub settles: usize,
 }
 

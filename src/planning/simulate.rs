@@ -27,9 +27,13 @@ pub struct SimRow {
 /// Summary of a replay.
 #[derive(Debug, Clone, Serialize)]
 pub struct SimSummary {
+    /// The plan's steps replayed after row 0 (the rows less one).
     pub steps: usize,
+    /// The largest angle between a simulated and a predicted orientation, degrees.
     pub max_deviation_deg: f64,
+    /// That angle after the last step, degrees.
     pub final_deviation_deg: f64,
+    /// The rows whose settle did not come to rest within the settle's time limit (row 0 included).
     pub unsettled_steps: usize,
 }
 

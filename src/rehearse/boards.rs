@@ -26,8 +26,11 @@ pub enum Action {
 /// One frame received: its bytes (as text for Numato's commands), what it did and the reply.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Frame {
+    /// The bytes received (the whole frame).
     pub bytes: Vec<u8>,
+    /// What the frame did.
     pub action: Action,
+    /// The bytes answered (empty when the board answers nothing).
     pub reply: Vec<u8>,
 }
 
@@ -50,8 +53,11 @@ pub const MAX_FRAME: usize = 512;
 /// A relay board's far end: its protocol, relays and the bytes not yet a whole frame.
 #[derive(Debug, Clone)]
 pub struct BoardEmulator {
+    /// The board type it emulates: its protocol.
     pub kind: BoardKind,
+    /// Its relay count.
     pub channels: u16,
+    /// Its Modbus slave address (the other types ignore it).
     pub slave_address: u8,
     /// Relay i (channel i + 1) as the board holds it.
     pub relays: Vec<bool>,
@@ -59,6 +65,8 @@ pub struct BoardEmulator {
 }
 
 impl BoardEmulator {
+    /// A board of `kind` with `channels` relays, all open, answering Modbus frames to
+    /// `slave_address`.
     pub fn new(kind: BoardKind, channels: u16, slave_address: u8) -> BoardEmulator {
         BoardEmulator {
             kind,

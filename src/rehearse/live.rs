@@ -448,8 +448,11 @@ impl Drop for Links {
 /// The pseudo-terminals made: what each is, its path and its stable link.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct PortInfo {
+    /// What the port is, in words ("board 0 (lcus, 8 channels)", "sensor (quat-csv: ...)").
     pub what: String,
+    /// The pseudo-terminal the replaying side opens.
     pub path: String,
+    /// Its stable link in the link directory, if one was given.
     pub link: Option<PathBuf>,
 }
 

@@ -1,7 +1,9 @@
 //! A virtual motor to rehearse the hardware path without hardware (`spherestep virtual`):
 //! relay boards and an orientation sensor played on pseudo-terminals, byte for byte as the
 //! real devices answer, driving a ball that moves under the plant's equations of motion in
-//! real time, with the hardware limits watched and faults injected on request.
+//! real time, with the hardware limits watched and faults injected on request. The entry point
+//! is `live::run` (with the `hardware` feature, on Unix), given the [`Options`] and returning
+//! a [`Summary`]; the emulators below it can be fed bytes directly.
 //!
 //! - [`boards`]: the four relay protocols' far end (frames parsed, replies, relays held);
 //! - [`sensor`]: the quat-csv lines and the BNO055's register protocol;
@@ -32,8 +34,11 @@ pub const MAX_VIOLATIONS: usize = 100;
 /// One board of the virtual motor.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BoardSetup {
+    /// The board's type: the protocol it answers.
     pub kind: BoardKind,
+    /// Its relay count.
     pub channels: u16,
+    /// Its Modbus slave address (the other types ignore it).
     pub slave_address: u8,
 }
 
@@ -58,22 +63,31 @@ pub struct Faults {
 /// Everything the virtual motor needs.
 #[derive(Debug, Clone)]
 pub struct Options {
+    /// The boards, in `[[relay.boards]]` order (one with the single-board form).
     pub boards: Vec<BoardSetup>,
     /// Board and channel of each coil (the plant's coil map, inverted).
     pub coil_of: BTreeMap<Slot, CoilId>,
+    /// The most coils on at once before a violation is recorded (the supply).
     pub max_coils_on: usize,
+    /// One coil's longest continuous on-time before a violation is recorded (heat).
     pub max_on_time: Duration,
     /// The ball at its start.
     pub ball: plant::Ball,
+    /// The sensor's protocol, quat-csv lines or the BNO055's registers (`None`: no sensor port).
     pub sensor: Option<SensorFormat>,
+    /// The standard deviation of the sensor's noise, radians.
     pub sensor_noise: Radians,
+    /// The seed of the sensor's noise and of its garbled readings.
     pub seed: u64,
     /// The virtual clock runs this many times as fast as the wall clock.
     pub speed: f64,
     /// The sensor's mounting: it reports the ball's orientation times this.
     pub mount: Orientation,
+    /// A directory where each pseudo-terminal gets a stable link (`board0`, ..., `sensor`).
     pub link_dir: Option<PathBuf>,
+    /// A CSV log of every frame, reading and violation, by virtual time.
     pub log: Option<PathBuf>,
+    /// The faults to inject.
     pub faults: Faults,
     /// Stop after this long (wall clock) whatever happens.
     pub max_seconds: Option<Duration>,
@@ -82,24 +96,36 @@ pub struct Options {
 /// What a rehearsal saw.
 #[derive(Debug, Clone, Serialize)]
 pub struct Summary {
+    /// The pseudo-terminals made, boards first, then the sensor.
     #[cfg(all(feature = "hardware", unix))]
     pub ports: Vec<live::PortInfo>,
+    /// What ended the rehearsal, in words (a signal, its time limit, the replaying side closing its
+    /// ports).
     pub ended_by: String,
     /// The virtual clock at the end, s.
     pub virtual_time_s: f64,
     /// Frames received, per board.
     pub frames: Vec<usize>,
+    /// Frames not understood, all boards together.
     pub unknown_frames: usize,
+    /// Sensor readings sent.
     pub sensor_readings: usize,
+    /// Of them, the ones garbled on purpose (`Faults::sensor_garble`).
     pub garbled_readings: usize,
+    /// The most relays closed at once, all boards together.
     pub most_relays_on: usize,
     /// Relays closed at the end (`board:channel`) and the coils they drive.
     pub relays_on_at_end: Vec<String>,
+    /// The coils those relays drive.
     pub coils_on_at_end: Vec<usize>,
     /// The ball at the end: qx, qy, qz, qw.
     pub final_orientation: [f64; 4],
+    /// The first violations of the limits (coils on at once, on-time, relays on at the end), each
+    /// with its virtual time (at most [`MAX_VIOLATIONS`]).
     pub violations: Vec<String>,
+    /// All violations, counted.
     pub violations_total: usize,
+    /// The log written, if any.
     pub log: Option<PathBuf>,
     /// Writing the log failed (it was given up): why.
     pub log_error: Option<String>,
@@ -161,12 +187,25 @@ impl Summary {
 /// Why the virtual motor could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum RehearseError {
+    /// A pseudo-terminal could not be made: the operating system's reason.
     #[error("cannot open a pseudo-terminal: {0}")]
     Pty(String),
+    /// The link directory (`Options::link_dir`), or a link in it, could not be made.
     #[error("the link directory {}: {reason}", path.display())]
-    LinkDir { path: PathBuf, reason: String },
+    LinkDir {
+        /// The directory, or the link.
+        path: PathBuf,
+        /// The operating system's reason.
+        reason: String,
+    },
+    /// The log (`Options::log`) could not be opened or written.
     #[error("the virtual motor's log {}: {reason}", path.display())]
-    Log { path: PathBuf, reason: String },
+    Log {
+        /// The log file.
+        path: PathBuf,
+        /// The operating system's reason.
+        reason: String,
+    },
 }
 
 #[cfg(test)]

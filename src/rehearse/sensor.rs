@@ -32,11 +32,19 @@ pub fn garbled_line(q: &Orientation) -> String {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Request {
     /// A register written.
-    Write { register: u8, data: Vec<u8> },
+    Write {
+        /// The first register written.
+        register: u8,
+        /// The bytes written, from that register on.
+        data: Vec<u8>,
+    },
     /// Registers read; `quaternion` when they were the quaternion's.
     Read {
+        /// The first register read.
         register: u8,
+        /// How many bytes were read.
         len: u8,
+        /// Whether they were the quaternion's registers (QUA_DATA_W_LSB on).
         quaternion: bool,
     },
     /// Not understood: why (answered with an error status).
@@ -56,6 +64,8 @@ pub fn calibration_byte(mode: u8) -> u8 {
 /// A BNO055 in UART mode: its operating mode and the bytes of a request not yet complete.
 #[derive(Debug, Clone)]
 pub struct Bno055Emulator {
+    /// The operating mode (the OPR_MODE register's low nibble) as last written; CONFIGMODE at the
+    /// start.
     pub mode: u8,
     buf: Vec<u8>,
 }

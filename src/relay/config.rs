@@ -126,18 +126,30 @@ impl CoilMap {
 /// and unused).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RelaySettings {
+    /// `relay.board`: the single board's type (`None` with `[[relay.boards]]`, or when only the
+    /// command line gives it).
     pub board: Option<BoardKind>,
+    /// `relay.baud`: the single board's baud rate, bits per second (`None`: the type's default).
     pub baud: Option<u32>,
+    /// `relay.slave_address`: the single Modbus board's slave address.
     pub slave_address: u8,
+    /// `relay.channels`: the single board's channel count (`None`: the type's default).
     pub channels: Option<u16>,
+    /// `relay.timeout_ms`: how long the single board's reply is awaited.
     pub timeout: Duration,
+    /// `relay.max_coils_on`: the most coils on at once, all boards together (the supply).
     pub max_coils_on: usize,
+    /// `relay.max_on_time_s`: one coil's longest continuous on-time (heat).
     pub max_on_time: Duration,
+    /// `relay.dwell_factor`: a step's dwell is its settle time times this (positive).
     pub dwell_factor: f64,
+    /// `relay.dwell_floor_ms`: the shortest dwell derived from a settle time.
     pub dwell_floor: Duration,
     /// `replan_reserve_ms`: see [`crate::planning::on_time::OnTimeLimit::replan_reserve`].
     pub replan_reserve: Duration,
+    /// `relay.order`: which relays of a step switch first.
     pub order: SwitchOrder,
+    /// Which board and channel drive each coil (`[relay.map]`, or a `--map` file).
     pub map: CoilMap,
     /// `[[relay.boards]]`, checked (empty: the single-board form).
     pub boards: Vec<BoardSpec>,

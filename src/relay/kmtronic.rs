@@ -24,6 +24,8 @@ pub struct Kmtronic {
 }
 
 impl Kmtronic {
+    /// A board driving `channels` relays (checked against [`MAX_CHANNELS`] where the settings are),
+    /// talking over `link`.
     pub fn new(link: Link, channels: u16) -> Kmtronic {
         Kmtronic { link, channels }
     }

@@ -28,6 +28,8 @@ pub struct Lcus {
 }
 
 impl Lcus {
+    /// A board driving `channels` relays (checked against [`MAX_CHANNELS`] where the settings are),
+    /// talking over `link`.
     pub fn new(link: Link, channels: u16) -> Lcus {
         Lcus { link, channels }
     }

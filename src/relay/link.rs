@@ -3,7 +3,7 @@
 //! writes are only recorded and reads return `None`. Every frame written is recorded so the replay
 //! can print and log exactly what went on the wire.
 //!
-//! A serial port is opened with a short read timeout ([`PORT_POLL`]) and the board's reply
+//! A serial port is opened with a short read timeout (`PORT_POLL`) and the board's reply
 //! timeout is kept here, so that a wait for a reply (or a blocked write) also ends as soon as
 //! the replay's [`Watch`] says so: a signal, or a coil at its guard. After a wait cut short, the
 //! board's late reply is read and dropped before the next frame goes out.
@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(1000);
 
 /// The read timeout a serial port is opened with: how often a wait looks at its watch.
+#[cfg(feature = "hardware")]
 pub const PORT_POLL: Duration = Duration::from_millis(5);
 
 /// The longest a late reply is read and dropped before the next frame.
@@ -38,7 +39,7 @@ pub struct Link {
 
 impl Link {
     /// Opens a serial port, 8N1, no flow control, waiting at most `timeout` for every reply
-    /// and write (the port itself polls every [`PORT_POLL`]).
+    /// and write (the port itself polls every `PORT_POLL`).
     ///
     /// # Errors
     ///
@@ -121,10 +122,13 @@ impl Link {
         }
     }
 
+    /// Whether the link only records (a dry run: no port is open).
     pub fn is_dry_run(&self) -> bool {
         self.port.is_none()
     }
 
+    /// The link's name in messages: the name it was opened with (its serial device), or `<dry
+    /// run>`.
     pub fn name(&self) -> &str {
         &self.name
     }

@@ -1,22 +1,29 @@
-//! Relay boards that switch the stator coils: one driver per board type behind one trait
-//! (`RelayBoard`, in the spirit of the crelay project), the serial link they talk over, the
-//! coil-to-channel map and replay settings (`[relay]` in a scenario, or a `--map` file; one
-//! board, or several as `[[relay.boards]]`), and the hardware replay of a plan (`replay`), which
-//! drives one driver per board, open loop (the closed loop through an orientation sensor is
-//! the rig's, `crate::rig`, above this layer). Channels are numbered from 1, as printed on the
-//! boards; each driver converts to its own wire numbering. Boards are numbered from 0, in list
-//! order.
+//! Relay boards that switch the stator coils. The entry points are [`replay::prepare`] (a
+//! plan's checked [`Schedule`](replay::Schedule) on the boards of a [`RelaySettings`]),
+//! [`replay::open_ports`] and [`replay::execute_on`] (the replay played on the boards' links,
+//! every coil off at the end), and the [`RelayBoard`] trait with its four drivers
+//! ([`lcus`], [`kmtronic`], [`numato`], [`modbus`]); the errors are [`RelayError`].
+//!
+//! One driver per board type behind one trait (`RelayBoard`, in the spirit of the crelay project),
+//! the serial link they talk over, the coil-to-channel map and replay settings (`[relay]` in a
+//! scenario, or a `--map` file; one board, or several as `[[relay.boards]]`), and the hardware
+//! replay of a plan (`replay`), which drives one driver per board, open loop (the closed loop
+//! through an orientation sensor is the rig's, `crate::rig`, above this layer). Channels are
+//! numbered from 1, as printed on the boards; each driver converts to its own wire numbering.
+//! Boards are numbered from 0, in list order. Private files: the link (`link.rs`, re-exported as
+//! [`Link`]), a `[[relay.boards]]` entry (`boards.rs`, [`BoardConfig`]) and the runner's watch of
+//! every coil deadline (`watch.rs`).
 
-pub mod boards;
+mod boards;
 pub mod config;
 mod fields;
 pub mod kmtronic;
 pub mod lcus;
-pub mod link;
+mod link;
 pub mod modbus;
 pub mod numato;
 pub mod replay;
-pub mod watch;
+mod watch;
 
 pub use boards::BoardConfig;
 pub use config::{CoilMap, RelayConfig, RelaySettings, SwitchOrder};
@@ -43,7 +50,9 @@ impl fmt::Display for Channel {
 /// order; always 0 with a single board) and its channel (1-based). Ordered board first.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Slot {
+    /// The board, 0-based in `[[relay.boards]]` order (0 with a single board).
     pub board: usize,
+    /// The channel on that board, 1-based as printed on it.
     pub channel: Channel,
 }
 
@@ -57,8 +66,11 @@ impl fmt::Display for Slot {
 /// One board of a replay, resolved: its type, channel count, serial settings and port.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BoardSpec {
+    /// The board's type (its protocol).
     pub kind: BoardKind,
+    /// How many relay channels it drives (at most [`BoardKind::max_channels`]).
     pub channels: u16,
+    /// The serial baud rate, bits per second.
     pub baud: u32,
     /// Modbus slave address (other boards ignore it).
     pub slave_address: u8,
@@ -84,6 +96,7 @@ pub enum BoardKind {
 }
 
 impl BoardKind {
+    /// Every supported board type, in the order error messages list them.
     pub const ALL: [BoardKind; 4] = [
         BoardKind::Lcus,
         BoardKind::Kmtronic,
@@ -91,6 +104,8 @@ impl BoardKind {
         BoardKind::Modbus,
     ];
 
+    /// The type's name as a scenario or `--board` writes it (`lcus`, `kmtronic`, `numato`,
+    /// `modbus`).
     pub fn name(self) -> &'static str {
         match self {
             BoardKind::Lcus => "lcus",
@@ -148,65 +163,109 @@ impl FromStr for BoardKind {
 pub enum RelayError {
     /// The serial port could not be opened.
     #[error("cannot open serial port {port}: {message} (is the board plugged in, and are you in the `dialout` group?)")]
-    Open { port: String, message: String },
+    Open {
+        /// The serial device.
+        port: String,
+        /// The operating system's reason.
+        message: String,
+    },
     /// Reading or writing the port failed.
     #[error("serial port {port}: {op} failed: {source}")]
     Port {
+        /// The serial device.
         port: String,
+        /// What was being done, in words ("writing", "reading", "waiting for a reply").
         op: &'static str,
+        /// The operating system's error.
         #[source]
         source: std::io::Error,
     },
     /// The other end of the port went away (unplugged board, closed pseudo-terminal).
     #[error("serial port {port}: the board end closed the connection while {op}")]
-    Closed { port: String, op: &'static str },
+    Closed {
+        /// The serial device.
+        port: String,
+        /// What was being done, in words ("writing", "waiting for a reply").
+        op: &'static str,
+    },
     /// The board did not answer in time.
     #[error("{board} board on {port}: no complete reply within {} ms (got {got} bytes: {})", timeout.as_millis(), hex(partial))]
     NoReply {
+        /// The board's type.
         board: BoardKind,
+        /// Its serial device.
         port: String,
+        /// How long its reply was awaited.
         timeout: Duration,
+        /// How many bytes of the reply arrived.
         got: usize,
+        /// The bytes that arrived.
         partial: Vec<u8>,
     },
     /// A wait for a board (its reply, or a blocked write) ended before the board's timeout
-    /// because a coil reached its guard ([`watch`]); the runner turns it into
-    /// [`RelayError::OnTimeReached`] naming the board.
+    /// because a coil reached its guard (the runner's watch, `relay/watch.rs`); the runner turns
+    /// it into [`RelayError::OnTimeReached`] naming the board.
     #[error("serial port {port}: {op} given up after {} ms (of its {} ms timeout) to keep every coil within its on-time limit", waited.as_millis(), timeout.as_millis())]
     WaitCut {
+        /// The serial device.
         port: String,
+        /// What was being waited for, in words ("writing", "waiting for a reply").
         op: &'static str,
+        /// How long it was waited before it was cut.
         waited: Duration,
+        /// The board's full timeout, which the wait did not reach.
         timeout: Duration,
     },
     /// The board answered something the protocol does not allow.
     #[error("{board} board: unexpected reply {}: expected {expected}", hex(got))]
     BadReply {
+        /// The board's type.
         board: BoardKind,
+        /// What the protocol allows at this point, in words.
         expected: String,
+        /// The bytes received.
         got: Vec<u8>,
     },
     /// A Modbus slave answered with an exception.
     #[error("modbus slave {slave}: exception {code:#04x} ({}) to function {function:#04x}", modbus::exception_name(*code))]
-    ModbusException { slave: u8, function: u8, code: u8 },
+    ModbusException {
+        /// The slave's address.
+        slave: u8,
+        /// The function code of the request.
+        function: u8,
+        /// The exception code.
+        code: u8,
+    },
     /// A channel outside the board.
     #[error("{board} board: channel {channel} is outside its channels 1..={count}")]
     ChannelOutOfRange {
+        /// The board's type.
         board: BoardKind,
+        /// The channel asked for (1-based).
         channel: Channel,
+        /// The board's channel count.
         count: u16,
     },
     /// More channels configured than one board of this type has.
     #[error("{board} boards have at most {max} channels, the settings ask for {count}{hint}")]
     TooManyChannels {
+        /// The board's type.
         board: BoardKind,
+        /// The channel count asked for.
         count: u16,
+        /// The most this board type has ([`BoardKind::max_channels`]).
         max: u16,
+        /// A hint on what to change, or empty.
         hint: &'static str,
     },
     /// Verifying the relays on a board (or channel count) that cannot report them.
     #[error("{}", self.worded(&Fields))]
-    NoReadBack { board: BoardKind, reason: String },
+    NoReadBack {
+        /// The board's type.
+        board: BoardKind,
+        /// Why it cannot report its relays.
+        reason: String,
+    },
     /// The read-back after a step differs from what was switched.
     #[error(
         "verify after step {step}: expected channels on [{}], the board reports [{}]",
@@ -214,34 +273,49 @@ pub enum RelayError {
         list(got)
     )]
     Mismatch {
+        /// The plan step whose relays were verified, as the plan numbers it.
         step: usize,
+        /// The channels that should be on, in order.
         expected: Vec<Channel>,
+        /// The channels the board reports on, in order.
         got: Vec<Channel>,
     },
     /// The plan uses a coil that no relay channel drives.
     #[error("plan step {step} uses coil {coil}, which {reason}")]
     Unmapped {
+        /// The plan step that uses the coil, as the plan numbers it.
         step: usize,
+        /// The coil no channel drives.
         coil: CoilId,
+        /// Why, in words: not on the stator, not in the map, or mapped past its board.
         reason: String,
     },
     /// Too many coils would be on at once (supply limit).
     #[error("step {step} would have {count} coils on at once ({coils}), over the limit of {max} (relay.max_coils_on; the supply is 24 V, 100 W)")]
     TooManyOn {
+        /// The plan step, as the plan numbers it.
         step: usize,
+        /// How many coils would be on.
         count: usize,
+        /// The limit (`relay.max_coils_on`).
         max: usize,
+        /// The coils that would be on, as a list for the message.
         coils: String,
     },
     /// One coil would stay on longer than allowed (heat).
     #[error("{}", self.worded(&Fields))]
     OnTooLong {
+        /// The coil that would stay on too long.
         coil: CoilId,
         /// The board, with `[[relay.boards]]` (`None` with a single board).
         board: Option<usize>,
+        /// Its channel (1-based).
         channel: Channel,
+        /// When it would be on, in words (which steps).
         when: String,
+        /// How long it would stay on continuously.
         on: Duration,
+        /// Its limit (`relay.max_on_time`).
         max: Duration,
         /// What to do about it.
         advice: OnTimeAdvice,
@@ -254,8 +328,11 @@ pub enum RelayError {
     /// [`on_time::guard_margin`]: crate::planning::on_time::guard_margin
     #[error("{}", self.worded(&Fields))]
     OnTimeReached {
+        /// The coil that reached its guard.
         coil: CoilId,
+        /// Its board, with `[[relay.boards]]` (`None` with a single board).
         board: Option<usize>,
+        /// Its channel (1-based).
         channel: Channel,
         /// What the replay was doing: "dwelling in step 3", "waiting for the sensor",
         /// "deciding (fitting the wells, replanning)", "waiting for board 1 (...) to answer".
@@ -264,6 +341,7 @@ pub enum RelayError {
         on: Duration,
         /// Its on-time when its board's all-off went out (`None`: that all-off failed).
         off: Option<Duration>,
+        /// Its limit (`relay.max_on_time`).
         max: Duration,
         /// The wait was for a board that did not answer (not for a dwell, Enter, the sensor or
         /// a decision that a shorter setting could shorten).
@@ -280,18 +358,27 @@ pub enum RelayError {
     /// does not say it twice.)
     #[error("log {path}: {cause}")]
     Log {
+        /// The log file.
         path: PathBuf,
+        /// What failed.
         cause: std::io::Error,
     },
     /// A replay setting's value that cannot be used (for example a first step past the plan's
     /// end); `expected` says what can.
     #[error("{}", self.worded(&Fields))]
-    Setting { setting: Setting, expected: String },
+    Setting {
+        /// The setting.
+        setting: Setting,
+        /// What values it can take.
+        expected: String,
+    },
     /// The replay stopped on an error; every coil was switched off afterwards; `resume` is the
     /// step to resume from.
     #[error("{}", self.worded(&Fields))]
     Stopped {
+        /// The error the replay stopped on.
         cause: Box<RelayError>,
+        /// The step to resume from (`from_step`).
         resume: usize,
     },
     /// The replay finished but the final all-off failed.
@@ -300,22 +387,29 @@ pub enum RelayError {
     /// The replay stopped and switching everything off failed too.
     #[error("{}", self.worded(&Fields))]
     OffFailed {
+        /// The error the replay stopped on.
         cause: Box<RelayError>,
+        /// The all-off's failure.
         off: Box<RelayError>,
     },
     /// An open-loop replay stopped and switching all off failed too (`error`: `OffFailed` or
     /// `BoardsOffFailed`): where to resume once the board is back.
     #[error("{}", self.worded(&Fields))]
     OffFailedResume {
+        /// The failure (`OffFailed` or `BoardsOffFailed`).
         error: Box<RelayError>,
+        /// The step to resume from (`from_step`).
         resume: usize,
     },
     /// Something failed on one board of several (`[[relay.boards]]`): which board, on which
     /// port (the configured one in a dry run), and what.
     #[error("{}", self.worded(&Fields))]
     OnBoard {
+        /// The board, 0-based in `[[relay.boards]]` order.
         index: usize,
+        /// Its serial device (the configured one in a dry run).
         port: String,
+        /// What failed on it.
         error: Box<RelayError>,
     },
     /// With several boards: the replay finished (`cause` `None`) or stopped on `cause`, and
@@ -323,8 +417,11 @@ pub enum RelayError {
     /// `switched_off` (their labels) were switched off.
     #[error("{}", self.worded(&Fields))]
     BoardsOffFailed {
+        /// The error the replay stopped on (`None`: it finished).
         cause: Option<Box<RelayError>>,
+        /// The all-off's failures, one `OnBoard` per board.
         failed: Vec<RelayError>,
+        /// The labels of the boards that were switched off.
         switched_off: Vec<String>,
     },
 }

@@ -95,6 +95,8 @@ pub struct Modbus {
 }
 
 impl Modbus {
+    /// A board driving `channels` relay coils, answering to slave address `slave`, talking over
+    /// `link`.
     pub fn new(link: Link, channels: u16, slave: u8) -> Modbus {
         Modbus {
             link,

@@ -52,6 +52,8 @@ pub struct Numato {
 }
 
 impl Numato {
+    /// A module driving `channels` relays (checked against [`MAX_CHANNELS`] where the settings
+    /// are), talking over `link`.
     pub fn new(link: Link, channels: u16) -> Numato {
         Numato { link, channels }
     }

@@ -65,7 +65,9 @@ fn phase_name(phase: u8) -> &'static str {
 /// What closes the loop: the sensor, the controller deciding from its readings, and what the
 /// checks of a replanned plan need besides the prepared replay.
 pub struct Sensing<'a> {
+    /// The orientation sensor, read after each step's dwell.
     pub sensor: Box<dyn OrientationSensor>,
+    /// The controller that decides each next step from the readings (and replans).
     pub controller: Controller<'a>,
     /// The controller's settings (its thresholds, for the header; `max_steps`).
     pub settings: LoopSettings,
@@ -84,6 +86,7 @@ pub struct Sensing<'a> {
 pub struct ClosedSummary {
     /// Steps switched after the initial state.
     pub steps: usize,
+    /// How many times the controller replanned.
     pub replans: usize,
     /// The last measurement's angle from the goal, degrees.
     pub distance_deg: f64,

@@ -19,34 +19,50 @@ pub enum RigError {
     /// The closed loop cannot go on (the controller found no plan from the measurement, or the
     /// plan in force ran out).
     #[error("closed loop stuck after step {step}: {message}")]
-    Stuck { step: usize, message: String },
+    Stuck {
+        /// The steps switched so far.
+        step: usize,
+        /// Why, in words.
+        message: String,
+    },
     /// The closed loop took its most steps (`max`) without reaching the goal.
     #[error("{}", self.worded(&crate::relay::Fields))]
     MaxSteps {
+        /// The steps switched after the initial state.
         steps: usize,
+        /// The most steps allowed (`max_steps`).
         max: usize,
+        /// The last measurement's angle from the goal, degrees.
         distance_deg: f64,
     },
     /// A replanned plan failed the checks of a schedule (coils mapped, coils on at once from
     /// what is on now, on-time across the joint) before anything of it was switched.
     #[error("{}", self.worded(&crate::relay::Fields))]
     ReplanRefused {
+        /// The step switched last, after which the controller replanned.
         step: usize,
+        /// The replan's number (the controller's count of replans, this one included).
         replan: usize,
+        /// The schedule's check that refused it.
         cause: Box<RelayError>,
     },
     /// The closed loop stopped on `cause` (not a board's) and switching all off then failed
     /// too: `off` is that failure (the relay layer's `EndOffFailed` or `BoardsOffFailed`).
     #[error("{}", self.worded(&crate::relay::Fields))]
     OffFailed {
+        /// The error the loop stopped on.
         cause: Box<RigError>,
+        /// The all-off's failure.
         off: Box<RelayError>,
     },
     /// The closed-loop replay stopped on an error; every coil was switched off afterwards.
     #[error("{}", self.worded(&crate::relay::Fields))]
     LoopStopped {
+        /// The error the loop stopped on.
         cause: Box<RigError>,
+        /// The steps switched after the initial state.
         steps: usize,
+        /// The replans made.
         replans: usize,
         /// The last measurement's angle from the goal, degrees (`None` before any).
         distance_deg: Option<f64>,

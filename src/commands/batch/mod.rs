@@ -28,6 +28,7 @@ use summary::summary_csv;
 /// How to run a batch.
 #[derive(Debug, Clone)]
 pub struct BatchOptions {
+    /// The output folder (`--out`): each scenario's results, `summary.csv` and `timing.csv`.
     pub out: PathBuf,
     /// Worker threads (default: all cores).
     pub jobs: Option<usize>,
@@ -44,7 +45,9 @@ pub struct BatchOptions {
 /// Part `index` of `count` (0-based).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Shard {
+    /// This part, 0-based (below `count`).
     pub index: usize,
+    /// How many parts the batch is split into (at least 1).
     pub count: usize,
 }
 

@@ -210,6 +210,7 @@ pub fn settled_states(
 /// A candidate pair from the distance array.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
+    /// The coil and the magnet.
     pub pair: Pair,
     /// D_ij, the angular distance of the magnet from the coil.
     pub distance: Radians,
@@ -221,8 +222,11 @@ pub struct Candidate {
 /// particular), switch `new` on, and end at `to`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
+    /// The pair held through the step (`None`: a coil-set step).
     pub pivot: Option<Pair>,
+    /// The pairs switched on.
     pub new: Vec<Pair>,
+    /// The state the step ends in: the set on and where it leaves the ball.
     pub to: CommutationState,
     /// Rotation of the step about the desired axis (signed), rad.
     pub angle: Radians,
@@ -501,7 +505,7 @@ pub type Proposal = (Pair, Vec<Pair>);
 
 /// Every proposal from `state` whose candidates pass the filter within `bound` (with the
 /// dynamic model's combinations of up to `pairs.max - 1` of the `limits.max_candidates` best
-/// candidates of each pivot) and that the supply can switch ([`within_supply`]), in a
+/// candidates of each pivot) and that the supply can switch ([`fits_supply`]), in a
 /// deterministic order.
 pub fn proposals_within(
     motor: &Motor,

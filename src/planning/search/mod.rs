@@ -116,7 +116,7 @@ pub trait StepSource: Sync {
     /// of the set already on kept, the others switched on, every other pair off; with where
     /// the ball settles and the step's measures about the turn that remains, when the supply
     /// can switch it and the set holds the ball there (any way the ball turns). How a plan's
-    /// later steps are replayed from a changed row (see [`straighten`]); `None` by default:
+    /// later steps are replayed from a changed row (see `straighten`); `None` by default:
     /// the step model's plans are not straightened.
     fn step_to(&self, _from: &CommutationState, _row: &PlanRow) -> Option<Step> {
         None
@@ -124,7 +124,7 @@ pub trait StepSource: Sync {
 
     /// The steps from `from` after which the set of `next` (a plan's row) can be switched on,
     /// towards `aim`: the settles spent and the admissible steps (any way the ball turns).
-    /// How [`straighten`] finds a way between two rows of a plan; none by default.
+    /// How `straighten` finds a way between two rows of a plan; none by default.
     fn bridges(
         &self,
         _from: &CommutationState,

@@ -10,13 +10,12 @@
 //! clock. `--log` writes what was sent when (and, with several boards, to which board).
 //!
 //! The runner owns every coil deadline (the one mechanism for the on-time guarantee): a coil
-//! counts as on from the moment its frame is sent, and the runner's [`Watch`] holds the earliest
+//! counts as on from the moment its frame is sent, and the runner's `Watch` holds the earliest
 //! time a coil reaches its guard (its limit less [`on_time::guard_margin`]). Every wait (a dwell,
 //! Enter in step mode, a board's reply or blocked write, and in a closed loop the sensor and the
 //! decision) ends there: every coil is switched off (a board that did not answer last) and the
 //! replay stops, saying how long the coil was on when its board's all-off went out.
 //!
-//! [`Watch`]: crate::relay::watch::Watch
 //! [`on_time::guard_margin`]: crate::planning::on_time::guard_margin
 
 mod log;

@@ -13,10 +13,13 @@ use std::time::Duration;
 /// Everything resolved from the options before a port is opened.
 #[derive(Debug, Clone)]
 pub struct Prepared {
+    /// The `[relay]` settings, checked.
     pub settings: RelaySettings,
     /// The boards, in order (one with the single-board form), ports resolved with `--port`.
     pub boards: Vec<BoardSpec>,
+    /// The plan's steps as relay switching, checked against the limits.
     pub schedule: Schedule,
+    /// The command line's choices (mode, dwell, first step, log, verify).
     pub drive: Drive,
     /// How the replay's own lines and refusals name its settings (where to resume, which log
     /// to give): by their fields ([`Fields`]) unless the front end words them
@@ -47,6 +50,7 @@ pub struct Drive {
     /// `--port`: the single board's device, or one per `[[relay.boards]]` entry, in order
     /// (overriding their `port`); empty when not given.
     pub ports: Vec<String>,
+    /// Realtime (the dwells) or step mode (Enter between steps).
     pub mode: Mode,
     /// A fixed dwell for every step instead of settle time x factor (used as given: the floor is for the derived dwells).
     pub dwell_ms: Option<u64>,

@@ -35,9 +35,13 @@ impl FromStr for Mode {
 /// One relay switched: a coil, on its board (0 with a single board) and channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Switch {
+    /// The coil the relay drives.
     pub coil: CoilId,
+    /// Its board, 0-based in `[[relay.boards]]` order (0 with a single board).
     pub board: usize,
+    /// Its channel on that board, 1-based.
     pub channel: Channel,
+    /// `true`: switched on; `false`: off.
     pub on: bool,
 }
 
@@ -55,6 +59,7 @@ impl Switch {
 /// before the first one replayed).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Entry {
+    /// The plan step, as the plan numbers it.
     pub step: usize,
     /// Re-energises `step`'s active set to hold the ball before resuming at `step + 1`.
     pub hold: bool,
@@ -74,6 +79,7 @@ pub struct Entry {
 /// The whole replay, worked out and checked before anything is sent.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Schedule {
+    /// The entries in the order they are replayed.
     pub entries: Vec<Entry>,
 }
 

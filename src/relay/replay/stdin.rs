@@ -8,7 +8,8 @@ use std::sync::mpsc::Receiver;
 const STDIN_LINE_MAX: u64 = 4096;
 
 /// Spawns a thread that forwards standard input line by line (for step mode); it stops at the
-/// end of the input, at a line that is not UTF-8 text and at one over [`STDIN_LINE_MAX`].
+/// end of the input, at a line that is not UTF-8 text and at one over `STDIN_LINE_MAX` (4096)
+/// bytes.
 pub fn stdin_lines() -> Receiver<String> {
     use std::io::{BufRead, Read};
     let (tx, rx) = std::sync::mpsc::channel();
