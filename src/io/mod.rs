@@ -4,6 +4,7 @@
 //! one way an input file is read, regular and bounded (`input`), and the one place that writes a
 //! file whole or not at all (`output`).
 
+pub mod fitfiles;
 pub mod input;
 pub mod loopfile;
 pub mod output;
