@@ -172,8 +172,16 @@ fn keep_files(doc: &mut toml::Table, from_dir: &Path, out: &Path) {
         (Ok(x), Ok(y)) => x == y,
         _ => a == b,
     };
-    let from = if from_dir.as_os_str().is_empty() { Path::new(".") } else { from_dir };
-    let to = if out_dir.as_os_str().is_empty() { Path::new(".") } else { out_dir };
+    let from = if from_dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        from_dir
+    };
+    let to = if out_dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        out_dir
+    };
     if same(from, to) {
         return;
     }

@@ -87,12 +87,14 @@ impl WellFit {
 
     /// The fitted wells of a scenario's well, if it is of a shape with parameters.
     pub fn of(well: &Well) -> Option<WellFit> {
-        let reach_deg = well.max_attraction().0.to_degrees();
+        // in the degrees they were given in (radians and back lose the last bit)
+        let deg = |r: f64| (r.to_degrees() * 1e9).round() / 1e9;
+        let reach_deg = deg(well.max_attraction().0);
         match well.shape() {
             WellShape::Gaussian { strength_j, width } => Some(WellFit {
                 shape: FitShape::Gaussian,
                 strength_j: *strength_j,
-                width_deg: Some(width.0.to_degrees()),
+                width_deg: Some(deg(width.0)),
                 reach_deg,
             }),
             WellShape::Cosine { strength_j } => Some(WellFit {
@@ -152,7 +154,12 @@ fn ssr(r: &[f64]) -> f64 {
 }
 
 /// The Jacobian of `f` at `x` by central differences of steps `h`.
-fn jacobian(f: &(dyn Fn(&[f64]) -> Vec<f64> + Sync), x: &[f64], h: &[f64], n: usize) -> DMatrix<f64> {
+fn jacobian(
+    f: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+    x: &[f64],
+    h: &[f64],
+    n: usize,
+) -> DMatrix<f64> {
     let mut j = DMatrix::zeros(n, x.len());
     for k in 0..x.len() {
         let (mut up, mut down) = (x.to_vec(), x.to_vec());
@@ -183,11 +190,7 @@ fn variances(jtj: &DMatrix<f64>) -> Vec<Option<f64>> {
 }
 
 /// Levenberg-Marquardt from `x0` on the residuals `f`, central-difference steps `h`.
-fn levenberg_marquardt(
-    f: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
-    x0: &[f64],
-    h: &[f64],
-) -> Solved {
+fn levenberg_marquardt(f: &(dyn Fn(&[f64]) -> Vec<f64> + Sync), x0: &[f64], h: &[f64]) -> Solved {
     let mut x = x0.to_vec();
     let mut r = f(&x);
     let mut s = ssr(&r);
@@ -251,10 +254,10 @@ fn pull(shape: FitShape, p: &[f64], d: f64, reach: f64) -> f64 {
 
 /// The starting parameters of `shape` from the curve's peak (a gaussian peaks at its width).
 fn start(shape: FitShape, pts: &[(f64, f64)]) -> Vec<f64> {
-    let peak = pts
-        .iter()
-        .copied()
-        .fold((0.0, f64::NEG_INFINITY), |a, p| if p.1 > a.1 { p } else { a });
+    let peak = pts.iter().copied().fold(
+        (0.0, f64::NEG_INFINITY),
+        |a, p| if p.1 > a.1 { p } else { a },
+    );
     match shape {
         FitShape::Gaussian => {
             let s = peak.0.max(1e-3);
@@ -311,7 +314,9 @@ pub fn fit_shape(shape: FitShape, pts: &[(f64, f64)]) -> Result<CurveFit, FitErr
         let r = sorted[reach].0;
         let data = &sorted;
         let f = move |x: &[f64]| -> Vec<f64> {
-            data.iter().map(|&(d, y)| pull(shape, x, d, r) - y).collect()
+            data.iter()
+                .map(|&(d, y)| pull(shape, x, d, r) - y)
+                .collect()
         };
         let h = vec![1e-6; p.len()];
         let s = levenberg_marquardt(&f, &p, &h);
@@ -405,10 +410,23 @@ pub fn step_pairs(torques: &MagnetTorques, step: &MeasuredStep) -> Vec<Pair> {
 }
 
 /// Where `torques` (with `motor`'s body and settle) predict each step ends.
-pub fn predict_steps(motor: &Motor, torques: &MagnetTorques, steps: &[MeasuredStep]) -> Vec<Orientation> {
+pub fn predict_steps(
+    motor: &Motor,
+    torques: &MagnetTorques,
+    steps: &[MeasuredStep],
+) -> Vec<Orientation> {
     steps
         .par_iter()
-        .map(|s| settle(torques, &step_pairs(torques, s), &s.from, motor.body, motor.settle).q)
+        .map(|s| {
+            settle(
+                torques,
+                &step_pairs(torques, s),
+                &s.from,
+                motor.body,
+                motor.settle,
+            )
+            .q
+        })
         .collect()
 }
 
@@ -438,22 +456,18 @@ pub struct StepFit {
     pub holdout_after_deg: Vec<f64>,
 }
 
-/// The wells of `start` with the step parameters `x` (a gaussian's ln width, the reach).
-fn with_params(start: &WellFit, x: &[f64]) -> WellFit {
-    match start.shape {
-        FitShape::Gaussian => WellFit {
-            width_deg: Some(x[0].exp()),
-            reach_deg: x[1],
-            ..*start
-        },
-        FitShape::Cosine => WellFit {
-            reach_deg: x[0],
-            ..*start
-        },
-    }
-}
+/// The scale of the steps' robust loss, degrees: a step predicted this far off counts about as
+/// its square, one much further (ended in another basin than predicted: the dynamics, not the
+/// wells, decide those) only logarithmically more (a Cauchy loss).
+pub const ROBUST_DEG: f64 = 2.0;
+/// The reaches a fit of the steps tries, degrees: from 5 to 75 by 0.5.
+pub const REACH_GRID: (f64, f64, f64) = (5.0, 75.0, 0.5);
+/// Rounds of the fit of the steps: the reach over its grid, then the width by
+/// Levenberg-Marquardt.
+pub const STEP_ROUNDS: usize = 3;
 
-/// The rotation (degrees, as a vector) from each measured end to its prediction.
+/// The rotation (degrees, as a vector) from each measured end to its prediction, scaled to
+/// the robust loss: its squared length is ROBUST^2 ln(1 + (e / ROBUST)^2).
 fn step_residuals(motor: &Motor, wells: &WellFit, steps: &[MeasuredStep]) -> Vec<f64> {
     let torques = MagnetTorques {
         well: wells.well(),
@@ -463,16 +477,77 @@ fn step_residuals(motor: &Motor, wells: &WellFit, steps: &[MeasuredStep]) -> Vec
         .iter()
         .zip(steps)
         .flat_map(|(p, s)| {
-            let v = (p * s.to.inverse()).scaled_axis();
-            [v.x.to_degrees(), v.y.to_degrees(), v.z.to_degrees()]
+            let v = (p * s.to.inverse()).scaled_axis().map(f64::to_degrees);
+            let e = v.norm();
+            let c = ROBUST_DEG;
+            let f = if e > 1e-12 {
+                c * (1.0 + (e / c).powi(2)).ln().sqrt() / e
+            } else {
+                1.0
+            };
+            [v.x * f, v.y * f, v.z * f]
         })
         .collect()
 }
 
+/// The reach of the grid for `wells`' other parameters: of the reaches whose robust loss is
+/// within `var` (the loss per degree of freedom) of the least, the one nearest `prefer` (the
+/// steps do not tell them apart: the reach moves no further than they say); and the
+/// half-width of those reaches (`None`: they reach the grid's end, the steps do not bound it).
+fn best_step_reach(
+    motor: &Motor,
+    wells: &WellFit,
+    steps: &[MeasuredStep],
+    prefer: f64,
+) -> (f64, Option<f64>) {
+    let (lo, hi, by) = REACH_GRID;
+    let min = wells.width_deg.map_or(lo, |w| w.max(lo));
+    let n = ((hi - lo) / by).round() as usize;
+    let mut grid: Vec<f64> = (0..=n)
+        .map(|i| lo + by * i as f64)
+        .filter(|&r| r >= min)
+        .collect();
+    if !grid.contains(&prefer) && (min..=hi).contains(&prefer) {
+        grid.push(prefer);
+        grid.sort_by(f64::total_cmp);
+    }
+    let losses: Vec<f64> = grid
+        .par_iter()
+        .map(|&r| {
+            let w = WellFit {
+                reach_deg: r,
+                ..*wells
+            };
+            ssr(&step_residuals(motor, &w, steps))
+        })
+        .collect();
+    let least = losses.iter().copied().fold(f64::INFINITY, f64::min);
+    let var = least / (3 * steps.len()).saturating_sub(2).max(1) as f64;
+    let within: Vec<usize> = (0..grid.len())
+        .filter(|&i| losses[i] <= least + var)
+        .collect();
+    let chosen = within
+        .iter()
+        .copied()
+        .min_by(|&a, &b| {
+            (grid[a] - prefer)
+                .abs()
+                .total_cmp(&(grid[b] - prefer).abs())
+        })
+        .map_or(wells.reach_deg, |i| grid[i]);
+    let width = match (within.first(), within.last()) {
+        (Some(&first), Some(&last)) if first > 0 && last + 1 < grid.len() => {
+            Some((grid[last] - grid[first] + by) / 2.0)
+        }
+        _ => None,
+    };
+    (chosen, width)
+}
+
 /// Measured `steps` fitted from `start` (the wells of `motor`, or a curve's fit): the
-/// parameters that decide where a step settles (a gaussian's width, the reach; the strength
-/// scales every torque alike and moves no equilibrium, so it is kept), the last `holdout` steps
-/// kept out of the fit and predicted.
+/// parameters that decide where a step settles (the reach, over a grid, and a gaussian's
+/// width, by Levenberg-Marquardt, in turns; the strength scales every torque alike and moves
+/// no equilibrium, so it is kept), the last `holdout` steps kept out of the fit and predicted.
 pub fn fit_steps(
     motor: &Motor,
     start: &WellFit,
@@ -482,38 +557,49 @@ pub fn fit_steps(
     let fitted = steps.len().saturating_sub(holdout);
     if fitted < MIN_STEPS {
         return Err(FitError::TooFew {
-            what: format!("measured steps to fit (of {} after {holdout} held out)", steps.len()),
+            what: format!(
+                "measured steps to fit (of {} after {holdout} held out)",
+                steps.len()
+            ),
             needed: MIN_STEPS,
             got: fitted,
         });
     }
     let (train, test) = steps.split_at(fitted);
-    let x0: Vec<f64> = match (start.shape, start.width_deg) {
-        (FitShape::Gaussian, Some(w)) => vec![w.ln(), start.reach_deg],
-        _ => vec![start.reach_deg],
-    };
-    // the settle's own tolerance makes the residuals rough below ~1e-3: steps well above it
-    let h: Vec<f64> = match start.shape {
-        FitShape::Gaussian => vec![0.02, 0.5],
-        FitShape::Cosine => vec![0.5],
-    };
-    let f = |x: &[f64]| step_residuals(motor, &with_params(start, x), train);
-    let s = levenberg_marquardt(&f, &x0, &h);
-    let wells = with_params(start, &s.x);
-    let var = s.ssr / s.residuals.saturating_sub(s.x.len()).max(1) as f64;
-    let mut estimates = Vec::new();
-    for (k, key) in ["width_deg", "max_attraction_deg"]
-        .into_iter()
-        .skip(2 - s.x.len())
-        .enumerate()
-    {
-        let (value, scale) = match key {
-            "width_deg" => (s.x[k].exp(), s.x[k].exp()),
-            _ => (s.x[k], 1.0),
-        };
-        let std_error = s.variance[k].map(|v| scale * (v * var).sqrt());
-        estimates.push(Estimate { key, value, std_error });
+    let mut wells = *start;
+    let mut width_se = None;
+    for _ in 0..STEP_ROUNDS {
+        wells.reach_deg = best_step_reach(motor, &wells, train, start.reach_deg).0;
+        if let Some(w) = wells.width_deg {
+            let f = |x: &[f64]| {
+                let trial = WellFit {
+                    width_deg: Some(x[0].exp().min(wells.reach_deg)),
+                    ..wells
+                };
+                step_residuals(motor, &trial, train)
+            };
+            // the settle's own tolerance makes the residuals rough below ~1e-3: a wide step
+            let s = levenberg_marquardt(&f, &[w.ln()], &[0.02]);
+            let width = s.x[0].exp().min(wells.reach_deg);
+            let var = s.ssr / s.residuals.saturating_sub(2).max(1) as f64;
+            width_se = s.variance[0].map(|v| width * (v * var).sqrt());
+            wells.width_deg = Some(width);
+        }
     }
+    let (_, reach_se) = best_step_reach(motor, &wells, train, start.reach_deg);
+    let mut estimates = Vec::new();
+    if let Some(w) = wells.width_deg {
+        estimates.push(Estimate {
+            key: "width_deg",
+            value: w,
+            std_error: width_se,
+        });
+    }
+    estimates.push(Estimate {
+        key: "max_attraction_deg",
+        value: wells.reach_deg,
+        std_error: reach_se,
+    });
     Ok(report_steps(motor, start, wells, estimates, train, test))
 }
 
