@@ -122,7 +122,7 @@ pub enum Error {
     #[error(transparent)]
     Rig(#[from] RigError),
     /// The wells cannot be fitted to the data given (too few points or steps, no pull).
-    #[error("fitting the wells: {0}")]
+    #[error(transparent)]
     Fit(#[from] FitError),
 }
 

@@ -28,7 +28,7 @@ pub const MAX_ITERATIONS: usize = 60;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FitError {
     /// Too few points or steps for the parameters.
-    #[error("{what}: expected at least {needed}, got {got}")]
+    #[error("fitting the wells: {what}: expected at least {needed}, got {got}")]
     TooFew {
         /// What was counted ("torque curve points", "measured steps to fit").
         what: String,
@@ -37,7 +37,7 @@ pub enum FitError {
     },
     /// The data cannot fit this scenario's wells (no pull measured, a shape without
     /// continuous parameters).
-    #[error("{0}")]
+    #[error("fitting the wells: {0}")]
     Unfit(String),
 }
 

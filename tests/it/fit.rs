@@ -324,3 +324,18 @@ fn bad_bench_files_and_logs_are_refused_naming_the_file_the_place_and_what_was_e
         "{err}"
     );
 }
+
+/// Writes the book's example (docs/fit.md) to `assets/fit/`: the hidden scenario, its noisy
+/// bench curve and the log of 30 measured steps (`cargo test --release --test it --
+/// fit::write_the_books_example --ignored`).
+#[test]
+#[ignore]
+fn write_the_books_example() {
+    let out = Path::new("assets/fit");
+    std::fs::create_dir_all(out).unwrap();
+    let hidden = Scenario::load(&write(out, "hidden.toml", HIDDEN)).unwrap();
+    write(out, "bench.csv", &noisy_bench(&hidden, 33));
+    let dir = tempfile::tempdir().unwrap();
+    let sets = raster_sets(dir.path());
+    write(out, "replay.csv", &simulated_log(&hidden, &sets[..31], 1.0));
+}
