@@ -11,7 +11,7 @@ use common::run;
 use spherestep::commands::wells::well_curve;
 use spherestep::io::fitfiles::parse_steps;
 use spherestep::io::scenario::Scenario;
-use spherestep::model::geometry::{pairs_text, Orientation, Pair, Radians};
+use spherestep::model::geometry::{Orientation, Pair, Radians};
 use spherestep::model::random::SplitMix;
 use spherestep::physics::dynamics::settle;
 use spherestep::planning::commutation::nearest_magnet;
@@ -157,7 +157,8 @@ pub fn simulated_log(hidden: &Scenario, sets: &[BTreeSet<usize>], noise_deg: f64
         let m = noise.measure(&truth);
         let mut cols = vec![s("0.2"), k.to_string(), s("sensor"), s(""), s(""), s("")];
         cols.extend([m.w, m.i, m.j, m.k].map(|v| v.to_string()));
-        cols.extend([s(""), format!("\"{}\"", pairs_text(&pairs))]);
+        // what a quat-csv sensor sends: `w,x,y,z`
+        cols.extend([s(""), format!("\"{},{},{},{}\"", m.w, m.i, m.j, m.k)]);
         row(cols);
         row(vec![s("0.3"), k.to_string(), s("done")]);
     }
