@@ -307,6 +307,25 @@ fn bad_bench_files_and_logs_are_refused_naming_the_file_the_place_and_what_was_e
             assert!(err.contains(w), "{name}: wanted `{w}` in {err}");
         }
     }
+    // the fitted scenario replaces no input: the bench curve, the log, the scenario
+    let hidden_path = write(d, "model.toml", HIDDEN);
+    let hidden = Scenario::load(&hidden_path).unwrap();
+    let bench = write(d, "bench.csv", &noisy_bench(&hidden, 1));
+    let (b, m) = (bench.to_str().unwrap(), hidden_path.to_str().unwrap());
+    for out in [b, m] {
+        let before = (
+            std::fs::read(&bench).unwrap(),
+            std::fs::read(&hidden_path).unwrap(),
+        );
+        let (code, _, err) = run(&["fit", m, "--torque", b, "--out", out]);
+        assert_ne!(code, 0, "--out {out}");
+        assert!(err.contains("--out"), "{err}");
+        let after = (
+            std::fs::read(&bench).unwrap(),
+            std::fs::read(&hidden_path).unwrap(),
+        );
+        assert_eq!(before, after, "--out {out}");
+    }
     // too few steps left to fit after the held-out ones
     let hidden = Scenario::load(&write(d, "hidden.toml", HIDDEN)).unwrap();
     let sets: Vec<BTreeSet<usize>> = vec![[0, 11].into(), [11, 15, 5].into(), [15, 5].into()];
