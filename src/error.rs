@@ -5,6 +5,7 @@
 //! flags ([`Error::worded`]).
 
 use crate::physics::well_curve::StepError;
+use crate::planning::fit::FitError;
 use crate::planning::options::OptionError;
 use crate::relay::{ConfigError, RelayError, Wording};
 use crate::rig::RigError;
@@ -120,6 +121,9 @@ pub enum Error {
     /// (the message says how far it got and that every coil was switched off).
     #[error(transparent)]
     Rig(#[from] RigError),
+    /// The wells cannot be fitted to the data given (too few points or steps, no pull).
+    #[error(transparent)]
+    Fit(#[from] FitError),
 }
 
 impl From<ConfigError> for Error {

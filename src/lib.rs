@@ -95,6 +95,7 @@ mod book {
         Introduction = "../docs/introduction.md";
         Scenarios = "../docs/scenarios.md";
         Wells = "../docs/wells.md";
+        Fit = "../docs/fit.md";
         Settle = "../docs/settle.md";
         Plan = "../docs/plan.md";
         Motions = "../docs/motions.md";

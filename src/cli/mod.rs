@@ -3,6 +3,7 @@
 //! as values to `main`, the one place that prints them.
 
 mod batch;
+mod fit;
 mod packing;
 mod plan;
 mod plot;
@@ -112,6 +113,10 @@ enum Command {
     /// The torque on one magnet as it passes one energised coil, against the angle: a CSV in
     /// the `table` format (angle_deg,torque_nm), its picture and a summary.
     Wells(wells::Args),
+    /// Fit the wells to the bench: a measured torque curve (--torque) and/or a closed-loop
+    /// replay's log (--log); the parameters with their standard errors, the residuals, and the
+    /// fitted scenario (--out).
+    Fit(fit::Args),
 }
 
 impl Cli {
@@ -130,6 +135,7 @@ impl Cli {
             Command::Plot(a) => a.run(out),
             Command::Prototype(a) => a.run(out),
             Command::Wells(a) => a.run(out),
+            Command::Fit(a) => a.run(out),
         }
     }
 }

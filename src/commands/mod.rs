@@ -12,6 +12,7 @@ pub mod args;
 pub mod batch;
 pub mod closed_loop;
 pub mod closed_replay;
+pub mod fit;
 pub mod rehearse;
 pub mod replay;
 pub mod waypoints;

@@ -12,6 +12,7 @@
 //! [`input::text`], the checked read of an input file, and [`write_atomic`], a file written
 //! whole or not at all.
 
+pub mod fitfiles;
 pub mod input;
 pub mod loopfile;
 pub mod output;

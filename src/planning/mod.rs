@@ -16,6 +16,7 @@ pub mod cancel;
 pub mod closed_loop;
 pub mod coilsets;
 pub mod commutation;
+pub mod fit;
 pub mod holding;
 pub mod identify;
 mod landing;

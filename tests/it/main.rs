@@ -15,6 +15,7 @@ mod batch_files;
 mod cli_errors;
 mod closed_loop;
 mod coilsets;
+mod fit;
 mod front_door;
 mod identify;
 mod input_checks;

@@ -1,0 +1,361 @@
+//! `spherestep fit`: a hidden scenario's wells recovered from its noisy `wells` curve (each
+//! parameter within 3%), the fitted scenario loading to the fitted curve; its steps, logged as
+//! a closed-loop replay logs them with 1 degree of sensor noise, fitted from the unaltered
+//! scenario and predicting held-out steps within 2 degrees (where the unaltered scenario
+//! predicts worse); bad bench files and logs refused naming the file, the line or column and
+//! what was expected.
+
+use crate::common;
+
+use common::run;
+use spherestep::commands::wells::well_curve;
+use spherestep::io::fitfiles::parse_steps;
+use spherestep::io::scenario::Scenario;
+use spherestep::model::geometry::{Orientation, Pair, Radians};
+use spherestep::model::random::SplitMix;
+use spherestep::physics::dynamics::settle;
+use spherestep::planning::commutation::nearest_magnet;
+use spherestep::planning::fit::{step_errors_deg, FitShape, WellFit};
+use spherestep::Noise;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+/// The prototype with narrower, weaker wells that reach less far: the motor the bench measures.
+const HIDDEN: &str = "name = \"hidden\"\n[magnets]\nshape = \"gaussian\"\nstrength_j = 0.2\n\
+    width_deg = 7.0\nmax_attraction_deg = 22.0\ninteraction = \"pairs\"\n";
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// A normal number of deviation 1 (Box-Muller).
+fn normal(r: &mut SplitMix) -> f64 {
+    let (u1, u2) = (r.uniform(), r.uniform());
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// The hidden scenario's `wells` curve every 0.5 degrees with noise of 2% of its peak (seeded),
+/// as a bench CSV.
+pub fn noisy_bench(hidden: &Scenario, seed: u64) -> String {
+    let curve = well_curve(&hidden.torques.well, 0.5).unwrap();
+    let peak = curve.iter().map(|p| p.1).fold(0.0, f64::max);
+    let mut r = SplitMix::new(seed);
+    let mut text = String::from("angle_deg,torque_nm\n");
+    for (a, g) in curve {
+        text.push_str(&format!("{a},{}\n", g + 0.02 * peak * normal(&mut r)));
+    }
+    text
+}
+
+fn json(out: &str, err: &str) -> serde_json::Value {
+    serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}{err}"))
+}
+
+#[test]
+fn a_hidden_wells_curve_with_two_percent_noise_is_recovered_within_three_percent() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let hidden = Scenario::load(&write(d, "hidden.toml", HIDDEN)).unwrap();
+    let bench = write(d, "bench.csv", &noisy_bench(&hidden, 33));
+    let fitted = d.join("fitted.toml");
+    let args = [
+        "fit",
+        "scenarios/prototype.toml",
+        "--torque",
+        bench.to_str().unwrap(),
+        "--out",
+        fitted.to_str().unwrap(),
+        "--json",
+    ];
+    let (code, out, err) = run(&args);
+    assert_eq!(code, 0, "{out}{err}");
+    let report = json(&out, &err);
+    let best = &report["curve"][0];
+    assert_eq!(best["wells"]["shape"], "gaussian", "{report}");
+    // the cosine explains the curve far worse
+    let rms = |k: usize| report["curve"][k]["rms_nm"].as_f64().unwrap();
+    assert!(rms(1) > 5.0 * rms(0), "{report}");
+    let w = &best["wells"];
+    let got = [
+        w["strength_j"].as_f64().unwrap(),
+        w["width_deg"].as_f64().unwrap(),
+        w["reach_deg"].as_f64().unwrap(),
+    ];
+    for (g, want) in got.iter().zip([0.2, 7.0, 22.0]) {
+        assert!((g / want - 1.0).abs() < 0.03, "{g} for {want}: {report}");
+    }
+    // every parameter determined, each within a few standard errors of the truth
+    for (e, want) in best["estimates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip([0.2, 7.0, 22.0])
+    {
+        let se = e["std_error"].as_f64().unwrap();
+        assert!(se > 0.0 && (e["value"].as_f64().unwrap() - want).abs() < 4.0 * se + 1e-9);
+    }
+    // the written scenario loads, and its `wells` curve is the fitted well's, bit for bit
+    let sc = Scenario::load(&fitted).unwrap();
+    let fit = WellFit {
+        shape: FitShape::Gaussian,
+        strength_j: got[0],
+        width_deg: Some(got[1]),
+        reach_deg: got[2],
+    };
+    let (a, b) = (
+        well_curve(&sc.torques.well, 0.5).unwrap(),
+        well_curve(&fit.well(), 0.5).unwrap(),
+    );
+    assert_eq!(a.len(), b.len());
+    // (the JSON report's numbers are read back within an ulp)
+    assert!(a
+        .iter()
+        .zip(&b)
+        .all(|(p, q)| p.0 == q.0 && (p.1 - q.1).abs() < 1e-12));
+    assert_eq!(sc.name, "prototype-fitted");
+    let (code, out, err) = run(&["wells", fitted.to_str().unwrap(), "--step-deg", "0.5"]);
+    assert_eq!(code, 0, "{out}{err}");
+}
+
+/// A closed-loop replay's log of `steps` in `hidden`: each step's coils (those of `sets`, each
+/// pulling the magnet nearest it where the ball is), the ball settled in the hidden physics
+/// and read by a sensor of `noise_deg` degrees (seeded), logged as `replay --sensor --log`
+/// logs it.
+pub fn simulated_log(hidden: &Scenario, sets: &[BTreeSet<usize>], noise_deg: f64) -> String {
+    let motor = hidden.motor();
+    let mut noise = Noise::new(7, Radians(noise_deg.to_radians()));
+    let mut truth: Orientation = hidden.plan.start;
+    let mut on: BTreeSet<usize> = BTreeSet::new();
+    let mut log = String::from("t_s,step,action,coil,channel,bytes,qw,qx,qy,qz,goal_deg,raw\n");
+    // every row padded to the header's 12 columns, as the replay writes them
+    let mut row = |cols: Vec<String>| {
+        let pad = 12 - cols.len();
+        log.push_str(&format!("{}{}\n", cols.join(","), ",".repeat(pad)));
+    };
+    let s = |x: &str| x.to_string();
+    row(vec![s("0.000"), s("0"), s("start")]);
+    for (k, set) in sets.iter().enumerate() {
+        let switched = on
+            .difference(set)
+            .map(|c| (c, "off"))
+            .chain(set.difference(&on).map(|c| (c, "on")));
+        for (c, action) in switched {
+            let cols = [s("0.1"), k.to_string(), s(action), c.to_string()];
+            row([&cols[..], &[(c + 1).to_string(), s("ff")]].concat());
+        }
+        on = set.clone();
+        let pairs: Vec<Pair> = set
+            .iter()
+            .map(|&c| Pair {
+                coil: spherestep::CoilId(c),
+                magnet: nearest_magnet(&motor.torques, spherestep::CoilId(c), &truth).0,
+            })
+            .collect();
+        truth = settle(&motor.torques, &pairs, &truth, motor.body, motor.settle).q;
+        let m = noise.measure(&truth);
+        let mut cols = vec![s("0.2"), k.to_string(), s("sensor"), s(""), s(""), s("")];
+        cols.extend([m.w, m.i, m.j, m.k].map(|v| v.to_string()));
+        // what a quat-csv sensor sends: `w,x,y,z`
+        cols.extend([s(""), format!("\"{},{},{},{}\"", m.w, m.i, m.j, m.k)]);
+        row(cols);
+        row(vec![s("0.3"), k.to_string(), s("done")]);
+    }
+    log
+}
+
+/// The coil sets of the prototype's plan through its 10 raster waypoints (39 steps).
+fn raster_sets(dir: &Path) -> Vec<BTreeSet<usize>> {
+    let plan = dir.join("plan.csv");
+    let (code, out, err) = run(&[
+        "plan",
+        "scenarios/prototype.toml",
+        "--waypoints",
+        "scenarios/waypoints/raster-10.csv",
+        "--out",
+        plan.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{out}{err}");
+    let text = std::fs::read_to_string(&plan).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = header.iter().position(|h| *h == "active").unwrap();
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            f[col]
+                .split(';')
+                .map(|p| p.split(':').next().unwrap().parse().unwrap())
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn a_fit_on_twenty_logged_steps_predicts_ten_held_out_steps_within_two_degrees() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let hidden = Scenario::load(&write(d, "hidden.toml", HIDDEN)).unwrap();
+    let sets = raster_sets(d);
+    assert!(sets.len() >= 31, "{} steps", sets.len());
+    // step 0 is measured first; each later step is a measured step: 30 of them
+    let log = write(d, "replay.csv", &simulated_log(&hidden, &sets[..31], 1.0));
+    let args = [
+        "fit",
+        "scenarios/prototype.toml",
+        "--log",
+        log.to_str().unwrap(),
+        "--holdout",
+        "10",
+        "--json",
+    ];
+    let (code, out, err) = run(&args);
+    assert_eq!(code, 0, "{out}{err}");
+    let report = json(&out, &err);
+    let steps = &report["steps"];
+    assert_eq!(report["logged_steps"], 30, "{report}");
+    assert_eq!(steps["fitted_steps"], 20, "{report}");
+    let errors = |key: &str| -> Vec<f64> {
+        (steps[key].as_array().unwrap().iter())
+            .map(|v| v.as_f64().unwrap())
+            .collect()
+    };
+    let rms = |e: &[f64]| (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
+    let (before, after) = (errors("holdout_before_deg"), errors("holdout_after_deg"));
+    assert_eq!(after.len(), 10);
+    // the hidden wells themselves, from the same measured starts: what the sensor's noise
+    // leaves to predict (a start 1 degree off can leave the ball in another basin)
+    let measured = parse_steps(&std::fs::read_to_string(&log).unwrap(), &log, 16).unwrap();
+    let model = Scenario::load(Path::new("scenarios/prototype.toml")).unwrap();
+    let truth = step_errors_deg(&model.motor(), &hidden.torques, &measured[20..]);
+    eprintln!("held out: unfitted {before:.2?}\nfitted {after:.2?}\nhidden wells {truth:.2?}");
+    // every held-out step the hidden wells predict within 2 degrees, the fit does too
+    for k in 0..10 {
+        assert!(
+            truth[k] > 2.0 || after[k] <= 2.0,
+            "held-out step {k}: {report}"
+        );
+    }
+    assert!(after.iter().filter(|&&e| e <= 2.0).count() >= 8, "{report}");
+    // the unaltered scenario predicts worse
+    assert!(rms(&before) > rms(&after) + 1.0, "{report}");
+    // the width, which decides where a set of pairs balances, is recovered
+    let width = &steps["estimates"][0];
+    assert_eq!(width["key"], "width_deg");
+    assert!(
+        (width["value"].as_f64().unwrap() / 7.0 - 1.0).abs() < 0.03,
+        "{report}"
+    );
+}
+
+#[test]
+fn bad_bench_files_and_logs_are_refused_naming_the_file_the_place_and_what_was_expected() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases: [(&str, &str, &str, &[&str]); 6] = [
+        (
+            "nocol.csv",
+            "--torque",
+            "angle_deg,torq\n0,0\n1,1\n",
+            &["line 1", "expected a column `torque_nm`"],
+        ),
+        (
+            "nan.csv",
+            "--torque",
+            "angle_deg,torque_nm\n0,0\n1,0.1\n2,x\n3,0.2\n4,0.2\n",
+            &[
+                "line 4",
+                "column `torque_nm`: expected a finite number, got 'x'",
+            ],
+        ),
+        (
+            "few.csv",
+            "--torque",
+            "angle_deg,torque_nm\n0,0\n1,0.1\n2,0.2\n",
+            &["expected at least 5 rows of angle_deg,torque_nm", "got 3"],
+        ),
+        (
+            "angle.csv",
+            "--torque",
+            "angle_deg,torque_nm\n0,0\n1,0.1\n200,0.2\n",
+            &["line 4", "expected an angle in [0, 180] degrees, got 200"],
+        ),
+        (
+            "log.csv",
+            "--log",
+            "t_s,step,action,coil,channel,bytes\n0,0,start,,,\n",
+            &["line 1", "expected a column `qw`", "replay --sensor --log"],
+        ),
+        (
+            "coil.csv",
+            "--log",
+            "t_s,step,action,coil,channel,bytes,qw,qx,qy,qz,goal_deg,raw\n0,0,on,99,1,ff,,,,,,\n",
+            &[
+                "line 2",
+                "column `coil`: expected a coil of the scenario (0 to 15), got '99'",
+            ],
+        ),
+    ];
+    for (name, flag, text, wants) in cases {
+        let p = write(d, name, text);
+        let (code, out, err) = run(&["fit", "scenarios/prototype.toml", flag, p.to_str().unwrap()]);
+        assert_ne!(code, 0, "{name}: {out}");
+        assert!(!err.contains("panicked"), "{name}: {err}");
+        assert!(err.contains(p.to_str().unwrap()), "{name}: {err}");
+        for w in wants {
+            assert!(err.contains(w), "{name}: wanted `{w}` in {err}");
+        }
+    }
+    // the fitted scenario replaces no input: the bench curve, the log, the scenario
+    let hidden_path = write(d, "model.toml", HIDDEN);
+    let hidden = Scenario::load(&hidden_path).unwrap();
+    let bench = write(d, "bench.csv", &noisy_bench(&hidden, 1));
+    let (b, m) = (bench.to_str().unwrap(), hidden_path.to_str().unwrap());
+    for out in [b, m] {
+        let before = (
+            std::fs::read(&bench).unwrap(),
+            std::fs::read(&hidden_path).unwrap(),
+        );
+        let (code, _, err) = run(&["fit", m, "--torque", b, "--out", out]);
+        assert_ne!(code, 0, "--out {out}");
+        assert!(err.contains("--out"), "{err}");
+        let after = (
+            std::fs::read(&bench).unwrap(),
+            std::fs::read(&hidden_path).unwrap(),
+        );
+        assert_eq!(before, after, "--out {out}");
+    }
+    // too few steps left to fit after the held-out ones
+    let hidden = Scenario::load(&write(d, "hidden.toml", HIDDEN)).unwrap();
+    let sets: Vec<BTreeSet<usize>> = vec![[0, 11].into(), [11, 15, 5].into(), [15, 5].into()];
+    let log = write(d, "short.csv", &simulated_log(&hidden, &sets, 0.0));
+    let (code, _, err) = run(&[
+        "fit",
+        "scenarios/prototype.toml",
+        "--log",
+        log.to_str().unwrap(),
+        "--holdout",
+        "1",
+    ]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("measured steps to fit (of 2 after 1 held out): expected at least 3, got 1"),
+        "{err}"
+    );
+}
+
+/// Writes the book's example (docs/fit.md) to `assets/fit/`: the hidden scenario, its noisy
+/// bench curve and the log of 30 measured steps (`cargo test --release --test it --
+/// fit::write_the_books_example --ignored`).
+#[test]
+#[ignore]
+fn write_the_books_example() {
+    let out = Path::new("assets/fit");
+    std::fs::create_dir_all(out).unwrap();
+    let hidden = Scenario::load(&write(out, "hidden.toml", HIDDEN)).unwrap();
+    write(out, "bench.csv", &noisy_bench(&hidden, 33));
+    let dir = tempfile::tempdir().unwrap();
+    let sets = raster_sets(dir.path());
+    write(out, "replay.csv", &simulated_log(&hidden, &sets[..31], 1.0));
+}
