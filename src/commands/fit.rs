@@ -37,6 +37,7 @@ pub struct FitReport {
     pub steps: Option<StepFit>,
     /// The wells written: the steps' fit, else the curve's.
     pub wells: WellFit,
+    /// The interaction written (the scenario's: a curve or a log does not tell it).
     pub interaction: Interaction,
     /// The measured steps the log held.
     pub logged_steps: usize,

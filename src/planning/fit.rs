@@ -32,7 +32,9 @@ pub enum FitError {
     TooFew {
         /// What was counted ("torque curve points", "measured steps to fit").
         what: String,
+        /// The fewest the fit needs.
         needed: usize,
+        /// How many there were.
         got: usize,
     },
     /// The data cannot fit this scenario's wells (no pull measured, a shape without
@@ -45,7 +47,9 @@ pub enum FitError {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum FitShape {
+    /// `U = -k exp(-d^2 / (2 w^2))`: a strength k and a width w.
     Gaussian,
+    /// `U = -k cos d`: a strength k alone.
     Cosine,
 }
 
@@ -63,9 +67,13 @@ impl FitShape {
 /// maximum attraction distance, degrees), as a scenario's `[magnets]` writes them.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct WellFit {
+    /// The well's shape.
     pub shape: FitShape,
+    /// The well's depth k, J (`magnets.strength_j`).
     pub strength_j: f64,
+    /// A gaussian's width, degrees (`magnets.width_deg`); `None` for a cosine.
     pub width_deg: Option<f64>,
+    /// The maximum attraction distance, degrees (`magnets.max_attraction_deg`).
     pub reach_deg: f64,
 }
 
@@ -114,7 +122,9 @@ impl WellFit {
 pub struct Estimate {
     /// The key in `[magnets]` (`strength_j`, `width_deg`, `max_attraction_deg`).
     pub key: &'static str,
+    /// The fitted value, in the key's unit.
     pub value: f64,
+    /// Its standard error, in the same unit; `None` where the data do not determine it.
     pub std_error: Option<f64>,
 }
 
@@ -131,10 +141,13 @@ impl Estimate {
 /// A torque curve fitted with one shape.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct CurveFit {
+    /// The fitted wells of this shape.
     pub wells: WellFit,
+    /// Each parameter with its standard error.
     pub estimates: Vec<Estimate>,
     /// The root mean square residual, N m.
     pub rms_nm: f64,
+    /// The curve's points fitted.
     pub points: usize,
 }
 
@@ -392,8 +405,11 @@ pub fn fit_curve(pts: &[(f64, f64)]) -> Result<Vec<CurveFit>, FitError> {
 /// `to`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeasuredStep {
+    /// The measured orientation the step starts from, the ball at rest.
     pub from: Orientation,
+    /// The coils on during the step.
     pub coils: Vec<CoilId>,
+    /// The measured orientation the step ends at.
     pub to: Orientation,
 }
 
@@ -443,16 +459,21 @@ pub fn step_errors_deg(motor: &Motor, torques: &MagnetTorques, steps: &[Measured
 /// (degrees) before (the starting wells) and after.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct StepFit {
+    /// The fitted wells.
     pub wells: WellFit,
+    /// The parameters the steps determine, with their standard errors.
     pub estimates: Vec<Estimate>,
+    /// The interaction the steps were predicted with (the scenario's).
     pub interaction: Interaction,
+    /// The steps fitted (the log's steps less the held-out ones).
     pub fitted_steps: usize,
-    /// RMS prediction error of the fitted steps, degrees, with the starting and the fitted
-    /// wells.
+    /// RMS prediction error of the fitted steps with the starting wells, degrees.
     pub rms_before_deg: f64,
+    /// RMS prediction error of the fitted steps with the fitted wells, degrees.
     pub rms_after_deg: f64,
-    /// Each held-out step's prediction error, degrees, with the starting and the fitted wells.
+    /// Each held-out step's prediction error with the starting wells, degrees.
     pub holdout_before_deg: Vec<f64>,
+    /// Each held-out step's prediction error with the fitted wells, degrees.
     pub holdout_after_deg: Vec<f64>,
 }
 
