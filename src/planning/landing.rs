@@ -15,8 +15,8 @@
 use crate::model::geometry::{CoilId, MagnetId, Orientation, Pair, Radians};
 use crate::physics::torque::MagnetTorques;
 use crate::planning::commutation::{
-    fits_supply, holds, pair_gap, predicted_in_wells, predicted_orientation, settled_states, Motor,
-    PIVOT_CAPTURE,
+    fits_supply, holds, pair_gap, predicted_in_wells, predicted_orientation, settled_states,
+    FirstWeighing, Motor, PIVOT_CAPTURE,
 };
 use crate::planning::plan::PlanSettings;
 use crate::planning::search::sorted;
@@ -111,24 +111,18 @@ fn final_sets(motor: &Motor, s: &PlanSettings, goal: &Orientation) -> (usize, Ve
     each_combination(&near, s.pairs.min, most, &mut Vec::new(), 0, &mut |set| {
         sets.push(set.to_vec());
     });
-    // ranked in two passes (the wells weighed at the goal, then the best again until the
-    // prediction settles), in parallel, in order: the same on any number of threads
-    let rank = |sets: Vec<Vec<Pair>>, iterations: usize, keep: usize| -> Vec<Vec<Pair>> {
-        let mut ranked: Vec<(f64, Vec<Pair>)> = sets
-            .into_par_iter()
-            .map(|set| {
-                let qp = predicted_in_wells(t, goal, &set, goal, iterations);
-                (qp.angle_to(goal), set)
-            })
-            .collect();
-        ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
-        ranked.into_iter().take(keep).map(|(_, set)| set).collect()
-    };
-    let sets = rank(
-        rank(sets, 1, FINAL_SHORTLIST),
-        WELL_ITERATIONS,
-        FINAL_CANDIDATES,
-    );
+    // ranked in two passes (the wells weighed at the goal, each pair once for every set,
+    // then the best again until the prediction settles), in parallel, in order: the same on
+    // any number of threads
+    let first = FirstWeighing::new(t, goal, &near);
+    let shortlist = best_ranked(sets, goal, FINAL_SHORTLIST, |set| first.predicted(set));
+    let sets = shortlist.into_iter().map(|(_, set)| set).collect();
+    let sets = best_ranked(sets, goal, FINAL_CANDIDATES, |set| {
+        predicted_in_wells(t, goal, set, goal, WELL_ITERATIONS)
+    })
+    .into_iter()
+    .map(|(_, set)| set)
+    .collect::<Vec<_>>();
     let spent = sets.len();
     let reach = t.well.max_attraction();
     let mut held: Vec<(f64, Vec<Pair>)> = settled_states(motor, sets, goal)
@@ -144,6 +138,34 @@ fn final_sets(motor: &Motor, s: &PlanSettings, goal: &Orientation) -> (usize, Ve
         .map(|(_, set)| set)
         .collect();
     (spent, finals)
+}
+
+/// The `keep` sets of `sets` whose prediction `predict` (from the goal) leaves the ball
+/// nearest the goal, nearest first (ties by the set), with that distance: a partial selection
+/// and a sort of the kept, the order a sort of all of them gives (the order is total, the sets
+/// distinct). Predicted in parallel, in order: the same on any number of threads.
+fn best_ranked(
+    sets: Vec<Vec<Pair>>,
+    goal: &Orientation,
+    keep: usize,
+    predict: impl Fn(&[Pair]) -> Orientation + Sync,
+) -> Vec<(f64, Vec<Pair>)> {
+    let mut ranked: Vec<(f64, Vec<Pair>)> = sets
+        .into_par_iter()
+        .map(|set| (predict(&set).angle_to(goal), set))
+        .collect();
+    let order = |a: &(f64, Vec<Pair>), b: &(f64, Vec<Pair>)| {
+        a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1))
+    };
+    if keep == 0 {
+        return Vec::new();
+    }
+    if ranked.len() > keep {
+        ranked.select_nth_unstable_by(keep - 1, order);
+        ranked.truncate(keep);
+    }
+    ranked.sort_by(order);
+    ranked
 }
 
 /// How many switches towards each final set a landing weighs (see [`aimed_at`]).

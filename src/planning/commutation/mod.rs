@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 mod predict;
 
-pub use predict::{predicted_in_wells, predicted_orientation};
+pub use predict::{predicted_in_wells, predicted_orientation, FirstWeighing};
 
 /// How a candidate step's outcome is predicted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -29,24 +29,99 @@ pub fn predicted_in_wells(
     guess: &Orientation,
     iterations: usize,
 ) -> Orientation {
+    let rq = q.to_rotation_matrix();
     let mut qp = *guess;
     for k in 0..iterations {
         let r = qp.to_rotation_matrix();
-        let weights: Vec<f64> = (set.iter())
-            .map(|p| {
-                let d = pair_gap(torques, &r, *p).0.max(1e-9);
-                torques.well.g(d) / d.sin()
-            })
-            .collect();
-        if weights.iter().all(|w| *w <= 0.0) {
+        // the weights at the prediction, the springs from q: one pass, no weights kept
+        let (mut b, mut total, mut pulls) = (nalgebra::Matrix3::zeros(), 0.0, false);
+        for p in set {
+            let w = well_weight(torques, &r, *p);
+            pulls |= !(w <= 0.0);
+            b += spring(torques, &rq, *p, w);
+            total += w.abs();
+        }
+        if !pulls {
             return match k {
                 0 => predicted_orientation(torques, q, set),
                 _ => qp,
             };
         }
-        qp = wahba(torques, q, set, |i| weights[i]);
+        qp = turned(&b, total, q);
     }
     qp
+}
+
+/// The first weighing of [`predicted_in_wells`] for many sets drawn from the same pairs, from
+/// one orientation (the guess the orientation itself): a pair's weight there and its term of
+/// Wahba's matrix depend on the pair alone, so they are computed once, and each set sums its
+/// pairs' terms in its own order with the same arithmetic. [`FirstWeighing::predicted`] has
+/// the bits of `predicted_in_wells(torques, q, set, q, 1)`.
+pub struct FirstWeighing<'a> {
+    torques: &'a MagnetTorques,
+    q: Orientation,
+    /// The pairs, sorted, and each one's weight and term, in the same order.
+    pairs: Vec<Pair>,
+    terms: Vec<(f64, nalgebra::Matrix3<f64>)>,
+}
+
+impl<'a> FirstWeighing<'a> {
+    /// The weights and terms of `pairs` with the ball at `q`.
+    pub fn new(torques: &'a MagnetTorques, q: &Orientation, pairs: &[Pair]) -> Self {
+        let r = q.to_rotation_matrix();
+        let mut pairs = pairs.to_vec();
+        pairs.sort();
+        pairs.dedup();
+        let terms = (pairs.iter())
+            .map(|p| {
+                let w = well_weight(torques, &r, *p);
+                (w, spring(torques, &r, *p, w))
+            })
+            .collect();
+        FirstWeighing {
+            torques,
+            q: *q,
+            pairs,
+            terms,
+        }
+    }
+
+    /// `predicted_in_wells(torques, q, set, q, 1)`, from the terms of `set`'s pairs (computed
+    /// afresh for a pair not among those the weighing was made for).
+    pub fn predicted(&self, set: &[Pair]) -> Orientation {
+        let (mut b, mut total, mut pulls) = (nalgebra::Matrix3::zeros(), 0.0, false);
+        for p in set {
+            let Ok(i) = self.pairs.binary_search(p) else {
+                return predicted_in_wells(self.torques, &self.q, set, &self.q, 1);
+            };
+            let (w, term) = &self.terms[i];
+            pulls |= !(*w <= 0.0);
+            b += term;
+            total += w.abs();
+        }
+        if !pulls {
+            return predicted_orientation(self.torques, &self.q, set);
+        }
+        turned(&b, total, &self.q)
+    }
+}
+
+/// A pair's spring weight in the wells with the ball turned by `r`: its pull g(d) over sin d.
+fn well_weight(torques: &MagnetTorques, r: &nalgebra::Rotation3<f64>, p: Pair) -> f64 {
+    let d = pair_gap(torques, r, p).0.max(1e-9);
+    torques.well.g(d) / d.sin()
+}
+
+/// A pair's term of Wahba's attitude profile matrix, the ball turned by `r`: `w` times its
+/// coil times its magnet's transpose.
+fn spring(
+    torques: &MagnetTorques,
+    r: &nalgebra::Rotation3<f64>,
+    p: Pair,
+    w: f64,
+) -> nalgebra::Matrix3<f64> {
+    let a = r * torques.rotor[p.magnet.0];
+    w * torques.stator[p.coil.0] * a.transpose()
 }
 
 /// The rotation that brings `set`'s magnets (the ball at `q`) nearest their coils with the
@@ -61,13 +136,17 @@ fn wahba(
     let mut b = nalgebra::Matrix3::zeros();
     let mut total = 0.0;
     for (i, p) in set.iter().enumerate() {
-        let a = r * torques.rotor[p.magnet.0];
         let w = weight(i);
-        b += w * torques.stator[p.coil.0] * a.transpose();
+        b += spring(torques, &r, *p, w);
         total += w.abs();
     }
-    let turn = wahba_closed_form(&b, total).or_else(|| wahba_svd(&b));
-    match turn {
+    turned(&b, total, q)
+}
+
+/// The solution of Wahba's problem for the attitude profile matrix `b` (the weights summing
+/// to `total`, in absolute value), applied to `q`; `q` itself when there is none.
+fn turned(b: &nalgebra::Matrix3<f64>, total: f64, q: &Orientation) -> Orientation {
+    match wahba_closed_form(b, total).or_else(|| wahba_svd(b)) {
         Some(turn) => turn * q,
         None => *q,
     }
