@@ -106,20 +106,34 @@ fn final_sets(motor: &Motor, s: &PlanSettings, goal: &Orientation) -> (usize, Ve
     let t = &motor.torques;
     let reach = Radians(s.limits.capture.unwrap_or(PIVOT_CAPTURE).0 + FINAL_MARGIN.0);
     let near = pairs_near(t, goal, reach, &[]);
-    let mut sets: Vec<Vec<Pair>> = Vec::new();
     let most = s.pairs.max.min(s.limits.max_coils_on);
-    each_combination(&near, s.pairs.min, most, &mut Vec::new(), 0, &mut |set| {
-        sets.push(set.to_vec());
+    // every set as indices into `near` (increasing, so in the order of its pairs), in one
+    // buffer: `spans` says where each lies in `flat`
+    let (mut flat, mut spans) = (Vec::new(), Vec::new());
+    each_index_combination(&near, s.pairs.min, most, &mut Vec::new(), 0, &mut |set| {
+        spans.push(flat.len()..flat.len() + set.len());
+        flat.extend_from_slice(set);
     });
     // ranked in two passes (the wells weighed at the goal, each pair once for every set,
     // then the best again until the prediction settles), in parallel, in order: the same on
-    // any number of threads
+    // any number of threads. `near` is in pair order and a set's indices increase, so the
+    // indices order the sets as their pairs do.
     let first = FirstWeighing::new(t, goal, &near);
-    let shortlist = best_ranked(sets, goal, FINAL_SHORTLIST, |set| first.predicted(set));
-    let sets = shortlist.into_iter().map(|(_, set)| set).collect();
-    let sets = best_ranked(sets, goal, FINAL_CANDIDATES, |set| {
-        predicted_in_wells(t, goal, set, goal, WELL_ITERATIONS)
-    })
+    let shortlist = best_ranked(
+        spans,
+        (goal, FINAL_SHORTLIST),
+        |span| first.predicted(&flat[span.clone()]),
+        |a, b| flat[a.clone()].cmp(&flat[b.clone()]),
+    );
+    let sets: Vec<Vec<Pair>> = (shortlist.into_iter())
+        .map(|(_, span)| flat[span].iter().map(|&i| near[i]).collect())
+        .collect();
+    let sets = best_ranked(
+        sets,
+        (goal, FINAL_CANDIDATES),
+        |set| predicted_in_wells(t, goal, set, goal, WELL_ITERATIONS),
+        |a, b| a.cmp(b),
+    )
     .into_iter()
     .map(|(_, set)| set)
     .collect::<Vec<_>>();
@@ -141,22 +155,20 @@ fn final_sets(motor: &Motor, s: &PlanSettings, goal: &Orientation) -> (usize, Ve
 }
 
 /// The `keep` sets of `sets` whose prediction `predict` (from the goal) leaves the ball
-/// nearest the goal, nearest first (ties by the set), with that distance: a partial selection
+/// nearest the goal, nearest first (ties by `tie`), with that distance: a partial selection
 /// and a sort of the kept, the order a sort of all of them gives (the order is total, the sets
 /// distinct). Predicted in parallel, in order: the same on any number of threads.
-fn best_ranked(
-    sets: Vec<Vec<Pair>>,
-    goal: &Orientation,
-    keep: usize,
-    predict: impl Fn(&[Pair]) -> Orientation + Sync,
-) -> Vec<(f64, Vec<Pair>)> {
-    let mut ranked: Vec<(f64, Vec<Pair>)> = sets
+fn best_ranked<S: Send>(
+    sets: Vec<S>,
+    (goal, keep): (&Orientation, usize),
+    predict: impl Fn(&S) -> Orientation + Sync,
+    tie: impl Fn(&S, &S) -> std::cmp::Ordering,
+) -> Vec<(f64, S)> {
+    let mut ranked: Vec<(f64, S)> = sets
         .into_par_iter()
         .map(|set| (predict(&set).angle_to(goal), set))
         .collect();
-    let order = |a: &(f64, Vec<Pair>), b: &(f64, Vec<Pair>)| {
-        a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1))
-    };
+    let order = |a: &(f64, S), b: &(f64, S)| a.0.total_cmp(&b.0).then_with(|| tie(&a.1, &b.1));
     if keep == 0 {
         return Vec::new();
     }
@@ -345,6 +357,23 @@ fn each_combination(
     from: usize,
     f: &mut impl FnMut(&[Pair]),
 ) {
+    each_index_combination(pairs, least, most, &mut Vec::new(), from, &mut |idx| {
+        set.clear();
+        set.extend(idx.iter().map(|&i| pairs[i]));
+        f(set);
+    });
+}
+
+/// [`each_combination`] with each set as the indices of its pairs in `pairs` (increasing),
+/// grown in `set` from `from` on.
+fn each_index_combination(
+    pairs: &[Pair],
+    least: usize,
+    most: usize,
+    set: &mut Vec<usize>,
+    from: usize,
+    f: &mut impl FnMut(&[usize]),
+) {
     if set.len() >= least {
         f(set);
     }
@@ -352,9 +381,9 @@ fn each_combination(
         return;
     }
     for (i, p) in pairs.iter().enumerate().skip(from).rev() {
-        if set.iter().all(|q| q.coil != p.coil) {
-            set.push(*p);
-            each_combination(pairs, least, most, set, i + 1, f);
+        if set.iter().all(|&j| pairs[j].coil != p.coil) {
+            set.push(i);
+            each_index_combination(pairs, least, most, set, i + 1, f);
             set.pop();
         }
     }

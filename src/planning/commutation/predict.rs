@@ -60,18 +60,15 @@ pub fn predicted_in_wells(
 pub struct FirstWeighing<'a> {
     torques: &'a MagnetTorques,
     q: Orientation,
-    /// The pairs, sorted, and each one's weight and term, in the same order.
-    pairs: Vec<Pair>,
+    /// The pairs, and each one's weight and term, in the same order.
+    pairs: &'a [Pair],
     terms: Vec<(f64, nalgebra::Matrix3<f64>)>,
 }
 
 impl<'a> FirstWeighing<'a> {
     /// The weights and terms of `pairs` with the ball at `q`.
-    pub fn new(torques: &'a MagnetTorques, q: &Orientation, pairs: &[Pair]) -> Self {
+    pub fn new(torques: &'a MagnetTorques, q: &Orientation, pairs: &'a [Pair]) -> Self {
         let r = q.to_rotation_matrix();
-        let mut pairs = pairs.to_vec();
-        pairs.sort();
-        pairs.dedup();
         let terms = (pairs.iter())
             .map(|p| {
                 let w = well_weight(torques, &r, *p);
@@ -86,21 +83,19 @@ impl<'a> FirstWeighing<'a> {
         }
     }
 
-    /// `predicted_in_wells(torques, q, set, q, 1)`, from the terms of `set`'s pairs (computed
-    /// afresh for a pair not among those the weighing was made for).
-    pub fn predicted(&self, set: &[Pair]) -> Orientation {
+    /// `predicted_in_wells(torques, q, set, q, 1)` for the set of the pairs at `indices` (of
+    /// those the weighing was made for, in that order), from their terms.
+    pub fn predicted(&self, indices: &[usize]) -> Orientation {
         let (mut b, mut total, mut pulls) = (nalgebra::Matrix3::zeros(), 0.0, false);
-        for p in set {
-            let Ok(i) = self.pairs.binary_search(p) else {
-                return predicted_in_wells(self.torques, &self.q, set, &self.q, 1);
-            };
+        for &i in indices {
             let (w, term) = &self.terms[i];
             pulls |= !(*w <= 0.0);
             b += term;
             total += w.abs();
         }
         if !pulls {
-            return predicted_orientation(self.torques, &self.q, set);
+            let set: Vec<Pair> = indices.iter().map(|&i| self.pairs[i]).collect();
+            return predicted_orientation(self.torques, &self.q, &set);
         }
         turned(&b, total, &self.q)
     }
