@@ -217,25 +217,27 @@ pub(super) fn wahba_closed_form(
     Some(UnitQuaternion::from_quaternion(quat))
 }
 
-/// The adjugate of a 4x4 matrix (cofactors, transposed).
+/// The adjugate of a 4x4 matrix (cofactors, transposed): each cofactor as the 3x3 minor's
+/// determinant expanded along its first row, read from a plain array with the index sets
+/// fixed (no bounds checks, no closures on the way).
 fn adjugate4(m: &nalgebra::Matrix4<f64>) -> nalgebra::Matrix4<f64> {
-    let others = |k: usize| match k {
-        0 => [1, 2, 3],
-        1 => [0, 2, 3],
-        2 => [0, 1, 3],
-        _ => [0, 1, 2],
-    };
-    let minor = |skip_r: usize, skip_c: usize| {
-        let (rows, cols) = (others(skip_r), others(skip_c));
-        let e = |i: usize, j: usize| m[(rows[i], cols[j])];
-        e(0, 0) * (e(1, 1) * e(2, 2) - e(1, 2) * e(2, 1))
-            - e(0, 1) * (e(1, 0) * e(2, 2) - e(1, 2) * e(2, 0))
-            + e(0, 2) * (e(1, 0) * e(2, 1) - e(1, 1) * e(2, 0))
-    };
-    nalgebra::Matrix4::from_fn(|i, j| {
-        let sign = if (i + j) % 2 == 0 { 1.0 } else { -1.0 };
-        sign * minor(j, i)
-    })
+    const OTHERS: [[usize; 3]; 4] = [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]];
+    // nalgebra stores by columns: cols[c][r] is m[(r, c)]
+    let cols: [[f64; 4]; 4] = m.data.0;
+    let mut adj = [[0.0; 4]; 4];
+    for (j, column) in adj.iter_mut().enumerate() {
+        for (i, entry) in column.iter_mut().enumerate() {
+            // entry (i, j) is the cofactor of (j, i)
+            let (rows, cs) = (OTHERS[j], OTHERS[i]);
+            let e = |r: usize, c: usize| cols[cs[c]][rows[r]];
+            let minor = e(0, 0) * (e(1, 1) * e(2, 2) - e(1, 2) * e(2, 1))
+                - e(0, 1) * (e(1, 0) * e(2, 2) - e(1, 2) * e(2, 0))
+                + e(0, 2) * (e(1, 0) * e(2, 1) - e(1, 1) * e(2, 0));
+            let sign = if (i + j) % 2 == 0 { 1.0 } else { -1.0 };
+            *entry = sign * minor;
+        }
+    }
+    nalgebra::Matrix4::from_data(nalgebra::ArrayStorage(adj))
 }
 
 /// Wahba's problem by SVD of the attitude profile matrix `b`, for the cases the closed form
