@@ -110,9 +110,12 @@ fn final_sets(motor: &Motor, s: &PlanSettings, goal: &Orientation) -> (usize, Ve
     // every set as indices into `near` (increasing, so in the order of its pairs), in one
     // buffer: `spans` says where each lies in `flat`
     let (mut flat, mut spans) = (Vec::new(), Vec::new());
-    each_index_combination(&near, s.pairs.min, most, &mut Vec::new(), 0, &mut |set| {
-        spans.push(flat.len()..flat.len() + set.len());
-        flat.extend_from_slice(set);
+    each_combination(&near, most, &mut Vec::new(), 0, &mut |set| {
+        if set.len() >= s.pairs.min {
+            spans.push(flat.len()..flat.len() + set.len());
+            flat.extend_from_slice(set);
+        }
+        true
     });
     // ranked in two passes (the wells weighed at the goal, each pair once for every set,
     // then the best again until the prediction settles), in parallel, in order: the same on
@@ -297,7 +300,7 @@ pub(crate) fn landing_proposals(
     let near_goal = pairs_near(t, goal, landing_reach(s), avoid);
     let aimed = aimed_at(t, s, (on, q), goal, finals, avoid);
     let mut ranked: Vec<(f64, LandingSet)> = Vec::new();
-    let mut set: Vec<Pair> = Vec::new();
+    let (mut set, mut new): (Vec<Pair>, Vec<Pair>) = (Vec::new(), Vec::new());
     let mut weigh = |kept: &[Pair], new: &[Pair], ranked: &mut Vec<(f64, LandingSet)>| {
         set.clear();
         set.extend(kept.iter().chain(new).copied());
@@ -322,18 +325,20 @@ pub(crate) fn landing_proposals(
             .filter(|p| kept.iter().all(|k| k.coil != p.coil))
             .collect();
         let least = s.pairs.min.saturating_sub(kept.len()).max(1);
-        each_combination(
-            &others,
-            least,
-            s.pairs.max - kept.len(),
-            &mut Vec::new(),
-            0,
-            &mut |new| {
-                if fits_supply(on, new, s.limits.max_coils_on) {
-                    weigh(&kept, new, &mut ranked);
-                }
-            },
-        );
+        // more pairs switch on at least as many coils: a set the supply cannot take has no
+        // extension it can, so its branch ends there (the sets weighed and their order are
+        // those of the whole enumeration with the test on each)
+        each_combination(&others, s.pairs.max - kept.len(), &mut Vec::new(), 0, &mut |idx| {
+            new.clear();
+            new.extend(idx.iter().map(|&i| others[i]));
+            if !fits_supply(on, &new, s.limits.max_coils_on) {
+                return false;
+            }
+            if idx.len() >= least {
+                weigh(&kept, &new, &mut ranked);
+            }
+            true
+        });
     }
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
     let taken: Vec<_> = aimed.iter().map(landing_key).collect();
@@ -346,44 +351,25 @@ pub(crate) fn landing_proposals(
     aimed.into_iter().chain(rest).collect()
 }
 
-/// Calls `f` with each set of `least` to `most` of `pairs` with distinct coils, in a
-/// deterministic order (depth first, each set before its extensions, the later pairs' branches
-/// first), growing `set` from `from` on: one buffer, no set allocated that `f` does not keep.
+/// Visits each set of up to `most` of `pairs` with distinct coils, as the indices of its pairs
+/// (increasing), in a deterministic order (depth first, each set before its extensions, the
+/// later pairs' branches first), growing `set` from `from` on: one buffer, no set allocated
+/// that `visit` does not keep. A set's extensions are visited only when `visit` returns true
+/// for it.
 fn each_combination(
     pairs: &[Pair],
-    least: usize,
-    most: usize,
-    set: &mut Vec<Pair>,
-    from: usize,
-    f: &mut impl FnMut(&[Pair]),
-) {
-    each_index_combination(pairs, least, most, &mut Vec::new(), from, &mut |idx| {
-        set.clear();
-        set.extend(idx.iter().map(|&i| pairs[i]));
-        f(set);
-    });
-}
-
-/// [`each_combination`] with each set as the indices of its pairs in `pairs` (increasing),
-/// grown in `set` from `from` on.
-fn each_index_combination(
-    pairs: &[Pair],
-    least: usize,
     most: usize,
     set: &mut Vec<usize>,
     from: usize,
-    f: &mut impl FnMut(&[usize]),
+    visit: &mut impl FnMut(&[usize]) -> bool,
 ) {
-    if set.len() >= least {
-        f(set);
-    }
-    if set.len() == most {
+    if !visit(set) || set.len() >= most {
         return;
     }
     for (i, p) in pairs.iter().enumerate().skip(from).rev() {
         if set.iter().all(|&j| pairs[j].coil != p.coil) {
             set.push(i);
-            each_index_combination(pairs, least, most, set, i + 1, f);
+            each_combination(pairs, most, set, i + 1, visit);
             set.pop();
         }
     }
@@ -465,9 +451,13 @@ mod tests {
         // the same number of sets ranked by the unweighted springs hold it further out
         let near = pairs_near(&motor.torques, &goal, landing_reach(&s), &[]);
         let mut springs: Vec<(f64, Vec<Pair>)> = Vec::new();
-        each_combination(&near, 2, 4, &mut Vec::new(), 0, &mut |set| {
-            let qp = predicted_orientation(&motor.torques, &goal, set);
-            springs.push((qp.angle_to(&goal), set.to_vec()));
+        each_combination(&near, 4, &mut Vec::new(), 0, &mut |idx| {
+            if idx.len() >= 2 {
+                let set: Vec<Pair> = idx.iter().map(|&i| near[i]).collect();
+                let qp = predicted_orientation(&motor.torques, &goal, &set);
+                springs.push((qp.angle_to(&goal), set));
+            }
+            true
         });
         springs.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
         let by_springs = springs
