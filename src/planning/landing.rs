@@ -328,17 +328,23 @@ pub(crate) fn landing_proposals(
         // more pairs switch on at least as many coils: a set the supply cannot take has no
         // extension it can, so its branch ends there (the sets weighed and their order are
         // those of the whole enumeration with the test on each)
-        each_combination(&others, s.pairs.max - kept.len(), &mut Vec::new(), 0, &mut |idx| {
-            new.clear();
-            new.extend(idx.iter().map(|&i| others[i]));
-            if !fits_supply(on, &new, s.limits.max_coils_on) {
-                return false;
-            }
-            if idx.len() >= least {
-                weigh(&kept, &new, &mut ranked);
-            }
-            true
-        });
+        each_combination(
+            &others,
+            s.pairs.max - kept.len(),
+            &mut Vec::new(),
+            0,
+            &mut |idx| {
+                new.clear();
+                new.extend(idx.iter().map(|&i| others[i]));
+                if !fits_supply(on, &new, s.limits.max_coils_on) {
+                    return false;
+                }
+                if idx.len() >= least {
+                    weigh(&kept, &new, &mut ranked);
+                }
+                true
+            },
+        );
     }
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
     let taken: Vec<_> = aimed.iter().map(landing_key).collect();
