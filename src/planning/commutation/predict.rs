@@ -37,7 +37,7 @@ pub fn predicted_in_wells(
         let (mut b, mut total, mut pulls) = (nalgebra::Matrix3::zeros(), 0.0, false);
         for p in set {
             let w = well_weight(torques, &r, *p);
-            pulls |= !(w <= 0.0);
+            pulls |= pulls_at_all(w);
             b += spring(torques, &rq, *p, w);
             total += w.abs();
         }
@@ -89,7 +89,7 @@ impl<'a> FirstWeighing<'a> {
         let (mut b, mut total, mut pulls) = (nalgebra::Matrix3::zeros(), 0.0, false);
         for &i in indices {
             let (w, term) = &self.terms[i];
-            pulls |= !(*w <= 0.0);
+            pulls |= pulls_at_all(*w);
             b += term;
             total += w.abs();
         }
@@ -99,6 +99,12 @@ impl<'a> FirstWeighing<'a> {
         }
         turned(&b, total, &self.q)
     }
+}
+
+/// Whether a weight keeps the weighted springs in play: any but one at or below 0 (a NaN too,
+/// as "not every weight at or below 0" had it).
+fn pulls_at_all(w: f64) -> bool {
+    w > 0.0 || w.is_nan()
 }
 
 /// A pair's spring weight in the wells with the ball turned by `r`: its pull g(d) over sin d.
