@@ -15,8 +15,8 @@
 use crate::model::geometry::{CoilId, MagnetId, Orientation, Pair, Radians};
 use crate::physics::torque::MagnetTorques;
 use crate::planning::commutation::{
-    fits_supply, holds, pair_gap, predicted_in_wells, predicted_orientation, settled_states, Motor,
-    PIVOT_CAPTURE,
+    fits_supply, holds, pair_gap, predicted_in_wells, predicted_orientation, settled_states,
+    FirstWeighing, Motor, PIVOT_CAPTURE,
 };
 use crate::planning::plan::PlanSettings;
 use crate::planning::search::sorted;
@@ -106,29 +106,40 @@ fn final_sets(motor: &Motor, s: &PlanSettings, goal: &Orientation) -> (usize, Ve
     let t = &motor.torques;
     let reach = Radians(s.limits.capture.unwrap_or(PIVOT_CAPTURE).0 + FINAL_MARGIN.0);
     let near = pairs_near(t, goal, reach, &[]);
-    let mut sets: Vec<Vec<Pair>> = Vec::new();
     let most = s.pairs.max.min(s.limits.max_coils_on);
-    each_combination(&near, s.pairs.min, most, &mut Vec::new(), 0, &mut |set| {
-        sets.push(set.to_vec());
+    // every set as indices into `near` (increasing, so in the order of its pairs), in one
+    // buffer: `spans` says where each lies in `flat`
+    let (mut flat, mut spans) = (Vec::new(), Vec::new());
+    each_combination(&near, most, &mut Vec::new(), 0, &mut |set| {
+        if set.len() >= s.pairs.min {
+            spans.push(flat.len()..flat.len() + set.len());
+            flat.extend_from_slice(set);
+        }
+        true
     });
-    // ranked in two passes (the wells weighed at the goal, then the best again until the
-    // prediction settles), in parallel, in order: the same on any number of threads
-    let rank = |sets: Vec<Vec<Pair>>, iterations: usize, keep: usize| -> Vec<Vec<Pair>> {
-        let mut ranked: Vec<(f64, Vec<Pair>)> = sets
-            .into_par_iter()
-            .map(|set| {
-                let qp = predicted_in_wells(t, goal, &set, goal, iterations);
-                (qp.angle_to(goal), set)
-            })
-            .collect();
-        ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
-        ranked.into_iter().take(keep).map(|(_, set)| set).collect()
-    };
-    let sets = rank(
-        rank(sets, 1, FINAL_SHORTLIST),
-        WELL_ITERATIONS,
-        FINAL_CANDIDATES,
+    // ranked in two passes (the wells weighed at the goal, each pair once for every set,
+    // then the best again until the prediction settles), in parallel, in order: the same on
+    // any number of threads. `near` is in pair order and a set's indices increase, so the
+    // indices order the sets as their pairs do.
+    let first = FirstWeighing::new(t, goal, &near);
+    let shortlist = best_ranked(
+        spans,
+        (goal, FINAL_SHORTLIST),
+        |span| first.predicted(&flat[span.clone()]),
+        |a, b| flat[a.clone()].cmp(&flat[b.clone()]),
     );
+    let sets: Vec<Vec<Pair>> = (shortlist.into_iter())
+        .map(|(_, span)| flat[span].iter().map(|&i| near[i]).collect())
+        .collect();
+    let sets = best_ranked(
+        sets,
+        (goal, FINAL_CANDIDATES),
+        |set| predicted_in_wells(t, goal, set, goal, WELL_ITERATIONS),
+        |a, b| a.cmp(b),
+    )
+    .into_iter()
+    .map(|(_, set)| set)
+    .collect::<Vec<_>>();
     let spent = sets.len();
     let reach = t.well.max_attraction();
     let mut held: Vec<(f64, Vec<Pair>)> = settled_states(motor, sets, goal)
@@ -144,6 +155,32 @@ fn final_sets(motor: &Motor, s: &PlanSettings, goal: &Orientation) -> (usize, Ve
         .map(|(_, set)| set)
         .collect();
     (spent, finals)
+}
+
+/// The `keep` sets of `sets` whose prediction `predict` (from the goal) leaves the ball
+/// nearest the goal, nearest first (ties by `tie`), with that distance: a partial selection
+/// and a sort of the kept, the order a sort of all of them gives (the order is total, the sets
+/// distinct). Predicted in parallel, in order: the same on any number of threads.
+fn best_ranked<S: Send>(
+    sets: Vec<S>,
+    (goal, keep): (&Orientation, usize),
+    predict: impl Fn(&S) -> Orientation + Sync,
+    tie: impl Fn(&S, &S) -> std::cmp::Ordering,
+) -> Vec<(f64, S)> {
+    let mut ranked: Vec<(f64, S)> = sets
+        .into_par_iter()
+        .map(|set| (predict(&set).angle_to(goal), set))
+        .collect();
+    let order = |a: &(f64, S), b: &(f64, S)| a.0.total_cmp(&b.0).then_with(|| tie(&a.1, &b.1));
+    if keep == 0 {
+        return Vec::new();
+    }
+    if ranked.len() > keep {
+        ranked.select_nth_unstable_by(keep - 1, order);
+        ranked.truncate(keep);
+    }
+    ranked.sort_by(order);
+    ranked
 }
 
 /// How many switches towards each final set a landing weighs (see [`aimed_at`]).
@@ -263,7 +300,7 @@ pub(crate) fn landing_proposals(
     let near_goal = pairs_near(t, goal, landing_reach(s), avoid);
     let aimed = aimed_at(t, s, (on, q), goal, finals, avoid);
     let mut ranked: Vec<(f64, LandingSet)> = Vec::new();
-    let mut set: Vec<Pair> = Vec::new();
+    let (mut set, mut new): (Vec<Pair>, Vec<Pair>) = (Vec::new(), Vec::new());
     let mut weigh = |kept: &[Pair], new: &[Pair], ranked: &mut Vec<(f64, LandingSet)>| {
         set.clear();
         set.extend(kept.iter().chain(new).copied());
@@ -288,16 +325,24 @@ pub(crate) fn landing_proposals(
             .filter(|p| kept.iter().all(|k| k.coil != p.coil))
             .collect();
         let least = s.pairs.min.saturating_sub(kept.len()).max(1);
+        // more pairs switch on at least as many coils: a set the supply cannot take has no
+        // extension it can, so its branch ends there (the sets weighed and their order are
+        // those of the whole enumeration with the test on each)
         each_combination(
             &others,
-            least,
             s.pairs.max - kept.len(),
             &mut Vec::new(),
             0,
-            &mut |new| {
-                if fits_supply(on, new, s.limits.max_coils_on) {
-                    weigh(&kept, new, &mut ranked);
+            &mut |idx| {
+                new.clear();
+                new.extend(idx.iter().map(|&i| others[i]));
+                if !fits_supply(on, &new, s.limits.max_coils_on) {
+                    return false;
                 }
+                if idx.len() >= least {
+                    weigh(&kept, &new, &mut ranked);
+                }
+                true
             },
         );
     }
@@ -312,27 +357,25 @@ pub(crate) fn landing_proposals(
     aimed.into_iter().chain(rest).collect()
 }
 
-/// Calls `f` with each set of `least` to `most` of `pairs` with distinct coils, in a
-/// deterministic order (depth first, each set before its extensions, the later pairs' branches
-/// first), growing `set` from `from` on: one buffer, no set allocated that `f` does not keep.
+/// Visits each set of up to `most` of `pairs` with distinct coils, as the indices of its pairs
+/// (increasing), in a deterministic order (depth first, each set before its extensions, the
+/// later pairs' branches first), growing `set` from `from` on: one buffer, no set allocated
+/// that `visit` does not keep. A set's extensions are visited only when `visit` returns true
+/// for it.
 fn each_combination(
     pairs: &[Pair],
-    least: usize,
     most: usize,
-    set: &mut Vec<Pair>,
+    set: &mut Vec<usize>,
     from: usize,
-    f: &mut impl FnMut(&[Pair]),
+    visit: &mut impl FnMut(&[usize]) -> bool,
 ) {
-    if set.len() >= least {
-        f(set);
-    }
-    if set.len() == most {
+    if !visit(set) || set.len() >= most {
         return;
     }
     for (i, p) in pairs.iter().enumerate().skip(from).rev() {
-        if set.iter().all(|q| q.coil != p.coil) {
-            set.push(*p);
-            each_combination(pairs, least, most, set, i + 1, f);
+        if set.iter().all(|&j| pairs[j].coil != p.coil) {
+            set.push(i);
+            each_combination(pairs, most, set, i + 1, visit);
             set.pop();
         }
     }
@@ -414,9 +457,13 @@ mod tests {
         // the same number of sets ranked by the unweighted springs hold it further out
         let near = pairs_near(&motor.torques, &goal, landing_reach(&s), &[]);
         let mut springs: Vec<(f64, Vec<Pair>)> = Vec::new();
-        each_combination(&near, 2, 4, &mut Vec::new(), 0, &mut |set| {
-            let qp = predicted_orientation(&motor.torques, &goal, set);
-            springs.push((qp.angle_to(&goal), set.to_vec()));
+        each_combination(&near, 4, &mut Vec::new(), 0, &mut |idx| {
+            if idx.len() >= 2 {
+                let set: Vec<Pair> = idx.iter().map(|&i| near[i]).collect();
+                let qp = predicted_orientation(&motor.torques, &goal, &set);
+                springs.push((qp.angle_to(&goal), set));
+            }
+            true
         });
         springs.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
         let by_springs = springs

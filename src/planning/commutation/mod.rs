@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 mod predict;
 
-pub use predict::{predicted_in_wells, predicted_orientation};
+pub use predict::{predicted_in_wells, predicted_orientation, FirstWeighing};
 
 /// How a candidate step's outcome is predicted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -917,6 +917,58 @@ mod tests {
         );
         l.capture = Some(Radians(0.1));
         assert_eq!(l.capture_for(StepModel::Dynamic, &g), Radians(0.1));
+    }
+
+    #[test]
+    fn the_first_weighing_from_cached_terms_has_the_bits_of_the_prediction_in_the_wells() {
+        let sc = crate::io::scenario::Scenario::prototype();
+        let t = &sc.torques;
+        let q = rot_q(&unit(Vector3::new(0.3, -0.5, 0.8)).unwrap(), Radians(0.7));
+        let r = q.to_rotation_matrix();
+        // the pairs within 30 degrees at q, and a few beyond every well's reach (no pull)
+        let reach = t.well.max_attraction().0;
+        let all: Vec<Pair> = (0..t.stator.len())
+            .flat_map(|c| (0..t.rotor.len()).map(move |m| (c, m)))
+            .map(|(c, m)| Pair {
+                coil: CoilId(c),
+                magnet: MagnetId(m),
+            })
+            .collect();
+        let mut pairs: Vec<Pair> = (all.iter().copied())
+            .filter(|p| pair_gap(t, &r, *p).0 < 30f64.to_radians())
+            .collect();
+        let near = pairs.len();
+        pairs.extend(
+            (all.iter().copied())
+                .filter(|p| pair_gap(t, &r, *p).0 > reach + 0.1)
+                .take(4),
+        );
+        assert!(
+            near >= 6 && pairs.len() == near + 4,
+            "{near} {}",
+            pairs.len()
+        );
+        let first = FirstWeighing::new(t, &q, &pairs);
+        let bits = |o: &Orientation| o.coords.map(f64::to_bits);
+        let mut checked = 0;
+        for i in 0..pairs.len() {
+            for j in 0..pairs.len() {
+                for k in [i, (i + j + 1) % pairs.len()] {
+                    let idx = [i, j, k];
+                    let set: Vec<Pair> = idx.iter().map(|&x| pairs[x]).collect();
+                    let want = predicted_in_wells(t, &q, &set, &q, 1);
+                    assert_eq!(bits(&first.predicted(&idx)), bits(&want), "{set:?}");
+                    checked += 1;
+                }
+            }
+        }
+        // the sets of far pairs alone pull nowhere: the unweighted springs decide
+        let far: Vec<usize> = (near..pairs.len()).collect();
+        let set: Vec<Pair> = far.iter().map(|&x| pairs[x]).collect();
+        let springs = predicted_orientation(t, &q, &set);
+        assert_eq!(bits(&first.predicted(&far)), bits(&springs));
+        assert!(springs.angle_to(&q) > 1e-6);
+        assert!(checked > 100);
     }
 
     #[test]

@@ -29,24 +29,100 @@ pub fn predicted_in_wells(
     guess: &Orientation,
     iterations: usize,
 ) -> Orientation {
+    let rq = q.to_rotation_matrix();
     let mut qp = *guess;
     for k in 0..iterations {
         let r = qp.to_rotation_matrix();
-        let weights: Vec<f64> = (set.iter())
-            .map(|p| {
-                let d = pair_gap(torques, &r, *p).0.max(1e-9);
-                torques.well.g(d) / d.sin()
-            })
-            .collect();
-        if weights.iter().all(|w| *w <= 0.0) {
+        // the weights at the prediction, the springs from q: one pass, no weights kept
+        let (mut b, mut total, mut pulls) = (nalgebra::Matrix3::zeros(), 0.0, false);
+        for p in set {
+            let w = well_weight(torques, &r, *p);
+            pulls |= pulls_at_all(w);
+            b += spring(torques, &rq, *p, w);
+            total += w.abs();
+        }
+        if !pulls {
             return match k {
                 0 => predicted_orientation(torques, q, set),
                 _ => qp,
             };
         }
-        qp = wahba(torques, q, set, |i| weights[i]);
+        qp = turned(&b, total, q);
     }
     qp
+}
+
+/// The first weighing of [`predicted_in_wells`] for many sets drawn from the same pairs, from
+/// one orientation (the guess the orientation itself): a pair's weight there and its term of
+/// Wahba's matrix depend on the pair alone, so they are computed once, and each set sums its
+/// pairs' terms in its own order with the same arithmetic. [`FirstWeighing::predicted`] has
+/// the bits of `predicted_in_wells(torques, q, set, q, 1)`.
+pub struct FirstWeighing<'a> {
+    torques: &'a MagnetTorques,
+    q: Orientation,
+    /// The pairs, and each one's weight and term, in the same order.
+    pairs: &'a [Pair],
+    terms: Vec<(f64, nalgebra::Matrix3<f64>)>,
+}
+
+impl<'a> FirstWeighing<'a> {
+    /// The weights and terms of `pairs` with the ball at `q`.
+    pub fn new(torques: &'a MagnetTorques, q: &Orientation, pairs: &'a [Pair]) -> Self {
+        let r = q.to_rotation_matrix();
+        let terms = (pairs.iter())
+            .map(|p| {
+                let w = well_weight(torques, &r, *p);
+                (w, spring(torques, &r, *p, w))
+            })
+            .collect();
+        FirstWeighing {
+            torques,
+            q: *q,
+            pairs,
+            terms,
+        }
+    }
+
+    /// `predicted_in_wells(torques, q, set, q, 1)` for the set of the pairs at `indices` (of
+    /// those the weighing was made for, in that order), from their terms.
+    pub fn predicted(&self, indices: &[usize]) -> Orientation {
+        let (mut b, mut total, mut pulls) = (nalgebra::Matrix3::zeros(), 0.0, false);
+        for &i in indices {
+            let (w, term) = &self.terms[i];
+            pulls |= pulls_at_all(*w);
+            b += term;
+            total += w.abs();
+        }
+        if !pulls {
+            let set: Vec<Pair> = indices.iter().map(|&i| self.pairs[i]).collect();
+            return predicted_orientation(self.torques, &self.q, &set);
+        }
+        turned(&b, total, &self.q)
+    }
+}
+
+/// Whether a weight keeps the weighted springs in play: any but one at or below 0 (a NaN too,
+/// as "not every weight at or below 0" had it).
+fn pulls_at_all(w: f64) -> bool {
+    w > 0.0 || w.is_nan()
+}
+
+/// A pair's spring weight in the wells with the ball turned by `r`: its pull g(d) over sin d.
+fn well_weight(torques: &MagnetTorques, r: &nalgebra::Rotation3<f64>, p: Pair) -> f64 {
+    let d = pair_gap(torques, r, p).0.max(1e-9);
+    torques.well.g(d) / d.sin()
+}
+
+/// A pair's term of Wahba's attitude profile matrix, the ball turned by `r`: `w` times its
+/// coil times its magnet's transpose.
+fn spring(
+    torques: &MagnetTorques,
+    r: &nalgebra::Rotation3<f64>,
+    p: Pair,
+    w: f64,
+) -> nalgebra::Matrix3<f64> {
+    let a = r * torques.rotor[p.magnet.0];
+    w * torques.stator[p.coil.0] * a.transpose()
 }
 
 /// The rotation that brings `set`'s magnets (the ball at `q`) nearest their coils with the
@@ -61,13 +137,17 @@ fn wahba(
     let mut b = nalgebra::Matrix3::zeros();
     let mut total = 0.0;
     for (i, p) in set.iter().enumerate() {
-        let a = r * torques.rotor[p.magnet.0];
         let w = weight(i);
-        b += w * torques.stator[p.coil.0] * a.transpose();
+        b += spring(torques, &r, *p, w);
         total += w.abs();
     }
-    let turn = wahba_closed_form(&b, total).or_else(|| wahba_svd(&b));
-    match turn {
+    turned(&b, total, q)
+}
+
+/// The solution of Wahba's problem for the attitude profile matrix `b` (the weights summing
+/// to `total`, in absolute value), applied to `q`; `q` itself when there is none.
+fn turned(b: &nalgebra::Matrix3<f64>, total: f64, q: &Orientation) -> Orientation {
+    match wahba_closed_form(b, total).or_else(|| wahba_svd(b)) {
         Some(turn) => turn * q,
         None => *q,
     }
@@ -143,25 +223,27 @@ pub(super) fn wahba_closed_form(
     Some(UnitQuaternion::from_quaternion(quat))
 }
 
-/// The adjugate of a 4x4 matrix (cofactors, transposed).
+/// The adjugate of a 4x4 matrix (cofactors, transposed): each cofactor as the 3x3 minor's
+/// determinant expanded along its first row, read from a plain array with the index sets
+/// fixed (no bounds checks, no closures on the way).
 fn adjugate4(m: &nalgebra::Matrix4<f64>) -> nalgebra::Matrix4<f64> {
-    let others = |k: usize| match k {
-        0 => [1, 2, 3],
-        1 => [0, 2, 3],
-        2 => [0, 1, 3],
-        _ => [0, 1, 2],
-    };
-    let minor = |skip_r: usize, skip_c: usize| {
-        let (rows, cols) = (others(skip_r), others(skip_c));
-        let e = |i: usize, j: usize| m[(rows[i], cols[j])];
-        e(0, 0) * (e(1, 1) * e(2, 2) - e(1, 2) * e(2, 1))
-            - e(0, 1) * (e(1, 0) * e(2, 2) - e(1, 2) * e(2, 0))
-            + e(0, 2) * (e(1, 0) * e(2, 1) - e(1, 1) * e(2, 0))
-    };
-    nalgebra::Matrix4::from_fn(|i, j| {
-        let sign = if (i + j) % 2 == 0 { 1.0 } else { -1.0 };
-        sign * minor(j, i)
-    })
+    const OTHERS: [[usize; 3]; 4] = [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]];
+    // nalgebra stores by columns: cols[c][r] is m[(r, c)]
+    let cols: [[f64; 4]; 4] = m.data.0;
+    let mut adj = [[0.0; 4]; 4];
+    for (j, column) in adj.iter_mut().enumerate() {
+        for (i, entry) in column.iter_mut().enumerate() {
+            // entry (i, j) is the cofactor of (j, i)
+            let (rows, cs) = (OTHERS[j], OTHERS[i]);
+            let e = |r: usize, c: usize| cols[cs[c]][rows[r]];
+            let minor = e(0, 0) * (e(1, 1) * e(2, 2) - e(1, 2) * e(2, 1))
+                - e(0, 1) * (e(1, 0) * e(2, 2) - e(1, 2) * e(2, 0))
+                + e(0, 2) * (e(1, 0) * e(2, 1) - e(1, 1) * e(2, 0));
+            let sign = if (i + j) % 2 == 0 { 1.0 } else { -1.0 };
+            *entry = sign * minor;
+        }
+    }
+    nalgebra::Matrix4::from_data(nalgebra::ArrayStorage(adj))
 }
 
 /// Wahba's problem by SVD of the attitude profile matrix `b`, for the cases the closed form

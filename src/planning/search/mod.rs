@@ -4,9 +4,11 @@
 //! greedy seeds. They are generic over a [`StepSource`]: a step model says where a plan starts,
 //! which steps lead on from a state and which states are one; the searches decide the rest.
 
-use crate::model::geometry::{distance_to_geodesic, rot_q, CoilId, Orientation, Pair, Radians};
+use crate::model::geometry::{
+    distance_to_geodesic, rot_q, signed_angle_about, CoilId, Orientation, Pair, Radians,
+};
 use crate::planning::commutation::{
-    cumulative, cumulative_from, step_measure, CommutationState, Step, StepLimits, StepModel,
+    cumulative_from, step_measure, CommutationState, Step, StepLimits, StepModel,
 };
 use crate::planning::on_time::{self, OnTimeLimit, OnTimes};
 use crate::planning::plan::PlanRow;
@@ -500,7 +502,9 @@ pub const SAME_STATE_RAD: f64 = 1e-3;
 /// when the prediction does not advance about the axis): how step models order the proposals
 /// they weigh.
 pub fn predicted_rank(at: &Frontier, qp: &Orientation, s: &PlanSettings) -> Option<f64> {
-    let (advance, _) = cumulative(&at.state.q, qp, &s.axis);
+    // the step's signed angle about the axis ([`cumulative`]'s first half: its axis error is
+    // not needed here)
+    let advance = signed_angle_about(&(qp * at.state.q.inverse()), &s.axis);
     if advance.0 <= 0.0 {
         return None;
     }
