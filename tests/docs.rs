@@ -131,6 +131,11 @@ fn scratch() -> tempfile::TempDir {
         &Path::new(ROOT).join("scenarios"),
         &t.path().join("scenarios"),
     );
+    // the bench curve and the replay log docs/fit.md fits
+    copy_dir(
+        &Path::new(ROOT).join("assets/fit"),
+        &t.path().join("assets/fit"),
+    );
     for d in ["docs/wells", "docs/closed-loop"] {
         std::fs::create_dir_all(t.path().join(d)).unwrap();
     }
