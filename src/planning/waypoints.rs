@@ -265,10 +265,11 @@ pub fn plan_waypoints_with(
 
 /// Plans the legs that take the ball from the end of `out` to waypoint `number` (`goal`) and
 /// appends them; an error when it cannot be reached within `tolerance` (rad). The candidate
-/// legs towards it (`legs`, when going back to it; else [`candidate_legs`]) are tried in order,
-/// each followed by correction legs; the first that ends within the tolerance is kept (the
-/// legs not tried are returned, for a later waypoint to come back to), else `out` is left with
-/// the one that ends nearest. Settles are counted in `spent`.
+/// legs towards it (`legs`, when going back to it; else [`candidate_legs`]), the first
+/// [`CANDIDATE_LEGS`], are each tried with its correction legs; the one [`straightest`] picks is
+/// kept (of those that end within the tolerance and near the waypoint, the one that strays least
+/// from the waypoint's path; else the nearest-ending), and the others are returned, for a later
+/// waypoint to come back to. Settles are counted in `spent`.
 fn serve(
     motor: &Motor,
     s: &PlanSettings,
@@ -287,27 +288,36 @@ fn serve(
         }
         None => candidate_legs(motor, s, out, goal, number, spent)?,
     };
-    // each leg is tried on the end of `out` and taken back off; the best one's rows are kept
-    // aside (no copy of the whole plan: memory stays linear in the waypoints)
-    let mut best: Option<(f64, Vec<PlanRow>, Vec<usize>)> = None;
-    let mut legs = legs.into_iter().take(CANDIDATE_LEGS);
-    for leg in legs.by_ref() {
-        append(out, leg, number);
+    // each leg is tried on the end of `out` and taken back off, its rows kept aside (no copy of
+    // the whole plan: memory stays linear in the waypoints); the legs not taken are returned
+    let mut legs = legs.into_iter();
+    let mut tried: Vec<Tried> = Vec::new();
+    for leg in legs.by_ref().take(CANDIDATE_LEGS) {
+        append(out, leg.clone(), number);
         correct(motor, s, out, number, goal, spent);
-        let e = end(out);
+        let end = end(out);
+        let strays = leg_strays(out, first, number, goal);
         let rows = out.rows.split_off(first);
         let serves = out.serves.split_off(first);
-        if best.as_ref().is_none_or(|b| e < b.0) {
-            best = Some((e, rows, serves));
-            if e <= tolerance {
-                break;
-            }
+        tried.push(Tried {
+            leg,
+            end,
+            strays,
+            rows,
+            serves,
+        });
+    }
+    let kept = straightest(&tried, tolerance, STRAIGHT_END * s.tolerance.0);
+    let mut rest: Vec<Leg> = Vec::new();
+    for (k, t) in tried.into_iter().enumerate() {
+        if Some(k) == kept {
+            out.rows.extend(t.rows);
+            out.serves.extend(t.serves);
+        } else {
+            rest.push(t.leg);
         }
     }
-    if let Some((_, rows, serves)) = best {
-        out.rows.extend(rows);
-        out.serves.extend(serves);
-    }
+    rest.extend(legs);
     if let Some(base) = first_base(&out.rows, first) {
         recount(&mut out.rows[first..], base, goal);
     }
@@ -320,7 +330,51 @@ fn serve(
             tolerance.to_degrees()
         ));
     }
-    Ok(legs.collect())
+    Ok(rest)
+}
+
+/// A candidate leg tried on the end of the plan: the leg, how far from its waypoint it (and
+/// its corrections) leave the ball (rad), how far its rows stray from the waypoint's path
+/// (rad), and those rows with the waypoint each serves.
+struct Tried {
+    leg: Leg,
+    end: f64,
+    strays: f64,
+    rows: Vec<PlanRow>,
+    serves: Vec<usize>,
+}
+
+/// A leg kept over the nearest-ending one when it strays less from its path needs to end
+/// within this share of the plan's angle tolerance of its waypoint (or no further than the
+/// nearest-ending leg).
+const STRAIGHT_END: f64 = 0.75;
+
+/// Which of `tried` serves its waypoint: of those that end within `tolerance` and within
+/// `near` (or no further than the nearest-ending one), the one that strays least from the
+/// waypoint's path (the first tried on a tie); else the nearest-ending (the first on a tie).
+/// `None` when nothing was tried.
+fn straightest(tried: &[Tried], tolerance: f64, near: f64) -> Option<usize> {
+    let nearest = (0..tried.len()).min_by(|&a, &b| tried[a].end.total_cmp(&tried[b].end))?;
+    let least = tried[nearest].end;
+    let fit = |t: &Tried| t.end <= tolerance && (t.end <= near || t.end <= least);
+    let straight = (0..tried.len())
+        .filter(|&k| fit(&tried[k]))
+        .min_by(|&a, &b| tried[a].strays.total_cmp(&tried[b].strays));
+    Some(straight.unwrap_or(nearest))
+}
+
+/// How far the rows of `out` from `first` on stray from waypoint `number`'s path (rad): the
+/// geodesic from the waypoint before (row 0 for the first) to `goal`, as the waypoint report
+/// measures it ([`reached_at`]).
+fn leg_strays(out: &WaypointPlan, first: usize, number: usize, goal: &Orientation) -> f64 {
+    let from = match number.checked_sub(2) {
+        Some(before) => out.waypoints.get(before).copied(),
+        None => out.rows.first().map(|r| r.q),
+    };
+    let rows = out.rows.get(first..).unwrap_or_default();
+    from.map_or(0.0, |f| {
+        path_deviation_deg(rows.iter().map(|r| &r.q), &f, goal).to_radians()
+    })
 }
 
 /// A waypoint served: how many rows the plan had before it and the candidate legs towards it
@@ -447,6 +501,7 @@ fn first_legs(motor: &Motor, leg: &PlanSettings, goal: &Orientation) -> Vec<Leg>
 /// plan's row 0 is the state its steps start from (where the release leaves the ball, else the
 /// end of the plan so far, or the initial commutation for a first leg); [`append`] leaves it
 /// out when the plan so far has rows, as it repeats the row before.
+#[derive(Clone)]
 struct Leg {
     release: Option<PlanRow>,
     plan: Plan,
