@@ -678,12 +678,14 @@ fn closed_loop_switches_off_before_the_on_time_limit_while_the_sensor_is_silent(
 #[test]
 fn closed_loop_switches_off_before_the_on_time_limit_while_it_replans() {
     // a sensor that reads 180 degrees about Z whatever the ball does, and replans from there
-    // searched 64 states wide (16 times the default: seconds in the broad wells, where the
-    // default takes a few hundred milliseconds); the coils are allowed 1 s
+    // searched 1024 states wide (256 times the default: tens of seconds in the broad wells,
+    // where the default takes a few hundred milliseconds; 64 wide, a replan on an idle machine
+    // could end within the limit, and its plan was then refused instead); the coils are
+    // allowed 1 s, and the replan is abandoned when the limit comes
     let dir = tempfile::tempdir().unwrap();
     let mut inputs = limited(dir.path(), 1.0, 500);
     let (script, _) = offline(&inputs, None);
-    inputs.cl.replan_beam = 64;
+    inputs.cl.replan_beam = 1024;
     let far = Fault::Always("0,0,0,1");
     let ran = run(&inputs, script, SensorFormat::QuatCsv, far);
     switched_off_before_the_limit(
