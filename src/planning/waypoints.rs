@@ -148,10 +148,7 @@ pub fn reached_at(
         let Some(r) = rows.get(row) else {
             continue;
         };
-        let from = match k.checked_sub(1) {
-            Some(before) => waypoints.get(before),
-            None => rows.first().map(|r| &r.q),
-        };
+        let from = path_start(waypoints, rows, number);
         let leg = rows
             .iter()
             .zip(serves)
@@ -161,7 +158,7 @@ pub fn reached_at(
             waypoint: number,
             step: r.step,
             error_deg: r.q.angle_to(w).to_degrees(),
-            max_path_deviation_deg: from.map_or(0.0, |from| path_deviation_deg(leg, from, w)),
+            max_path_deviation_deg: from.map_or(0.0, |from| path_deviation_deg(leg, &from, w)),
         });
     }
     out
@@ -295,13 +292,13 @@ fn serve(
     for leg in legs.by_ref().take(CANDIDATE_LEGS) {
         append(out, leg.clone(), number);
         correct(motor, s, out, number, goal, spent);
-        let end = end(out);
+        let ends = end(out);
         let strays = leg_strays(out, first, number, goal);
         let rows = out.rows.split_off(first);
         let serves = out.serves.split_off(first);
         tried.push(Tried {
             leg,
-            end,
+            end: ends,
             strays,
             rows,
             serves,
@@ -367,14 +364,20 @@ fn straightest(tried: &[Tried], tolerance: f64, near: f64) -> Option<usize> {
 /// geodesic from the waypoint before (row 0 for the first) to `goal`, as the waypoint report
 /// measures it ([`reached_at`]).
 fn leg_strays(out: &WaypointPlan, first: usize, number: usize, goal: &Orientation) -> f64 {
-    let from = match number.checked_sub(2) {
-        Some(before) => out.waypoints.get(before).copied(),
-        None => out.rows.first().map(|r| r.q),
-    };
+    let from = path_start(&out.waypoints, &out.rows, number);
     let rows = out.rows.get(first..).unwrap_or_default();
     from.map_or(0.0, |f| {
         path_deviation_deg(rows.iter().map(|r| &r.q), &f, goal).to_radians()
     })
+}
+
+/// Where waypoint `number`'s (1, 2, ...) path starts: the waypoint before it, or row 0 of
+/// `rows` for the first.
+fn path_start(waypoints: &[Orientation], rows: &[PlanRow], number: usize) -> Option<Orientation> {
+    match number.checked_sub(2) {
+        Some(before) => waypoints.get(before).copied(),
+        None => rows.first().map(|r| r.q),
+    }
 }
 
 /// A waypoint served: how many rows the plan had before it and the candidate legs towards it
