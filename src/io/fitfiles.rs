@@ -95,7 +95,8 @@ pub fn parse_steps(text: &str, path: &Path, coils: usize) -> Result<Vec<Measured
         q: [req("qw")?, req("qx")?, req("qy")?, req("qz")?],
     };
     let mut on: BTreeSet<usize> = BTreeSet::new();
-    let mut last: Option<Orientation> = None;
+    // the last reading, the coils on at it, and the reading before (where they were switched on)
+    let mut last: Option<(Orientation, Vec<CoilId>, Option<Orientation>)> = None;
     let mut steps = Vec::new();
     for r in t.rows() {
         let coil = || -> Result<Option<usize>> {
@@ -123,14 +124,18 @@ pub fn parse_steps(text: &str, path: &Path, coils: usize) -> Result<Vec<Measured
             },
             "sensor" => {
                 let q = reading(&r, &c)?;
-                if let (Some(from), false) = (last, on.is_empty()) {
+                let coils: Vec<CoilId> = on.iter().map(|&k| CoilId(k)).collect();
+                let before = last.take();
+                if let (Some((from, held_by, since)), false) = (&before, on.is_empty()) {
                     steps.push(MeasuredStep {
-                        from,
-                        coils: on.iter().map(|&k| CoilId(k)).collect(),
+                        from: *from,
+                        held_by: held_by.clone(),
+                        held_since: since.unwrap_or(*from),
+                        coils: coils.clone(),
                         to: q,
                     });
                 }
-                last = Some(q);
+                last = Some((q, coils, before.map(|b| b.0)));
             }
             _ => {}
         }

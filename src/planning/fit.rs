@@ -407,25 +407,45 @@ pub fn fit_curve(pts: &[(f64, f64)]) -> Result<Vec<CurveFit>, FitError> {
 pub struct MeasuredStep {
     /// The measured orientation the step starts from, the ball at rest.
     pub from: Orientation,
+    /// The coils that were on when `from` was measured (the step before's; empty when none
+    /// were, or when the log does not say): the ball rests where they hold it.
+    pub held_by: Vec<CoilId>,
+    /// Where the ball was measured when `held_by` were switched on (the step before's start;
+    /// `from` when the log does not say): where their pairs were made.
+    pub held_since: Orientation,
     /// The coils on during the step.
     pub coils: Vec<CoilId>,
     /// The measured orientation the step ends at.
     pub to: Orientation,
 }
 
-/// The pairs a step switches on in `torques`: each coil with the magnet nearest it at the
-/// step's start (with every coil pulling, the pairing does not matter).
-pub fn step_pairs(torques: &MagnetTorques, step: &MeasuredStep) -> Vec<Pair> {
-    step.coils
+/// The pairs `coils` switch on in `torques` with the ball at `at`: each coil with the magnet
+/// nearest it (with every coil pulling, the pairing does not matter).
+fn pairs_at(torques: &MagnetTorques, coils: &[CoilId], at: &Orientation) -> Vec<Pair> {
+    coils
         .iter()
         .map(|&c| Pair {
             coil: c,
-            magnet: nearest_magnet(torques, c, &step.from).0,
+            magnet: nearest_magnet(torques, c, at).0,
         })
         .collect()
 }
 
-/// Where `torques` (with `motor`'s body and settle) predict each step ends.
+/// Where the ball rests at a step's start in `torques`: the equilibrium the coils that held it
+/// (`held_by`, paired where they were switched on) settle it to from the measured `from`. A sensor reads a ball at rest with its
+/// noise (a degree for a good one); the ball itself sits in an equilibrium of the coils that
+/// hold it, and a start a degree off can lie across a basin boundary of the step's own coils
+/// where the true start does not. With no holding coils the measurement is the start.
+pub fn step_start(motor: &Motor, torques: &MagnetTorques, step: &MeasuredStep) -> Orientation {
+    if step.held_by.is_empty() {
+        return step.from;
+    }
+    let pairs = pairs_at(torques, &step.held_by, &step.held_since);
+    settle(torques, &pairs, &step.from, motor.body, motor.settle).q
+}
+
+/// Where `torques` (with `motor`'s body and settle) predict each step ends: from where the
+/// ball rests at its start ([`step_start`]), its coils paired with the magnets nearest them.
 pub fn predict_steps(
     motor: &Motor,
     torques: &MagnetTorques,
@@ -434,14 +454,9 @@ pub fn predict_steps(
     steps
         .par_iter()
         .map(|s| {
-            settle(
-                torques,
-                &step_pairs(torques, s),
-                &s.from,
-                motor.body,
-                motor.settle,
-            )
-            .q
+            let from = step_start(motor, torques, s);
+            let pairs = pairs_at(torques, &s.coils, &from);
+            settle(torques, &pairs, &from, motor.body, motor.settle).q
         })
         .collect()
 }
@@ -477,9 +492,11 @@ pub struct StepFit {
     pub holdout_after_deg: Vec<f64>,
 }
 
-/// The scale of the steps' robust loss, degrees: a step predicted this far off counts about as
-/// its square, one much further (ended in another basin than predicted: the dynamics, not the
-/// wells, decide those) only logarithmically more (a Cauchy loss).
+/// The scale of the steps' robust loss, degrees: a step predicted well within this counts as
+/// its square, one much further (ended in another basin than predicted: a start across a
+/// basin boundary, a pairing the noise flips) no more than this squared (a Geman-McClure
+/// loss, e^2 c^2 / (c^2 + e^2)). A loss that grows without bound (a Cauchy loss's logarithm)
+/// lets one such step pull a parameter the other steps do not pin to where it explains it.
 pub const ROBUST_DEG: f64 = 2.0;
 /// The reaches a fit of the steps tries, degrees: from 5 to 75 by 0.5.
 pub const REACH_GRID: (f64, f64, f64) = (5.0, 75.0, 0.5);
@@ -488,7 +505,7 @@ pub const REACH_GRID: (f64, f64, f64) = (5.0, 75.0, 0.5);
 pub const STEP_ROUNDS: usize = 3;
 
 /// The rotation (degrees, as a vector) from each measured end to its prediction, scaled to
-/// the robust loss: its squared length is ROBUST^2 ln(1 + (e / ROBUST)^2).
+/// the robust loss: its squared length is e^2 ROBUST^2 / (ROBUST^2 + e^2).
 fn step_residuals(motor: &Motor, wells: &WellFit, steps: &[MeasuredStep]) -> Vec<f64> {
     let torques = MagnetTorques {
         well: wells.well(),
@@ -501,11 +518,7 @@ fn step_residuals(motor: &Motor, wells: &WellFit, steps: &[MeasuredStep]) -> Vec
             let v = (p * s.to.inverse()).scaled_axis().map(f64::to_degrees);
             let e = v.norm();
             let c = ROBUST_DEG;
-            let f = if e > 1e-12 {
-                c * (1.0 + (e / c).powi(2)).ln().sqrt() / e
-            } else {
-                1.0
-            };
+            let f = c / (c * c + e * e).sqrt();
             [v.x * f, v.y * f, v.z * f]
         })
         .collect()
@@ -565,6 +578,62 @@ fn best_step_reach(
     (chosen, width)
 }
 
+/// The widths (degrees, of a gaussian well) the coarse search of a fit of the steps tries:
+/// from 3 to 15 by 1.
+pub const COARSE_WIDTHS: (f64, f64, f64) = (3.0, 15.0, 1.0);
+/// The reaches (degrees) the coarse search tries: from 10 to 40 by 2.5.
+pub const COARSE_REACHES: (f64, f64, f64) = (10.0, 40.0, 2.5);
+
+/// The points of a grid `(lo, hi, by)`.
+fn grid_points((lo, hi, by): (f64, f64, f64)) -> Vec<f64> {
+    let n = ((hi - lo) / by).round() as usize;
+    (0..=n).map(|i| lo + by * i as f64).collect()
+}
+
+/// The coarse start of a fit of the steps: the robust loss over a grid of widths (a gaussian's;
+/// a cosine keeps none) and reaches, and of the grid's points within a degree of freedom's
+/// loss of the least, the one nearest `start` (relative changes summed; the steps do not tell
+/// those apart). A fit of the steps from the scenario's own wells alone can stall where the
+/// loss is flat or rough: a step's end jumps between basins as a parameter moves.
+fn coarse_start(motor: &Motor, start: &WellFit, steps: &[MeasuredStep]) -> WellFit {
+    let widths: Vec<Option<f64>> = match start.width_deg {
+        Some(_) => grid_points(COARSE_WIDTHS).into_iter().map(Some).collect(),
+        None => vec![None],
+    };
+    let trials: Vec<WellFit> = widths
+        .iter()
+        .flat_map(|&w| {
+            grid_points(COARSE_REACHES)
+                .into_iter()
+                .filter(move |&r| w.is_none_or(|w| r > w))
+                .map(move |r| WellFit {
+                    width_deg: w,
+                    reach_deg: r,
+                    ..*start
+                })
+        })
+        .chain(std::iter::once(*start))
+        .collect();
+    let losses: Vec<f64> = trials
+        .par_iter()
+        .map(|w| ssr(&step_residuals(motor, w, steps)))
+        .collect();
+    let least = losses.iter().copied().fold(f64::INFINITY, f64::min);
+    let var = least / (3 * steps.len()).saturating_sub(2).max(1) as f64;
+    let away = |w: &WellFit| {
+        let rel = |a: f64, b: f64| (a / b - 1.0).abs();
+        rel(w.reach_deg, start.reach_deg)
+            + match (w.width_deg, start.width_deg) {
+                (Some(a), Some(b)) => rel(a, b),
+                _ => 0.0,
+            }
+    };
+    (0..trials.len())
+        .filter(|&i| losses[i] <= least + var)
+        .min_by(|&a, &b| away(&trials[a]).total_cmp(&away(&trials[b])))
+        .map_or(*start, |i| trials[i])
+}
+
 /// Measured `steps` fitted from `start` (the wells of `motor`, or a curve's fit): the
 /// parameters that decide where a step settles (the reach, over a grid, and a gaussian's
 /// width, by Levenberg-Marquardt, in turns; the strength scales every torque alike and moves
@@ -587,7 +656,7 @@ pub fn fit_steps(
         });
     }
     let (train, test) = steps.split_at(fitted);
-    let mut wells = *start;
+    let mut wells = coarse_start(motor, start, train);
     let mut width_se = None;
     for _ in 0..STEP_ROUNDS {
         wells.reach_deg = best_step_reach(motor, &wells, train, start.reach_deg).0;
