@@ -163,8 +163,8 @@ pub fn fit(sc: &Scenario, inputs: &FitInputs) -> Result<FitReport> {
     report.wells = Some(start);
     if let Some(p) = inputs.log {
         let measured = read_steps(p, sc.torques.stator.len())?;
-        let fitted = fit_steps(&sc.motor(), &start, &measured, inputs.holdout)
-            .map_err(in_file(p))?;
+        let fitted =
+            fit_steps(&sc.motor(), &start, &measured, inputs.holdout).map_err(in_file(p))?;
         report.wells = Some(fitted.wells);
         report.steps = Some(fitted);
         report.logged_steps = measured.len();

@@ -206,7 +206,11 @@ fn variances(jtj: &DMatrix<f64>) -> Vec<Option<f64>> {
 
 /// Levenberg-Marquardt from `x0` on the residuals `f`, central-difference steps `h` (a trial
 /// whose residuals are not finite is refused, as one that does not improve).
-pub(super) fn levenberg_marquardt(f: &(dyn Fn(&[f64]) -> Vec<f64> + Sync), x0: &[f64], h: &[f64]) -> Solved {
+pub(super) fn levenberg_marquardt(
+    f: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+    x0: &[f64],
+    h: &[f64],
+) -> Solved {
     let mut x = x0.to_vec();
     let mut r = f(&x);
     let mut s = ssr(&r);

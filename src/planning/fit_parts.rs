@@ -72,8 +72,7 @@ impl PartsModel {
     pub fn of(well: &Well) -> Result<PartsModel, FitError> {
         let WellShape::Dipole(w) = well.shape() else {
             return Err(FitError::Unfit(
-                "fitting core_gain and gap_m needs a physical scenario (shape = \"dipole\")"
-                    .into(),
+                "fitting core_gain and gap_m needs a physical scenario (shape = \"dipole\")".into(),
             ));
         };
         let real = w.real_parts().copied().unwrap_or(RealParts {
@@ -103,7 +102,11 @@ impl PartsModel {
         if self.real.winding.is_none() {
             parts.gap_m = v.gap_m;
         }
-        let real = RealParts::new(parts, self.real.magnet, self.real.winding.map(|w| (w, v.gap_m)))?;
+        let real = RealParts::new(
+            parts,
+            self.real.magnet,
+            self.real.winding.map(|w| (w, v.gap_m)),
+        )?;
         let dipole = DipoleWell::real(real)?;
         let cutoff = self.cutoff.unwrap_or(Radians(dipole.reach(0.0)));
         Ok(Well::new(WellShape::Dipole(dipole), cutoff))
@@ -130,7 +133,12 @@ impl Curves<'_> {
                         gap_m,
                     };
                     let well = self.model.well(v).ok()?;
-                    Some(self.angles.iter().map(|&d| well.passing_torque(d)).collect())
+                    Some(
+                        self.angles
+                            .iter()
+                            .map(|&d| well.passing_torque(d))
+                            .collect(),
+                    )
                 })
                 .clone()
         }?;
@@ -264,8 +272,18 @@ mod tests {
     fn the_torque_is_linear_in_the_gain() {
         let m = model();
         let v = m.values();
-        let one = m.well(PartsValues { core_gain: 1.0, ..v }).unwrap();
-        let three = m.well(PartsValues { core_gain: 3.0, ..v }).unwrap();
+        let one = m
+            .well(PartsValues {
+                core_gain: 1.0,
+                ..v
+            })
+            .unwrap();
+        let three = m
+            .well(PartsValues {
+                core_gain: 3.0,
+                ..v
+            })
+            .unwrap();
         for d in [0.02, 0.1, 0.2, 0.3] {
             let (a, b) = (3.0 * one.passing_torque(d), three.passing_torque(d));
             assert!((a - b).abs() <= 1e-12 * b.abs(), "{d}: {a} {b}");
