@@ -86,11 +86,12 @@ impl PartsModel {
         Ok(PartsModel { real, cutoff })
     }
 
-    /// The scenario's values.
+    /// The scenario's values (the gap to a picometre: a winding's face, its mid-height less
+    /// half its length, loses the last bit of the gap the file gave).
     pub fn values(&self) -> PartsValues {
         PartsValues {
             core_gain: self.real.loop_parts.core_gain,
-            gap_m: self.real.face_gap_m(),
+            gap_m: (self.real.face_gap_m() * 1e12).round() / 1e12,
         }
     }
 
