@@ -40,7 +40,10 @@ fn scenario(obj: &Bound<'_, PyAny>) -> PyResult<Arc<spherestep::Scenario>> {
     let path: PathBuf = obj.extract().map_err(|_| {
         arg_err(
             "scenario",
-            format!("a Scenario or the path of a scenario file, got {}", shown(obj)),
+            format!(
+                "a Scenario or the path of a scenario file, got {}",
+                shown(obj)
+            ),
         )
     })?;
     Ok(Arc::new(
