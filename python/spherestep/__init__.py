@@ -13,6 +13,7 @@ A ball rotor carrying permanent magnets, turned by switching the electromagnets 
     plan.to_pandas()                          # or to_dict(); a notebook shows plan as a table
     q = spherestep.quat_from_axis_angle((0, 0, 1), 30)
     spherestep.angle_between(plan.q[0], plan.q[-1])
+    spherestep.fit("scenarios/prototype-physical.toml", torque="bench.csv")["parameters"]
 
 Conventions (frames, quaternions [qx, qy, qz, qw] body to world, degrees, SI units): the
 repository's docs/model.md; this package: docs/python.md. Every error is a
@@ -30,6 +31,7 @@ from ._spherestep import (
     Simulation,
     Wells,
     angle_between,
+    fit,
     quat_from_axis_angle,
 )
 
@@ -44,6 +46,7 @@ __all__ = [
     "Simulation",
     "Wells",
     "angle_between",
+    "fit",
     "quat_from_axis_angle",
 ]
 __version__ = "0.1.0"

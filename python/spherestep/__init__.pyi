@@ -23,6 +23,7 @@ __all__ = [
     "Simulation",
     "Wells",
     "angle_between",
+    "fit",
     "quat_from_axis_angle",
 ]
 
@@ -418,3 +419,22 @@ def angle_between(q1: _Quaternion, q2: _Quaternion) -> float:
     """The angle between two orientations [qx, qy, qz, qw] (normalised here), degrees in
     [0, 180]: the rotation angle of the turn from one to the other (q and -q are the same
     orientation). Error (a ValueError) for a zero or non-finite quaternion."""
+
+def fit(
+    scenario: Union[Scenario, _PathLike],
+    torque: Optional[_PathLike] = None,
+    log: Optional[_PathLike] = None,
+    *,
+    holdout: int = 0,
+    fit_as: Optional[Literal["wells", "gaussian", "cosine", "physical"]] = None,
+) -> dict[str, Any]:
+    """Fits scenario (a Scenario or a scenario file's path) to a bench's torque curve torque
+    (a CSV of angle_deg,torque_nm) and/or a closed-loop replay's log (replay --sensor --log;
+    its last holdout steps predicted, not fitted), as `spherestep fit` does: a physical
+    scenario (shape = "dipole") fits its core_gain and gap_m (fit_as="physical", its
+    default), any other its wells ("wells": gaussian and cosine, the better chosen; or
+    "gaussian", "cosine"). Returns a dict: fitted_as; parameters (each fitted [magnets] key
+    and its value); std_errors (the same keys, None where the data do not determine it);
+    rms_nm (the curve's RMS residual, N m; None without a curve); report (the keys of
+    `spherestep fit --json`). Error (a ValueError) naming the file that cannot be read or
+    fitted, or the argument not allowed."""

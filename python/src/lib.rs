@@ -8,6 +8,7 @@
 //! before any computation.
 
 mod convert;
+mod fitting;
 mod motor;
 mod replaced;
 mod results;
@@ -44,6 +45,8 @@ pub(crate) fn arg_err(arg: &str, expected: impl Into<String>) -> PyErr {
 /// `Scenario.prototype()`, then `scenario.motor()`.
 #[pymodule(name = "_spherestep")]
 mod module {
+    #[pymodule_export]
+    use super::fitting::fit;
     #[pymodule_export]
     use super::motor::{Motor, Scenario};
     #[pymodule_export]

@@ -2,7 +2,7 @@
 //! replay's log, reported and written as a scenario.
 
 use anyhow::Result;
-use spherestep::commands::fit::{fit_command, FitInputs};
+use spherestep::commands::fit::{fit_command, FitAs, FitInputs};
 use spherestep::io::scenario::Scenario;
 use std::io::Write;
 use std::path::PathBuf;
@@ -27,6 +27,11 @@ pub struct Args {
     /// Write the fitted scenario (TOML) here.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// What the torque curve is fitted as: `physical` (a physical scenario's core_gain and
+    /// gap_m; its default), `wells` (gaussian and cosine wells, the better chosen; the default
+    /// for any other scenario), `gaussian` or `cosine`.
+    #[arg(long = "as", value_name = "AS", value_parser = FitAs::NAMES)]
+    pub fit_as: Option<String>,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -43,6 +48,7 @@ impl Args {
             log: self.log.as_deref(),
             holdout: self.holdout,
             out: self.out.as_deref(),
+            fit_as: self.fit_as.as_deref().and_then(FitAs::parse),
         };
         fit_command(&sc, &inputs, self.json, out)?;
         Ok(())

@@ -1,92 +1,27 @@
 //! `spherestep fit`: a scenario's wells fitted to what the bench measures, a torque curve
 //! (`--torque`) and/or a closed-loop replay's log of measured steps (`--log`, the last
-//! `--holdout` steps predicted and not fitted), reported with each parameter's standard error
-//! and the residuals, and written as a scenario every command loads (`--out`).
+//! `--holdout` steps predicted and not fitted), or a physical scenario's `core_gain` and `gap_m`
+//! fitted to the curve (`--as`), reported with each parameter's standard error and the
+//! residuals, and written as a scenario every command loads (`--out`).
 
 use crate::commands::args::check_out;
 use crate::error::{Error, Result};
-use crate::io::fitfiles::{fitted_toml, read_bench, read_steps};
+use crate::io::fitfiles::{fitted_toml, Fitted};
+pub use crate::io::fitting::{fit, FitAs, FitInputs, FitReport};
 use crate::io::output::write_atomic;
 use crate::io::scenario::Scenario;
-use crate::physics::torque::Interaction;
-use crate::planning::fit::{describe, fit_curve, fit_steps, CurveFit, FitError, StepFit, WellFit};
+use crate::planning::fit::{describe, FitError, StepFit};
+use crate::planning::fit_parts::PartsFit;
 use crate::text::printable;
-use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
-
-/// What `fit` is given.
-#[derive(Debug, Clone, Copy)]
-pub struct FitInputs<'a> {
-    /// A bench's torque curve (`angle_deg,torque_nm`).
-    pub torque: Option<&'a Path>,
-    /// A closed-loop replay's log (`replay --sensor --log`).
-    pub log: Option<&'a Path>,
-    /// The last steps of the log kept out of the fit and predicted.
-    pub holdout: usize,
-    /// Where the fitted scenario goes.
-    pub out: Option<&'a Path>,
-}
-
-/// What `fit` found.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FitReport {
-    /// The curve's fits, the least residual first (the first chosen).
-    pub curve: Vec<CurveFit>,
-    /// The steps' fit.
-    pub steps: Option<StepFit>,
-    /// The wells written: the steps' fit, else the curve's.
-    pub wells: WellFit,
-    /// The interaction written (the scenario's: a curve or a log does not tell it).
-    pub interaction: Interaction,
-    /// The measured steps the log held.
-    pub logged_steps: usize,
-}
-
-/// The fits of `inputs` on `sc`'s motor.
-pub fn fit(sc: &Scenario, inputs: &FitInputs) -> Result<FitReport> {
-    if inputs.torque.is_none() && inputs.log.is_none() {
-        return Err(Error::Arg {
-            arg: "--torque/--log".into(),
-            expected: "a bench's torque curve (--torque FILE), a replay log (--log FILE), or both"
-                .into(),
-        });
-    }
-    let curve = match inputs.torque {
-        Some(p) => fit_curve(&read_bench(p)?)?,
-        None => Vec::new(),
-    };
-    let start = match curve.first() {
-        Some(c) => c.wells,
-        None => WellFit::of(&sc.torques.well).ok_or_else(|| {
-            FitError::Unfit(
-                "the scenario's wells are measured or physical (shape \"table\" or \"dipole\"): \
-                 fit a bench curve too (--torque), whose gaussian or cosine fit the log then refines"
-                    .into(),
-            )
-        })?,
-    };
-    let motor = sc.motor();
-    let (steps, logged) = match inputs.log {
-        Some(p) => {
-            let measured = read_steps(p, sc.torques.stator.len())?;
-            let fitted = fit_steps(&motor, &start, &measured, inputs.holdout)?;
-            (Some(fitted), measured.len())
-        }
-        None => (None, 0),
-    };
-    Ok(FitReport {
-        wells: steps.as_ref().map_or(start, |s| s.wells),
-        curve,
-        steps,
-        interaction: sc.torques.interaction,
-        logged_steps: logged,
-    })
-}
 
 /// The report in words, one line each (what `fit` prints, and the fitted file's comment).
 pub fn report_lines(sc: &Scenario, inputs: &FitInputs, r: &FitReport) -> Vec<String> {
     let mut lines = Vec::new();
+    if let (Some(p), Some(parts)) = (inputs.torque, &r.parts) {
+        lines.extend(parts_lines(sc, p, parts));
+    }
     if let (Some(p), Some(first)) = (inputs.torque, r.curve.first()) {
         lines.push(format!(
             "{}: torque curve {}, {} points",
@@ -108,6 +43,43 @@ pub fn report_lines(sc: &Scenario, inputs: &FitInputs, r: &FitReport) -> Vec<Str
     if let (Some(p), Some(s)) = (inputs.log, &r.steps) {
         lines.extend(step_lines(p, r, s));
     }
+    lines
+}
+
+/// The lines of a physical scenario's fit.
+fn parts_lines(sc: &Scenario, torque: &Path, f: &PartsFit) -> Vec<String> {
+    let value = |k: usize, digits: usize| {
+        let e = &f.estimates[k];
+        match e.std_error {
+            Some(se) => format!("{} = {:.*} +- {:.*}", e.key, digits, e.value, digits, se),
+            None => format!("{} = {:.*}", e.key, digits, e.value),
+        }
+    };
+    let mut lines = vec![
+        format!(
+            "{}: torque curve {}, {} points, fitted as its physical parts (core_gain and gap_m; \
+             the magnet, the winding and the current kept)",
+            printable(&sc.name),
+            torque.display(),
+            f.points
+        ),
+        format!(
+            "  rms residual {:.6} N m ({:.6} with the scenario's core_gain {} and gap_m {} m)",
+            f.rms_nm, f.start_rms_nm, f.start.core_gain, f.start.gap_m
+        ),
+        format!("  {}, {}", value(0, 4), value(1, 7)),
+    ];
+    if let Some(w) = f.core_gain_wanted {
+        lines.push(format!(
+            "  the curve asks for core_gain {w:.4}, below 1 (an air coil, the least the format \
+             allows): held at 1, gap_m fitted alone; the coil pulls less than its winding does \
+             (check the current, the turns, the magnet)"
+        ));
+    }
+    lines.push(format!(
+        "  fitted: peak pull {:.4} N m at {:.2} deg, reaching {:.2} deg",
+        f.peak_nm, f.peak_deg, f.reach_deg
+    ));
     lines
 }
 
@@ -162,7 +134,12 @@ pub fn fit_command(
     let lines = report_lines(sc, inputs, &report);
     if let Some(path) = inputs.out {
         let header: String = lines.iter().map(|l| format!("# {l}\n")).collect();
-        let text = fitted_toml(sc, &report.wells, report.interaction, path, &header)?;
+        let fitted = match (&report.parts, &report.wells) {
+            (Some(p), _) => Fitted::Parts(p.fitted),
+            (None, Some(w)) => Fitted::Wells(*w, report.interaction),
+            (None, None) => return Err(FitError::Unfit("nothing fitted".into()).into()),
+        };
+        let text = fitted_toml(sc, &fitted, path, &header)?;
         write_atomic(path, text.as_bytes())?;
     }
     let w = |e| Error::io("<stdout>", e);

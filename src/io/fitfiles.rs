@@ -1,13 +1,15 @@
 //! The files of `spherestep fit`: a bench's torque curve (`angle_deg,torque_nm`, the columns
 //! `spherestep wells` writes), a closed-loop replay's log (`replay --sensor --log`: which coils
 //! each step switched, and the sensor's reading after it) read as measured steps, and the
-//! fitted scenario written back as TOML (the scenario's own file with its `[magnets]` replaced).
+//! fitted scenario written back as TOML (the scenario's own file with its `[magnets]` replaced,
+//! or a physical scenario's `core_gain` and `gap_m`).
 
 use crate::error::{Error, Result};
 use crate::io::table::Table;
 use crate::model::geometry::{CoilId, Orientation};
 use crate::physics::torque::Interaction;
 use crate::planning::fit::{FitShape, MeasuredStep, WellFit, MIN_CURVE_POINTS};
+use crate::planning::fit_parts::PartsValues;
 use crate::text::shown;
 use nalgebra::Quaternion;
 use std::collections::BTreeSet;
@@ -204,13 +206,22 @@ fn keep_files(doc: &mut toml::Table, from_dir: &Path, out: &Path) {
     }
 }
 
+/// What a fitted scenario replaces: its wells, or a physical scenario's `core_gain` and `gap_m`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Fitted {
+    /// `[magnets]` replaced by these wells with this interaction.
+    Wells(WellFit, Interaction),
+    /// `magnets.core_gain` and `magnets.gap_m` replaced, the rest of `[magnets]` kept.
+    Parts(PartsValues),
+}
+
 /// The fitted scenario as TOML, to be written to `out`: the scenario's file (or, for the
-/// built-in prototype, its name alone) with `[magnets]` the fitted wells, `name` and
-/// `description` saying so, after a comment `header` (lines starting `# `).
+/// built-in prototype, its name alone) with `[magnets]` the fitted wells (or its `core_gain`
+/// and `gap_m` the fitted parts'), `name` and `description` saying so, after a comment `header`
+/// (lines starting `# `).
 pub fn fitted_toml(
     sc: &crate::io::scenario::Scenario,
-    wells: &WellFit,
-    interaction: Interaction,
+    fitted: &Fitted,
     out: &Path,
     header: &str,
 ) -> Result<String> {
@@ -228,11 +239,31 @@ pub fn fitted_toml(
         keep_files(&mut doc, sc.path.parent().unwrap_or(Path::new("")), out);
     }
     doc.insert("name".into(), format!("{}-fitted", sc.name).into());
+    let what = match fitted {
+        Fitted::Wells(..) => "its wells",
+        Fitted::Parts(_) => "its core_gain and gap_m",
+    };
     doc.insert(
         "description".into(),
-        format!("{}, its wells fitted by spherestep fit", sc.name).into(),
+        format!("{}, {what} fitted by spherestep fit", sc.name).into(),
     );
-    doc.insert("magnets".into(), magnets_table(wells, interaction).into());
+    match fitted {
+        Fitted::Wells(wells, interaction) => {
+            doc.insert("magnets".into(), magnets_table(wells, *interaction).into());
+        }
+        Fitted::Parts(v) => {
+            let Some(toml::Value::Table(m)) = doc.get_mut("magnets") else {
+                return Err(Error::Parse {
+                    file: sc.path.clone(),
+                    message: "writing the fitted parts: expected the scenario's file with its \
+                              [magnets] (shape = \"dipole\")"
+                        .into(),
+                });
+            };
+            m.insert("core_gain".into(), v.core_gain.into());
+            m.insert("gap_m".into(), v.gap_m.into());
+        }
+    }
     let body = toml::to_string(&doc).map_err(|e| Error::Parse {
         file: out.to_path_buf(),
         message: format!("writing the fitted scenario: {e}"),

@@ -13,6 +13,7 @@
 //! whole or not at all.
 
 pub mod fitfiles;
+pub mod fitting;
 pub mod input;
 pub mod loopfile;
 pub mod output;

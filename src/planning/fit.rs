@@ -152,13 +152,15 @@ pub struct CurveFit {
 }
 
 /// What Levenberg-Marquardt ends with.
-struct Solved {
-    x: Vec<f64>,
+pub(super) struct Solved {
+    /// The parameters at the end.
+    pub(super) x: Vec<f64>,
     /// The sum of squared residuals.
-    ssr: f64,
-    residuals: usize,
+    pub(super) ssr: f64,
+    /// How many residuals there were.
+    pub(super) residuals: usize,
     /// (J^T J)^-1 at the end, per parameter its variance factor (`None`: not determined).
-    variance: Vec<Option<f64>>,
+    pub(super) variance: Vec<Option<f64>>,
 }
 
 /// The residuals at `x` and their sum of squares.
@@ -202,8 +204,13 @@ fn variances(jtj: &DMatrix<f64>) -> Vec<Option<f64>> {
     out
 }
 
-/// Levenberg-Marquardt from `x0` on the residuals `f`, central-difference steps `h`.
-fn levenberg_marquardt(f: &(dyn Fn(&[f64]) -> Vec<f64> + Sync), x0: &[f64], h: &[f64]) -> Solved {
+/// Levenberg-Marquardt from `x0` on the residuals `f`, central-difference steps `h` (a trial
+/// whose residuals are not finite is refused, as one that does not improve).
+pub(super) fn levenberg_marquardt(
+    f: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+    x0: &[f64],
+    h: &[f64],
+) -> Solved {
     let mut x = x0.to_vec();
     let mut r = f(&x);
     let mut s = ssr(&r);
@@ -304,8 +311,9 @@ fn best_reach(shape: FitShape, p: &[f64], pts: &[(f64, f64)]) -> usize {
     best.0
 }
 
-/// The torque curve `pts` (degrees, N m) fitted with `shape`.
-pub fn fit_shape(shape: FitShape, pts: &[(f64, f64)]) -> Result<CurveFit, FitError> {
+/// The torque curve `pts` (degrees, N m) in radians, sorted by angle: at least
+/// [`MIN_CURVE_POINTS`] points, pulling somewhere.
+pub(super) fn curve_radians(pts: &[(f64, f64)]) -> Result<Vec<(f64, f64)>, FitError> {
     let mut sorted: Vec<(f64, f64)> = pts.iter().map(|&(a, t)| (a.to_radians(), t)).collect();
     sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
     if sorted.len() < MIN_CURVE_POINTS {
@@ -320,6 +328,12 @@ pub fn fit_shape(shape: FitShape, pts: &[(f64, f64)]) -> Result<CurveFit, FitErr
             "the torque curve pulls nowhere (no positive torque at a positive angle)".into(),
         ));
     }
+    Ok(sorted)
+}
+
+/// The torque curve `pts` (degrees, N m) fitted with `shape`.
+pub fn fit_shape(shape: FitShape, pts: &[(f64, f64)]) -> Result<CurveFit, FitError> {
+    let sorted = curve_radians(pts)?;
     let mut p = start(shape, &sorted);
     let mut reach = sorted.len() - 1;
     let mut solved = None;

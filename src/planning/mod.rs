@@ -17,6 +17,7 @@ pub mod closed_loop;
 pub mod coilsets;
 pub mod commutation;
 pub mod fit;
+pub mod fit_parts;
 pub mod holding;
 pub mod identify;
 mod landing;

@@ -39,7 +39,13 @@ fn normal(r: &mut SplitMix) -> f64 {
 /// The hidden scenario's `wells` curve every 0.5 degrees with noise of 2% of its peak (seeded),
 /// as a bench CSV.
 pub fn noisy_bench(hidden: &Scenario, seed: u64) -> String {
-    let curve = well_curve(&hidden.torques.well, 0.5).unwrap();
+    noisy_bench_every(hidden, seed, 0.5)
+}
+
+/// The hidden scenario's `wells` curve every `step_deg` degrees with noise of 2% of its peak
+/// (seeded), as a bench CSV.
+pub fn noisy_bench_every(hidden: &Scenario, seed: u64, step_deg: f64) -> String {
+    let curve = well_curve(&hidden.torques.well, step_deg).unwrap();
     let peak = curve.iter().map(|p| p.1).fold(0.0, f64::max);
     let mut r = SplitMix::new(seed);
     let mut text = String::from("angle_deg,torque_nm\n");
@@ -117,6 +123,188 @@ fn a_hidden_wells_curve_with_two_percent_noise_is_recovered_within_three_percent
     assert_eq!(sc.name, "prototype-fitted");
     let (code, out, err) = run(&["wells", fitted.to_str().unwrap(), "--step-deg", "0.5"]);
     assert_eq!(code, 0, "{out}{err}");
+}
+
+/// The angle step of the physical bench curve, degrees: the gap and the gain both scale the
+/// pull, and only the shape of the curve (where it peaks, how far it reaches) tells them apart,
+/// so with 2% noise every 0.5 degrees (42 points) each is determined to 3% (one standard
+/// error); every 0.05 degrees (415 points), to 1%.
+const PHYSICAL_STEP_DEG: f64 = 0.05;
+
+/// The physical prototype with its gap 15% wider and its core's gain 1.3 times: the motor
+/// the bench measures.
+fn hidden_physical() -> String {
+    let text = std::fs::read_to_string("scenarios/prototype-physical.toml").unwrap();
+    let text = text
+        .replacen(
+            "name = \"prototype-physical\"",
+            "name = \"hidden-physical\"",
+            1,
+        )
+        .replacen("gap_m = 0.0082\n", "gap_m = 0.00943\n", 1)
+        .replacen("core_gain = 4.0\n", "core_gain = 5.2\n", 1);
+    assert!(text.contains("gap_m = 0.00943\n") && text.contains("core_gain = 5.2\n"));
+    format!(
+        "# The motor docs/fit.md's physical bench measures: scenarios/prototype-physical.toml with\n\
+         # its gap 15% wider (gap_m 0.0082 -> 0.00943) and its core's gain 1.3 times (core_gain\n\
+         # 4 -> 5.2); the comments below are the original's.\n{text}"
+    )
+}
+
+#[test]
+fn a_hidden_physical_motors_gap_and_core_gain_are_recovered_within_three_percent() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let hidden = Scenario::load(&write(d, "hidden.toml", &hidden_physical())).unwrap();
+    let bench_text = noisy_bench_every(&hidden, 33, PHYSICAL_STEP_DEG);
+    let bench = write(d, "bench.csv", &bench_text);
+    let fitted = d.join("fitted.toml");
+    let args = [
+        "fit",
+        "scenarios/prototype-physical.toml",
+        "--torque",
+        bench.to_str().unwrap(),
+        "--out",
+        fitted.to_str().unwrap(),
+        "--json",
+    ];
+    let (code, out, err) = run(&args);
+    assert_eq!(code, 0, "{out}{err}");
+    let report = json(&out, &err);
+    assert_eq!(report["fitted_as"], "physical", "{report}");
+    let parts = &report["parts"];
+    let value = |k: &str, v: &str| parts[k][v].as_f64().unwrap();
+    let (gain, gap) = (value("fitted", "core_gain"), value("fitted", "gap_m"));
+    let off = |got: f64, want: f64| (got / want - 1.0).abs();
+    assert!(
+        off(gain, 5.2) < 0.03 && off(gap, 0.00943) < 0.03,
+        "{report}"
+    );
+    // the scenario's values, where the fit starts, are further off
+    assert_eq!(value("start", "core_gain"), 4.0);
+    assert_eq!(value("start", "gap_m"), 0.0082);
+    assert!(off(4.0, 5.2) > 5.0 * off(gain, 5.2), "{report}");
+    assert!(off(0.0082, 0.00943) > 5.0 * off(gap, 0.00943), "{report}");
+    // the residual is the noise put in (2% of the peak pull), and far below the start's
+    let peak = well_curve(&hidden.torques.well, 0.5)
+        .unwrap()
+        .iter()
+        .map(|p| p.1)
+        .fold(0.0, f64::max);
+    let (rms, start_rms) = (
+        parts["rms_nm"].as_f64().unwrap(),
+        parts["start_rms_nm"].as_f64().unwrap(),
+    );
+    let noise = 0.02 * peak;
+    assert!(
+        rms > noise / 1.5 && rms < noise * 1.5,
+        "{rms} against {noise}"
+    );
+    assert!(start_rms > 3.0 * rms, "{report}");
+    // each parameter determined, the truth within 4 standard errors
+    for (e, want) in parts["estimates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip([5.2, 0.00943])
+    {
+        let se = e["std_error"].as_f64().unwrap();
+        assert!(
+            se > 0.0 && (e["value"].as_f64().unwrap() - want).abs() < 4.0 * se,
+            "{e}"
+        );
+    }
+    // the written scenario is the physical one with the fitted values, and its curve leaves
+    // the reported residual
+    let sc = Scenario::load(&fitted).unwrap();
+    assert_eq!(sc.name, "prototype-physical-fitted");
+    let text = std::fs::read_to_string(&fitted).unwrap();
+    assert!(
+        text.starts_with("# prototype-physical: torque curve "),
+        "{text}"
+    );
+    assert!(text.contains("magnet_shape = \"cylinder\"") && text.contains("coil_turns = 2000"));
+    let bench_pts: Vec<(f64, f64)> = bench_text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let (a, t) = l.split_once(',').unwrap();
+            (a.parse().unwrap(), t.parse().unwrap())
+        })
+        .collect();
+    let ssr: f64 = bench_pts
+        .iter()
+        .map(|&(a, t)| (sc.torques.well.passing_torque(a.to_radians()) - t).powi(2))
+        .sum();
+    let reloaded = (ssr / bench_pts.len() as f64).sqrt();
+    assert!(
+        (reloaded / rms - 1.0).abs() < 1e-6,
+        "{reloaded} against {rms}"
+    );
+    // the wells fit of a physical scenario, asked for
+    let (code, out, err) = run(&[
+        "fit",
+        "scenarios/prototype-physical.toml",
+        "--torque",
+        bench.to_str().unwrap(),
+        "--as",
+        "gaussian",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{out}{err}");
+    let report = json(&out, &err);
+    assert_eq!(report["curve"].as_array().unwrap().len(), 1, "{report}");
+    assert_eq!(report["curve"][0]["wells"]["shape"], "gaussian", "{report}");
+    assert!(report["parts"].is_null(), "{report}");
+}
+
+#[test]
+fn a_physical_fit_is_refused_where_it_cannot_be_made() {
+    let dir = tempfile::tempdir().unwrap();
+    let bench = write(
+        dir.path(),
+        "bench.csv",
+        "angle_deg,torque_nm\n0,0\n2,0.2\n4,0.4\n6,0.5\n8,0.4\n10,0.3\n",
+    );
+    let b = bench.to_str().unwrap();
+    let cases: [(&[&str], &str); 3] = [
+        (
+            &[
+                "scenarios/prototype.toml",
+                "--torque",
+                b,
+                "--as",
+                "physical",
+            ],
+            "argument --as: expected physical only for a physical scenario",
+        ),
+        (
+            &[
+                "scenarios/prototype-physical.toml",
+                "--log",
+                "assets/fit/replay.csv",
+            ],
+            "a replay log (--log) fits wells, so give --as wells, gaussian or cosine",
+        ),
+        (
+            &[
+                "scenarios/prototype-physical.toml",
+                "--torque",
+                b,
+                "--as",
+                "dipole",
+            ],
+            "invalid value 'dipole' for '--as <AS>'",
+        ),
+    ];
+    for (args, want) in cases {
+        let mut all = vec!["fit"];
+        all.extend_from_slice(args);
+        let (code, out, err) = run(&all);
+        assert_ne!(code, 0, "{args:?}: {out}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(err.contains(want), "{args:?}: wanted `{want}` in {err}");
+    }
 }
 
 /// A closed-loop replay's log of `steps` in `hidden`: each step's coils (those of `sets`, each
@@ -441,5 +629,11 @@ fn write_the_books_example() {
         out,
         "plan-replay.csv",
         &simulated_log(&hidden, &logged_sets(), 1.0),
+    );
+    let hidden = Scenario::load(&write(out, "hidden-physical.toml", &hidden_physical())).unwrap();
+    write(
+        out,
+        "bench-physical.csv",
+        &noisy_bench_every(&hidden, 33, PHYSICAL_STEP_DEG),
     );
 }
