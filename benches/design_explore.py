@@ -299,7 +299,7 @@ def write_scenario(path, name, stator_csv, rotor_csv, axes=None, description=Non
         rel(rotor_csv),
         rel(stator_csv),
     )
-    text += prototype_rest(header=description is None)
+    text += prototype_rest(header=True) if description is None else "\n" + prototype_rest(header=False)
     text += '\n[plan]\nangle_deg = 90\nscheme = "search"\n'
     if axes is not None:
         text += '\n[sweep]\naxes = %s\nschemes = ["search"]\n' % axes_toml(axes)
