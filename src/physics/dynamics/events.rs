@@ -35,7 +35,7 @@ impl<'s, 'a, M: TorqueModel> Sides<'s, 'a, M> {
     /// is within; events only where the model offers them and margins there.
     pub(super) fn new(sys: &'s RotorDynamics<'a, M>, margins: Option<&[(f64, f64)]>) -> Self {
         let events = margins.is_some() && sys.model.cutoff_events(sys.active);
-        let within = margins.map_or(0, |m| {
+        let within = margins.filter(|_| events).map_or(0, |m| {
             m.iter()
                 .enumerate()
                 .filter(|(_, &(x, _))| x >= 0.0)

@@ -200,7 +200,10 @@ impl Watchers<'_> {
                     self.grazed = Some(t + step);
                     return Verdict::Stop;
                 }
-                Look::Quiet | Look::Crossed => {}
+                // the watch went off (a "coils" model beyond its skin): the approach may have
+                // crossed a cut-off unseen from here on
+                Look::Crossed => self.crossed(),
+                Look::Quiet => {}
             }
         }
         self.push(t, y);
@@ -213,15 +216,19 @@ impl Watchers<'_> {
                     self.grazed = Some(t);
                     return Verdict::Stop;
                 }
-                Look::Crossed => {
-                    if let Some(s) = self.search.as_mut() {
-                        s.crossed = true;
-                    }
-                }
+                Look::Crossed => self.crossed(),
                 _ => {}
             }
         }
         Verdict::from(self.search.as_mut().is_some_and(|s| s.stops(sys, t, y, dy)))
+    }
+
+    /// The approach may have crossed a cut-off: the end phase's search no longer trusts a
+    /// minimum near one.
+    fn crossed(&mut self) {
+        if let Some(s) = self.search.as_mut() {
+            s.crossed = true;
+        }
     }
 
     fn push(&mut self, t: f64, y: &[f64; 7]) {

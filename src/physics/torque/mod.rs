@@ -75,8 +75,10 @@ pub trait TorqueModel: Sync {
     }
 
     /// Whether the settle may treat the cut-offs of `active` as events
-    /// ([`TorqueModel::body_torque_within`]): the "pairs" interaction of a well whose torque
-    /// jumps at its cut-off, at most 64 pairs. `false` by default.
+    /// ([`TorqueModel::body_torque_within`]): a well whose torque jumps at its cut-off, at most
+    /// 64 pairs, in the "pairs" interaction (the active pairs) or a [`NearbyMagnets`] of the
+    /// "coils" interaction (each energised coil with each magnet that may come within its
+    /// reach). `false` by default.
     fn cutoff_events(&self, _active: &[Pair]) -> bool {
         false
     }

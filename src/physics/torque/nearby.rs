@@ -105,6 +105,33 @@ impl TorqueModel for NearbyMagnets<'_> {
         self.full.stiffness_scale()
     }
 
+    /// The cut-offs as events where the well's torque jumps at them and the lists hold at most
+    /// 64 (coil, magnet) pairs (the bits of [`TorqueModel::body_torque_within`]'s mask), for
+    /// the active set the lists were built for.
+    fn cutoff_events(&self, active: &[Pair]) -> bool {
+        self.full.well.cutoff_jump && self.magnets.len() <= 64 && active == self.active.as_slice()
+    }
+
+    /// Each energised coil pulling only the nearby magnets whose bit (their index in the lists)
+    /// is set in `within`, by the well's formula continued beyond the cut-off; beyond the skin
+    /// (where the lists may miss a magnet in reach) the whole model's torque.
+    fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], within: u64) -> Vector3<f64> {
+        let r = rotation_matrix(q[0], q[1], q[2], q[3]);
+        if !self.covers(&r, active) {
+            return self.full.body_torque(&r, active);
+        }
+        let mut tau = Vector3::zeros();
+        for k in 0..self.coils.len() {
+            let s = r.tr_mul(&self.coils[k]);
+            for i in self.starts[k]..self.starts[k + 1] {
+                if within >> i & 1 == 1 {
+                    tau += self.full.well.pair_torque_continued(&self.magnets[i], &s);
+                }
+            }
+        }
+        tau
+    }
+
     /// Every energised coil's nearby magnets, in the lists' order; none beyond the skin (where
     /// other magnets may come within reach).
     fn cutoff_margins(
