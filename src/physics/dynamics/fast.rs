@@ -141,6 +141,7 @@ fn settle_fast_from<M: TorqueModel>(
         watch,
         search: scale.map(|k1| EndSearch::new(k1, !trusted)),
         grazed: None,
+        left: false,
         trace,
     };
     let out = integrate_until(&sides, y0, params.t_max, tol, first_step, |t, y, dy| {
@@ -150,6 +151,9 @@ fn settle_fast_from<M: TorqueModel>(
     let evaluations = out.evaluations + newton_evals;
     if let Some(e) = end {
         return end_phase_result(sys, &e, params, evaluations, out.steps, at.trace);
+    }
+    if at.left {
+        return settle_tight(sys, y0, params, evaluations, (at.trace, traced));
     }
     match at.grazed {
         // where the ball goes from a graze hangs on errors this tolerance allows: with cut-off
@@ -172,6 +176,8 @@ struct Watchers<'t> {
     search: Option<EndSearch>,
     /// Where a graze was seen: a time past it (the end of its step plus the step's length).
     grazed: Option<f64>,
+    /// Whether the watch went off with cut-off events (a "coils" model beyond its skin).
+    left: bool,
     trace: Option<&'t mut Vec<(f64, State)>>,
 }
 
@@ -200,9 +206,12 @@ impl Watchers<'_> {
                     self.grazed = Some(t + step);
                     return Verdict::Stop;
                 }
-                // the watch went off (a "coils" model beyond its skin): the approach may have
-                // crossed a cut-off unseen from here on
-                Look::Crossed => self.crossed(),
+                // the watch went off (a "coils" model beyond its skin): no graze could be seen
+                // from here on, so the settle is integrated tightly
+                Look::Crossed => {
+                    self.left = true;
+                    return Verdict::Stop;
+                }
                 Look::Quiet => {}
             }
         }
