@@ -1166,6 +1166,72 @@ mod tests {
     }
 
     #[test]
+    fn nearby_magnets_hold_their_cut_offs_as_events() {
+        let stator = vec![
+            Vector3::new(0.0, 0.0, -1.0),
+            Vector3::new(0.4, 0.1, -1.0).normalize(),
+            Vector3::new(-0.2, 0.5, -1.0).normalize(),
+        ];
+        let m = MagnetTorques {
+            rotor: crate::io::scenario::sphere_axes(80)
+                .iter()
+                .map(|a| a.into_inner())
+                .collect(),
+            stator,
+            well: wells().remove(1),
+            interaction: Interaction::Coils,
+        };
+        let active = [Pair::new(0, 3), Pair::new(2, 7)];
+        let r0 = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -0.2, 0.5));
+        let near = m.nearby(r0.matrix(), &active).unwrap();
+        let n = near.magnets.len();
+        assert!(n > 2 && n <= 64, "{n} nearby magnets");
+        assert!(near.cutoff_events(&active) && !near.cutoff_events(&active[..1]));
+        assert!(
+            !m.cutoff_events(&active),
+            "the whole coils model has no events"
+        );
+        // 10 degrees within the skin: the magnets within reach pull as the whole model's, to the bit
+        let turn = nalgebra::UnitQuaternion::from_scaled_axis(Vector3::new(0.1, 0.12, -0.05));
+        let q = (nalgebra::UnitQuaternion::from_rotation_matrix(&r0) * turn).into_inner();
+        let q = [q.i, q.j, q.k, q.w];
+        let r = rotation_matrix(q[0], q[1], q[2], q[3]);
+        let mut margins = Vec::new();
+        assert!(near.cutoff_margins(&r, &Vector3::zeros(), &active, &mut margins));
+        assert_eq!(margins.len(), n);
+        let within = margins
+            .iter()
+            .enumerate()
+            .filter(|(_, &(x, _))| x >= 0.0)
+            .fold(0u64, |acc, (i, _)| acc | 1 << i);
+        let whole = m.body_torque(&r, &active);
+        let bits = |v: Vector3<f64>| v.map(f64::to_bits);
+        assert_eq!(
+            bits(near.body_torque_within(&q, &active, within)),
+            bits(whole)
+        );
+        // a magnet of coil 0 beyond its cut-off held within reach pulls by the continued formula
+        let i = (0..near.starts[1]).find(|&i| margins[i].0 < 0.0).unwrap();
+        let s = r.tr_mul(&m.stator[0]);
+        let pull = m.well.pair_torque_continued(&near.magnets[i], &s);
+        assert!(pull.norm() > 1e-3 * whole.norm());
+        let held = near.body_torque_within(&q, &active, within | 1 << i);
+        assert!(
+            (held - whole - pull).norm() < 1e-12,
+            "{held} against {whole} + {pull}"
+        );
+        // beyond the skin (30 degrees): the whole model's torque, whatever the bits
+        let far = nalgebra::UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.0, 0.52));
+        let q = (nalgebra::UnitQuaternion::from_rotation_matrix(&r0) * far).into_inner();
+        let q = [q.i, q.j, q.k, q.w];
+        let r = rotation_matrix(q[0], q[1], q[2], q[3]);
+        assert_eq!(
+            bits(near.body_torque_within(&q, &active, u64::MAX)),
+            bits(m.body_torque(&r, &active))
+        );
+    }
+
+    #[test]
     fn bad_tables_are_rejected_with_the_row() {
         let e = TorqueTable::from_rows(&[(0.0, 0.0), (5.0, f64::NAN)]).unwrap_err();
         assert!(e.contains("row 2") && e.contains("finite"), "{e}");

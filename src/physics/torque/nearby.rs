@@ -21,7 +21,7 @@ pub struct NearbyMagnets<'a> {
     coils: Vec<Vector3<f64>>,
     /// ... and their nearby magnets (body frame): those of coil k at `starts[k]..starts[k + 1]`.
     pub(super) magnets: Vec<Vector3<f64>>,
-    starts: Vec<usize>,
+    pub(super) starts: Vec<usize>,
 }
 
 impl<'a> NearbyMagnets<'a> {
