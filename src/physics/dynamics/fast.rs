@@ -8,7 +8,7 @@ use super::events::{self, Seen, Sides, MAX_REDOS};
 use super::reference::{dopri5_run, settle_dopri5};
 use super::{finish, hermite_weights, RotorDynamics, SettleParams, SettleResult, State, Stop};
 use crate::physics::integrator::{integrate_until, End, Outcome, Tolerances, Verdict};
-use crate::physics::torque::{rotation_matrix, TorqueModel};
+use crate::physics::torque::{rotation_matrix, SideMask, TorqueModel};
 use nalgebra::Vector3;
 
 /// The fast path's stiffness scale (isotropic bodies of models that have one: the linear
@@ -475,7 +475,7 @@ impl GrazeWatch {
             .iter()
             .enumerate()
             .filter(|&(i, &(m, _))| sides.side(i) * m < 0.0)
-            .fold(0u64, |acc, (i, _)| acc | 1 << i);
+            .fold(0, |acc: SideMask, (i, _)| acc | 1 << i);
         if flips == 0 {
             return Look::Quiet;
         }

@@ -106,16 +106,18 @@ impl TorqueModel for NearbyMagnets<'_> {
     }
 
     /// The cut-offs as events where the well's torque jumps at them and the lists hold at most
-    /// 64 (coil, magnet) pairs (the bits of [`TorqueModel::body_torque_within`]'s mask), for
+    /// [`MAX_EVENT_PAIRS`] (coil, magnet) pairs (the bits of [`TorqueModel::body_torque_within`]'s mask), for
     /// the active set the lists were built for.
     fn cutoff_events(&self, active: &[Pair]) -> bool {
-        self.full.well.cutoff_jump && self.magnets.len() <= 64 && active == self.active.as_slice()
+        self.full.well.cutoff_jump
+            && self.magnets.len() <= MAX_EVENT_PAIRS
+            && active == self.active.as_slice()
     }
 
     /// Each energised coil pulling only the nearby magnets whose bit (their index in the lists)
     /// is set in `within`, by the well's formula continued beyond the cut-off; beyond the skin
     /// (where the lists may miss a magnet in reach) the whole model's torque.
-    fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], within: u64) -> Vector3<f64> {
+    fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], within: SideMask) -> Vector3<f64> {
         let r = rotation_matrix(q[0], q[1], q[2], q[3]);
         if !self.covers(&r, active) {
             return self.full.body_torque(&r, active);
