@@ -7,7 +7,7 @@
 
 use super::RotorDynamics;
 use crate::physics::integrator::OdeSystem;
-use crate::physics::torque::TorqueModel;
+use crate::physics::torque::{SideMask, TorqueModel};
 use std::cell::Cell;
 
 /// How far (in cosine: 1e-9 is 1.3e-7 degrees at a 25 degree cut-off) a pair's margin may be on
@@ -27,7 +27,7 @@ pub(super) const MAX_REDOS: u32 = 4;
 pub(super) struct Sides<'s, 'a, M: TorqueModel> {
     pub(super) sys: &'s RotorDynamics<'a, M>,
     pub(super) events: bool,
-    pub(super) within: Cell<u64>,
+    pub(super) within: Cell<SideMask>,
 }
 
 impl<'s, 'a, M: TorqueModel> Sides<'s, 'a, M> {
@@ -35,11 +35,11 @@ impl<'s, 'a, M: TorqueModel> Sides<'s, 'a, M> {
     /// is within; events only where the model offers them and margins there.
     pub(super) fn new(sys: &'s RotorDynamics<'a, M>, margins: Option<&[(f64, f64)]>) -> Self {
         let events = margins.is_some() && sys.model.cutoff_events(sys.active);
-        let within = margins.map_or(0, |m| {
+        let within = margins.filter(|_| events).map_or(0, |m| {
             m.iter()
                 .enumerate()
                 .filter(|(_, &(x, _))| x >= 0.0)
-                .fold(0u64, |acc, (i, _)| acc | 1 << i)
+                .fold(0, |acc: SideMask, (i, _)| acc | 1 << i)
         });
         Sides {
             sys,
@@ -58,7 +58,7 @@ impl<'s, 'a, M: TorqueModel> Sides<'s, 'a, M> {
     }
 
     /// Switches the pairs of `flips` to the other side of their cut-off.
-    pub(super) fn flip(&self, flips: u64) {
+    pub(super) fn flip(&self, flips: SideMask) {
         self.within.set(self.within.get() ^ flips);
     }
 }
@@ -86,7 +86,7 @@ pub(super) enum Seen {
     /// A pair leaves its side within the step, first at this fraction of it: land there.
     Redo(f64),
     /// The step ends with these pairs (bits) at their cut-off, moving on across it: switch them.
-    Flip(u64),
+    Flip(SideMask),
 }
 
 /// What the pairs' margins (m, dm/dt) at a step's start (`before`) and end (`now`), `h` apart,
@@ -98,7 +98,7 @@ pub(super) fn seen<M: TorqueModel>(
     h: f64,
 ) -> Seen {
     let mut first: Option<f64> = None;
-    let mut flips = 0u64;
+    let mut flips: SideMask = 0;
     for (i, (&a, &b)) in before.iter().zip(now).enumerate() {
         let side = sides.side(i);
         if let Some(s) = leaves(side, a, b, h) {

@@ -8,7 +8,7 @@ use super::events::{self, Seen, Sides, MAX_REDOS};
 use super::reference::{dopri5_run, settle_dopri5};
 use super::{finish, hermite_weights, RotorDynamics, SettleParams, SettleResult, State, Stop};
 use crate::physics::integrator::{integrate_until, End, Outcome, Tolerances, Verdict};
-use crate::physics::torque::{rotation_matrix, TorqueModel};
+use crate::physics::torque::{rotation_matrix, SideMask, TorqueModel};
 use nalgebra::Vector3;
 
 /// The fast path's stiffness scale (isotropic bodies of models that have one: the linear
@@ -141,6 +141,7 @@ fn settle_fast_from<M: TorqueModel>(
         watch,
         search: scale.map(|k1| EndSearch::new(k1, !trusted)),
         grazed: None,
+        left: false,
         trace,
     };
     let out = integrate_until(&sides, y0, params.t_max, tol, first_step, |t, y, dy| {
@@ -150,6 +151,9 @@ fn settle_fast_from<M: TorqueModel>(
     let evaluations = out.evaluations + newton_evals;
     if let Some(e) = end {
         return end_phase_result(sys, &e, params, evaluations, out.steps, at.trace);
+    }
+    if at.left {
+        return settle_tight(sys, y0, params, evaluations, (at.trace, traced));
     }
     match at.grazed {
         // where the ball goes from a graze hangs on errors this tolerance allows: with cut-off
@@ -172,6 +176,8 @@ struct Watchers<'t> {
     search: Option<EndSearch>,
     /// Where a graze was seen: a time past it (the end of its step plus the step's length).
     grazed: Option<f64>,
+    /// Whether the watch went off with cut-off events (a "coils" model beyond its skin).
+    left: bool,
     trace: Option<&'t mut Vec<(f64, State)>>,
 }
 
@@ -200,7 +206,13 @@ impl Watchers<'_> {
                     self.grazed = Some(t + step);
                     return Verdict::Stop;
                 }
-                Look::Quiet | Look::Crossed => {}
+                // the watch went off (a "coils" model beyond its skin): no graze could be seen
+                // from here on, so the settle is integrated tightly
+                Look::Crossed => {
+                    self.left = true;
+                    return Verdict::Stop;
+                }
+                Look::Quiet => {}
             }
         }
         self.push(t, y);
@@ -213,15 +225,19 @@ impl Watchers<'_> {
                     self.grazed = Some(t);
                     return Verdict::Stop;
                 }
-                Look::Crossed => {
-                    if let Some(s) = self.search.as_mut() {
-                        s.crossed = true;
-                    }
-                }
+                Look::Crossed => self.crossed(),
                 _ => {}
             }
         }
         Verdict::from(self.search.as_mut().is_some_and(|s| s.stops(sys, t, y, dy)))
+    }
+
+    /// The approach may have crossed a cut-off: the end phase's search no longer trusts a
+    /// minimum near one.
+    fn crossed(&mut self) {
+        if let Some(s) = self.search.as_mut() {
+            s.crossed = true;
+        }
     }
 
     fn push(&mut self, t: f64, y: &[f64; 7]) {
@@ -459,7 +475,7 @@ impl GrazeWatch {
             .iter()
             .enumerate()
             .filter(|&(i, &(m, _))| sides.side(i) * m < 0.0)
-            .fold(0u64, |acc, (i, _)| acc | 1 << i);
+            .fold(0, |acc: SideMask, (i, _)| acc | 1 << i);
         if flips == 0 {
             return Look::Quiet;
         }

@@ -75,8 +75,10 @@ pub trait TorqueModel: Sync {
     }
 
     /// Whether the settle may treat the cut-offs of `active` as events
-    /// ([`TorqueModel::body_torque_within`]): the "pairs" interaction of a well whose torque
-    /// jumps at its cut-off, at most 64 pairs. `false` by default.
+    /// ([`TorqueModel::body_torque_within`]): a well whose torque jumps at its cut-off, at most
+    /// [`MAX_EVENT_PAIRS`] pairs, in the "pairs" interaction (the active pairs) or a [`NearbyMagnets`] of the
+    /// "coils" interaction (each energised coil with each magnet that may come within its
+    /// reach). `false` by default.
     fn cutoff_events(&self, _active: &[Pair]) -> bool {
         false
     }
@@ -87,7 +89,7 @@ pub trait TorqueModel: Sync {
     /// settle integrates between the cut-off events (where a margin of
     /// [`TorqueModel::cutoff_margins`] changes sign and the bit is flipped). Within reach it
     /// is [`TorqueModel::body_torque_at`]'s to the bit. By default that torque itself.
-    fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], _within: u64) -> Vector3<f64> {
+    fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], _within: SideMask) -> Vector3<f64> {
         self.body_torque_at(q, active)
     }
 
@@ -119,6 +121,14 @@ pub const MARGIN_CAP: f64 = 0.1;
 /// How far (rad, 20 degrees) the ball may turn from where a [`NearbyMagnets`] was built before
 /// it evaluates every magnet again: the settles a planner weighs turn the ball by a few degrees.
 pub const NEAR_SKIN: f64 = 0.35;
+
+/// The sides of the pairs' cut-offs between the settle's cut-off events, a bit per pair (set:
+/// held within reach): [`TorqueModel::body_torque_within`].
+pub type SideMask = u128;
+
+/// At most this many pairs' cut-offs are events (the bits of a [`SideMask`]): a "coils" set of
+/// three or four coils in wells reaching 40 degrees lists 70 to 100 (coil, magnet) pairs.
+pub const MAX_EVENT_PAIRS: usize = 128;
 
 /// The body-to-world rotation matrix of the quaternion (x, y, z, w), which need not be
 /// normalised: it is the rotation of q / |q|, built without a square root or trigonometry.
@@ -859,10 +869,12 @@ impl TorqueModel for MagnetTorques {
     }
 
     fn cutoff_events(&self, active: &[Pair]) -> bool {
-        self.interaction == Interaction::Pairs && self.well.cutoff_jump && active.len() <= 64
+        self.interaction == Interaction::Pairs
+            && self.well.cutoff_jump
+            && active.len() <= MAX_EVENT_PAIRS
     }
 
-    fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], within: u64) -> Vector3<f64> {
+    fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], within: SideMask) -> Vector3<f64> {
         if self.interaction != Interaction::Pairs {
             return self.body_torque_at(q, active);
         }
@@ -1161,6 +1173,72 @@ mod tests {
             interaction: Interaction::Pairs,
         };
         assert!(m.nearby(r0.matrix(), &active).is_none());
+    }
+
+    #[test]
+    fn nearby_magnets_hold_their_cut_offs_as_events() {
+        let stator = vec![
+            Vector3::new(0.0, 0.0, -1.0),
+            Vector3::new(0.4, 0.1, -1.0).normalize(),
+            Vector3::new(-0.2, 0.5, -1.0).normalize(),
+        ];
+        let m = MagnetTorques {
+            rotor: crate::io::scenario::sphere_axes(80)
+                .iter()
+                .map(|a| a.into_inner())
+                .collect(),
+            stator,
+            well: wells().remove(1),
+            interaction: Interaction::Coils,
+        };
+        let active = [Pair::new(0, 3), Pair::new(2, 7)];
+        let r0 = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -0.2, 0.5));
+        let near = m.nearby(r0.matrix(), &active).unwrap();
+        let n = near.magnets.len();
+        assert!(n > 2 && n <= MAX_EVENT_PAIRS, "{n} nearby magnets");
+        assert!(near.cutoff_events(&active) && !near.cutoff_events(&active[..1]));
+        assert!(
+            !m.cutoff_events(&active),
+            "the whole coils model has no events"
+        );
+        // 10 degrees within the skin: the magnets within reach pull as the whole model's, to the bit
+        let turn = nalgebra::UnitQuaternion::from_scaled_axis(Vector3::new(0.1, 0.12, -0.05));
+        let q = (nalgebra::UnitQuaternion::from_rotation_matrix(&r0) * turn).into_inner();
+        let q = [q.i, q.j, q.k, q.w];
+        let r = rotation_matrix(q[0], q[1], q[2], q[3]);
+        let mut margins = Vec::new();
+        assert!(near.cutoff_margins(&r, &Vector3::zeros(), &active, &mut margins));
+        assert_eq!(margins.len(), n);
+        let within = margins
+            .iter()
+            .enumerate()
+            .filter(|(_, &(x, _))| x >= 0.0)
+            .fold(0, |acc: SideMask, (i, _)| acc | 1 << i);
+        let whole = m.body_torque(&r, &active);
+        let bits = |v: Vector3<f64>| v.map(f64::to_bits);
+        assert_eq!(
+            bits(near.body_torque_within(&q, &active, within)),
+            bits(whole)
+        );
+        // a magnet of coil 0 beyond its cut-off held within reach pulls by the continued formula
+        let i = (0..near.starts[1]).find(|&i| margins[i].0 < 0.0).unwrap();
+        let s = r.tr_mul(&m.stator[0]);
+        let pull = m.well.pair_torque_continued(&near.magnets[i], &s);
+        assert!(pull.norm() > 1e-3 * whole.norm());
+        let held = near.body_torque_within(&q, &active, within | 1 << i);
+        assert!(
+            (held - whole - pull).norm() < 1e-12,
+            "{held} against {whole} + {pull}"
+        );
+        // beyond the skin (30 degrees): the whole model's torque, whatever the bits
+        let far = nalgebra::UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.0, 0.52));
+        let q = (nalgebra::UnitQuaternion::from_rotation_matrix(&r0) * far).into_inner();
+        let q = [q.i, q.j, q.k, q.w];
+        let r = rotation_matrix(q[0], q[1], q[2], q[3]);
+        assert_eq!(
+            bits(near.body_torque_within(&q, &active, SideMask::MAX)),
+            bits(m.body_torque(&r, &active))
+        );
     }
 
     #[test]

@@ -21,7 +21,7 @@ pub struct NearbyMagnets<'a> {
     coils: Vec<Vector3<f64>>,
     /// ... and their nearby magnets (body frame): those of coil k at `starts[k]..starts[k + 1]`.
     pub(super) magnets: Vec<Vector3<f64>>,
-    starts: Vec<usize>,
+    pub(super) starts: Vec<usize>,
 }
 
 impl<'a> NearbyMagnets<'a> {
@@ -103,6 +103,35 @@ impl TorqueModel for NearbyMagnets<'_> {
 
     fn stiffness_scale(&self) -> Option<f64> {
         self.full.stiffness_scale()
+    }
+
+    /// The cut-offs as events where the well's torque jumps at them and the lists hold at most
+    /// [`MAX_EVENT_PAIRS`] (coil, magnet) pairs (the bits of [`TorqueModel::body_torque_within`]'s mask), for
+    /// the active set the lists were built for.
+    fn cutoff_events(&self, active: &[Pair]) -> bool {
+        self.full.well.cutoff_jump
+            && self.magnets.len() <= MAX_EVENT_PAIRS
+            && active == self.active.as_slice()
+    }
+
+    /// Each energised coil pulling only the nearby magnets whose bit (their index in the lists)
+    /// is set in `within`, by the well's formula continued beyond the cut-off; beyond the skin
+    /// (where the lists may miss a magnet in reach) the whole model's torque.
+    fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], within: SideMask) -> Vector3<f64> {
+        let r = rotation_matrix(q[0], q[1], q[2], q[3]);
+        if !self.covers(&r, active) {
+            return self.full.body_torque(&r, active);
+        }
+        let mut tau = Vector3::zeros();
+        for k in 0..self.coils.len() {
+            let s = r.tr_mul(&self.coils[k]);
+            for i in self.starts[k]..self.starts[k + 1] {
+                if within >> i & 1 == 1 {
+                    tau += self.full.well.pair_torque_continued(&self.magnets[i], &s);
+                }
+            }
+        }
+        tau
     }
 
     /// Every energised coil's nearby magnets, in the lists' order; none beyond the skin (where
