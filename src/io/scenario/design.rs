@@ -42,16 +42,7 @@ impl Checker<'_> {
             rotor.len(),
             free.rotor(),
         )?;
-        let cap_axis = match raw.cap_axis {
-            Some(a) => self.unit("design.cap_axis", a)?,
-            None => UnitVec::new_normalize(-Vector3::z()),
-        };
-        let own_cap = stator
-            .points
-            .iter()
-            .map(|p| angular_distance(p, &cap_axis).0)
-            .fold(0.0, f64::max);
-        let cap = self.small_angle("design.cap_deg", raw.cap_deg, Radians(own_cap))?;
+        let (cap_axis, cap) = self.cap(raw.cap_axis, raw.cap_deg, stator)?;
         let coil_separation = self.small_angle(
             "design.coil_separation_deg",
             raw.coil_separation_deg,
@@ -93,6 +84,29 @@ impl Checker<'_> {
         };
         self.search_size(&spec)?;
         Ok(spec)
+    }
+
+    /// The cap the coils stay in: its axis (default -Z) and half-angle (default: the
+    /// stator's furthest coil from the axis).
+    fn cap(
+        &self,
+        axis: Option<[f64; 3]>,
+        deg: Option<f64>,
+        stator: &Packing,
+    ) -> Result<(UnitVec, Radians)> {
+        let cap_axis = match axis {
+            Some(a) => self.unit("design.cap_axis", a)?,
+            None => UnitVec::new_normalize(-Vector3::z()),
+        };
+        let own_cap = stator
+            .points
+            .iter()
+            .map(|p| angular_distance(p, &cap_axis).0)
+            .fold(0.0, f64::max);
+        Ok((
+            cap_axis,
+            self.small_angle("design.cap_deg", deg, Radians(own_cap))?,
+        ))
     }
 
     /// A count or a range of counts (`what`, `what_min`, `what_max`): `own` when none is
