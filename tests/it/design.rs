@@ -51,7 +51,8 @@ fn outputs(out: &Path) -> BTreeMap<String, Vec<u8>> {
     let mut m = BTreeMap::new();
     for p in common::files_below(out) {
         let rel = p.strip_prefix(out).unwrap().to_string_lossy().into_owned();
-        if rel == "front.csv" || rel == "history.csv" || rel.starts_with("layouts") {
+        let ours = ["front.csv", "history.csv", "front.svg", "front.png"];
+        if ours.contains(&rel.as_str()) || rel.starts_with("layouts") {
             m.insert(rel, std::fs::read(&p).unwrap());
         }
     }
@@ -72,6 +73,11 @@ fn a_design_run_is_the_same_bytes_on_1_and_2_threads_from_shards_and_resumed() {
     assert!(!ra.front.is_empty() && ra.full_evaluations >= ra.front.len());
     let front = String::from_utf8(want["front.csv"].clone()).unwrap();
     assert_eq!(front.lines().count(), ra.front.len() + 1, "{front}");
+    let svg = String::from_utf8(want["front.svg"].clone()).unwrap();
+    assert!(
+        ra.front.iter().all(|(id, _)| svg.contains(id.as_str())),
+        "each front layout named"
+    );
     let history = String::from_utf8(want["history.csv"].clone()).unwrap();
     assert_eq!(history.lines().count(), 3, "{history}");
     // two shards, each run computing its part of the first stage not finished
@@ -97,7 +103,7 @@ fn a_design_run_is_the_same_bytes_on_1_and_2_threads_from_shards_and_resumed() {
         .any(|p| p.to_string_lossy().contains(".shard-1-of-2")));
     assert_eq!(outputs(&c), want);
     // a run cut short: the last generation's results gone, the outputs not written yet
-    for gone in ["front.csv", "history.csv"] {
+    for gone in ["front.csv", "history.csv", "front.svg", "front.png"] {
         std::fs::remove_file(a.join(gone)).unwrap();
     }
     std::fs::remove_dir_all(a.join("gen-001")).unwrap();

@@ -8,7 +8,8 @@
 //! resumes (`--resume` replays the seeded evolution, taking each finished stage's results),
 //! and the bytes are the same on any thread count. At the end: `DIR/front.csv` (the layouts
 //! no other fully planned layout dominates), `DIR/layouts/*.toml` (their complete scenarios)
-//! and `DIR/history.csv` (per generation: evaluations and the best objectives).
+//! `DIR/history.csv` (per generation: evaluations and the best objectives) and `DIR/front.svg`
+//! and `.png` (every fully planned layout's worst axis error against its median steps).
 
 mod files;
 
@@ -115,6 +116,28 @@ pub fn run_design(spec_file: &Path, opts: &DesignOptions) -> Result<DesignReport
     write_atomic(&opts.out.join("history.csv"), history.as_bytes())?;
     run.write_front(&full)?;
     Ok(run.report)
+}
+
+/// The picture of every fully planned layout, the front's marked (`DIR/front.svg`, `.png`).
+fn front_picture(
+    entries: &[(&String, &(Layout, Objectives))],
+    front: &[usize],
+) -> crate::figures::DesignFront {
+    let points = entries
+        .iter()
+        .enumerate()
+        .map(|(k, (id, (l, o)))| crate::figures::FrontPoint {
+            name: id.to_string(),
+            worst_axis_error_deg: o.worst_axis_error_deg,
+            median_steps: o.median_steps,
+            coils: l.stator.len(),
+            on_front: front.contains(&k),
+        })
+        .collect();
+    crate::figures::DesignFront {
+        title: "design: every fully planned layout (filled: the front)".into(),
+        points,
+    }
 }
 
 /// `history.csv`'s row of generation `g`: evaluations so far, the front's size and the
@@ -329,6 +352,11 @@ impl Run<'_> {
         write_atomic(
             &self.opts.out.join("front.csv"),
             files::front_csv(&rows).as_bytes(),
-        )
+        )?;
+        if !entries.is_empty() {
+            let picture = front_picture(&entries, &front);
+            crate::figures::write_figure(&picture, &self.opts.out.join("front"))?;
+        }
+        Ok(())
     }
 }
