@@ -332,6 +332,7 @@ fn parser_keys() -> BTreeSet<String> {
         ("plan", &raw, "src/io/scenario/raw.rs", "RawPlan"),
         ("sweep", &raw, "src/io/scenario/raw.rs", "RawSweep"),
         ("report", &raw, "src/io/scenario/raw.rs", "RawReport"),
+        ("design", &raw, "src/io/scenario/raw.rs", "RawDesign"),
         ("relay", &relay, "src/relay/config.rs", "RelayConfig"),
         (
             "relay.boards",

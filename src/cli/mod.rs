@@ -3,6 +3,8 @@
 //! as values to `main`, the one place that prints them.
 
 mod batch;
+#[cfg(feature = "design")]
+mod design;
 mod fit;
 mod packing;
 mod plan;
@@ -96,6 +98,10 @@ enum Command {
     Run(run::Args),
     /// Run many scenarios (plans and sweeps) in parallel: one CSV each, plus summary.csv.
     Batch(batch::Args),
+    /// Search stator and rotor layouts (a scenario's [design] section) by NSGA-II: the front of
+    /// worst and median axis error, final error, steps and coils; each generation a batch.
+    #[cfg(feature = "design")]
+    Design(design::Args),
     /// Replay a plan on a relay board (or several): switch each step's coils, wait, all off at
     /// the end (and on error or Ctrl-C). Settings come from the scenario's [relay] section or
     /// --map.
@@ -129,6 +135,8 @@ impl Cli {
             Command::Simulate(a) => a.run(out),
             Command::Run(a) => a.run(out),
             Command::Batch(a) => a.run(out),
+            #[cfg(feature = "design")]
+            Command::Design(a) => a.run(out),
             Command::Replay(a) => a.run(out),
             Command::View(a) => a.run(out),
             Command::Virtual(a) => a.run(out),

@@ -6,12 +6,15 @@
 //! [`closed_loop::run_command`] (`run`), [`replay::run`] and [`closed_replay::run`] (`replay`,
 //! open and closed loop), [`rehearse::run`] (`virtual`), [`wells::wells_command`] (`wells`),
 //! [`packing_report`] (`packing`), [`write_prototype`] (`prototype`) and
-//! [`batch::run_batch`] (`batch`); [`args`] parses the typed arguments they share.
+//! [`batch::run_batch`] (`batch`), [`design::run_design`] (`design`, with the `design`
+//! feature); [`args`] parses the typed arguments they share.
 
 pub mod args;
 pub mod batch;
 pub mod closed_loop;
 pub mod closed_replay;
+#[cfg(feature = "design")]
+pub mod design;
 pub mod fit;
 pub mod rehearse;
 pub mod replay;

@@ -24,7 +24,9 @@
 //! - [`view`]: `spherestep view`, the interactive 3-D page of a plan;
 //! - [`batch_pictures`]: the pictures and page `batch --plots` draws for each result;
 //! - [`WellPlot`] (`well_plot.rs`): `spherestep wells`, the torque on one magnet passing one coil
-//!   against the angle, with the well's cut-off.
+//!   against the angle, with the well's cut-off;
+//! - [`DesignFront`] (`design_front.rs`): `spherestep design`, every fully planned layout's worst
+//!   axis error against its median steps, the front's layouts named, coloured by coil count.
 //!
 //! Shared by the figures: `figure.rs` (the [`Figure`] trait, writing SVG and PNG atomically),
 //! `style.rs` (font, colours, series styles: [`series_style`], marks, ticks), `chart.rs` (title,
@@ -42,6 +44,7 @@ mod axis_error;
 pub mod batch_pictures;
 mod chart;
 mod commutation_plot;
+mod design_front;
 mod figure;
 mod labels;
 mod loop_plot;
@@ -56,6 +59,7 @@ mod well_plot;
 
 pub use axis_error::{plan_series, AxisErrorPlot, ErrorSeries, ReferenceLine};
 pub use commutation_plot::CommutationPlot;
+pub use design_front::{DesignFront, FrontPoint};
 pub use figure::{render_svg, write_figure, DrawError, Figure};
 pub use labels::{label_size, place_labels};
 pub use loop_plot::LoopPlot;

@@ -15,6 +15,8 @@ mod batch_files;
 mod cli_errors;
 mod closed_loop;
 mod coilsets;
+#[cfg(feature = "design")]
+mod design;
 mod fit;
 mod front_door;
 mod identify;

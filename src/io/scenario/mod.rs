@@ -7,6 +7,7 @@
 
 mod changes;
 mod checked;
+mod design;
 mod parts;
 mod raw;
 
@@ -143,6 +144,8 @@ pub struct Scenario {
     pub relay: crate::relay::RelaySettings,
     /// The orientation sensor's mounting (`[sensor]`, see `crate::io::sensor_section`).
     pub sensor: crate::io::sensor_section::SensorSettings,
+    /// The `[design]` section, if any: what `spherestep design` may change and how it searches.
+    pub design: Option<crate::planning::design::DesignSpec>,
 }
 
 impl Scenario {
@@ -242,6 +245,10 @@ impl Scenario {
                 reference_label: r.reference_label,
             },
         };
+        let design = match raw.design {
+            None => None,
+            Some(d) => Some(ck.design(d, &stator, &rotor)?),
+        };
         let name = raw.name.unwrap_or_else(|| {
             path.file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
@@ -262,6 +269,7 @@ impl Scenario {
             report,
             relay,
             sensor: crate::io::sensor_section::check(raw.sensor, path)?,
+            design,
         })
     }
 

@@ -22,6 +22,7 @@ pub(super) struct RawScenario {
     pub(super) relay: Option<crate::relay::RelayConfig>,
     pub(super) report: Option<RawReport>,
     pub(super) sensor: Option<crate::io::sensor_section::RawSensor>,
+    pub(super) design: Option<RawDesign>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -191,4 +192,29 @@ pub(super) struct RawSettle {
     pub(super) atol: Option<f64>,
     pub(super) method: Option<Method>,
     pub(super) arrival_deg: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawDesign {
+    pub(super) free: Option<String>,
+    pub(super) coils: Option<usize>,
+    pub(super) coils_min: Option<usize>,
+    pub(super) coils_max: Option<usize>,
+    pub(super) magnets: Option<usize>,
+    pub(super) magnets_min: Option<usize>,
+    pub(super) magnets_max: Option<usize>,
+    pub(super) cap_axis: Option<[f64; 3]>,
+    pub(super) cap_deg: Option<f64>,
+    pub(super) coil_separation_deg: Option<f64>,
+    pub(super) magnet_separation_deg: Option<f64>,
+    pub(super) families: Option<Vec<String>>,
+    pub(super) axes: Option<usize>,
+    pub(super) full_axes: Option<usize>,
+    pub(super) axis_seed: Option<u64>,
+    pub(super) population: Option<usize>,
+    pub(super) generations: Option<usize>,
+    pub(super) angle_deg: Option<f64>,
+    pub(super) rotation_deg: Option<f64>,
+    pub(super) move_deg: Option<f64>,
 }

@@ -1,0 +1,224 @@
+//! `spherestep design` (issue 56) on a tiny search: the `[design]` section's refusals, the same
+//! bytes on 1 and 2 threads, from two shards and after a partial run resumed, and a front
+//! whose layouts load as scenarios and whose objectives are what planning them gives.
+
+use crate::common;
+use spherestep::commands::batch::Shard;
+use spherestep::commands::design::{run_design, DesignOptions};
+use spherestep::io::scenario::Scenario;
+use spherestep::planning::planner::{max_axis_error_deg, plan, PlanSettings};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A tiny search: 16 or 12-14 coils free in the prototype's cap, 4 layouts a generation, two
+/// generations, 2 coarse and 3 full axes of 30 degrees.
+const TINY: &str = r#"
+name = "tiny"
+[design]
+free = "stator"
+coils_min = 12
+coils_max = 16
+cap_deg = 79.2
+coil_separation_deg = 18
+families = ["scenario", "tammes", "fibonacci"]
+axes = 2
+full_axes = 3
+axis_seed = 5
+population = 4
+generations = 1
+angle_deg = 30
+"#;
+
+fn spec(dir: &Path) -> PathBuf {
+    let p = dir.join("tiny.toml");
+    std::fs::write(&p, TINY).unwrap();
+    p
+}
+
+fn opts(out: &Path, jobs: usize, shard: Option<Shard>, resume: bool) -> DesignOptions {
+    DesignOptions {
+        out: out.to_path_buf(),
+        seed: 3,
+        jobs: Some(jobs),
+        shard,
+        resume,
+        progress: false,
+    }
+}
+
+/// The run's own outputs: front.csv, history.csv and the layouts (name -> bytes).
+fn outputs(out: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut m = BTreeMap::new();
+    for p in common::files_below(out) {
+        let rel = p.strip_prefix(out).unwrap().to_string_lossy().into_owned();
+        let ours = ["front.csv", "history.csv", "front.svg", "front.png"];
+        if ours.contains(&rel.as_str()) || rel.starts_with("layouts") {
+            m.insert(rel, std::fs::read(&p).unwrap());
+        }
+    }
+    m
+}
+
+#[test]
+fn a_design_run_is_the_same_bytes_on_1_and_2_threads_from_shards_and_resumed() {
+    let t = tempfile::tempdir().unwrap();
+    let s = spec(t.path());
+    let (a, b) = (t.path().join("a"), t.path().join("b"));
+    let ra = run_design(&s, &opts(&a, 1, None, false)).unwrap();
+    run_design(&s, &opts(&b, 2, None, false)).unwrap();
+    let want = outputs(&a);
+    assert_eq!(want, outputs(&b));
+    assert_eq!(ra.generations, 2);
+    assert_eq!(ra.evaluations, 8);
+    assert!(!ra.front.is_empty() && ra.full_evaluations >= ra.front.len());
+    let front = String::from_utf8(want["front.csv"].clone()).unwrap();
+    assert_eq!(front.lines().count(), ra.front.len() + 1, "{front}");
+    let svg = String::from_utf8(want["front.svg"].clone()).unwrap();
+    assert!(
+        ra.front.iter().all(|(id, _)| svg.contains(id.as_str())),
+        "each front layout named"
+    );
+    let history = String::from_utf8(want["history.csv"].clone()).unwrap();
+    assert_eq!(history.lines().count(), 3, "{history}");
+    // two shards, each run computing its part of the first stage not finished
+    let c = t.path().join("c");
+    let mut rounds = 0;
+    loop {
+        rounds += 1;
+        assert!(rounds < 12, "the shards never finished");
+        let mut done = false;
+        for i in 0..2 {
+            let sh = Some(Shard { index: i, count: 2 });
+            done |= run_design(&s, &opts(&c, 1, sh, false))
+                .unwrap()
+                .waiting
+                .is_none();
+        }
+        if done {
+            break;
+        }
+    }
+    assert!(common::files_below(&c)
+        .iter()
+        .any(|p| p.to_string_lossy().contains(".shard-1-of-2")));
+    assert_eq!(outputs(&c), want);
+    // a run cut short: the last generation's results gone, the outputs not written yet
+    for gone in ["front.csv", "history.csv", "front.svg", "front.png"] {
+        std::fs::remove_file(a.join(gone)).unwrap();
+    }
+    std::fs::remove_dir_all(a.join("gen-001")).unwrap();
+    let rr = run_design(&s, &opts(&a, 2, None, true)).unwrap();
+    assert_eq!(outputs(&a), want);
+    assert_eq!(rr.front, ra.front);
+}
+
+#[test]
+fn the_fronts_layouts_load_and_plan_as_the_front_says() {
+    let t = tempfile::tempdir().unwrap();
+    let s = spec(t.path());
+    let out = t.path().join("o");
+    let r = run_design(&s, &opts(&out, 2, None, false)).unwrap();
+    let (id, o) = &r.front[0];
+    let sc = Scenario::load(&out.join(format!("layouts/{id}.toml"))).unwrap();
+    assert_eq!(sc.stator.len() as f64, o.coils);
+    assert!((12..=16).contains(&sc.stator.len()));
+    assert_eq!(sc.rotor.len(), 80);
+    let sw = sc.sweep.clone().unwrap();
+    assert_eq!(sw.axes.len(), 3);
+    // the front's worst axis error is the worst of planning the layout about its full axes
+    let worst = sw
+        .axes
+        .iter()
+        .map(|axis| {
+            let settings = PlanSettings {
+                axis: *axis,
+                angle: sw.angles[0],
+                ..sc.plan.clone()
+            };
+            max_axis_error_deg(&plan(&sc.motor(), &settings).rows)
+        })
+        .fold(0.0, f64::max);
+    assert_eq!(worst, o.worst_axis_error_deg);
+    assert!(o.median_axis_error_deg <= o.worst_axis_error_deg);
+    // `plan` loads the layout's scenario
+    let (code, _, err) = common::run(&[
+        "plan",
+        out.join(format!("layouts/{id}.toml")).to_str().unwrap(),
+        "--axis",
+        "0,1,0",
+        "--angle",
+        "30",
+        "--out",
+        t.path().join("p.csv").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+}
+
+fn refused(extra: &str) -> String {
+    Scenario::from_toml(&format!("[design]\n{extra}\n"), Path::new("d.toml"))
+        .unwrap_err()
+        .to_string()
+}
+
+#[test]
+fn bad_design_sections_are_refused_naming_the_field() {
+    for (extra, field, words) in [
+        (
+            "coils_min = 14\ncoils_max = 12",
+            "design.coils_max",
+            "not empty",
+        ),
+        ("coils = 0", "design.coils", "at least 1"),
+        ("coils = 12\ncoils_min = 10", "design.coils", "not both"),
+        (
+            "coils = 40\ncap_deg = 60\ncoil_separation_deg = 30",
+            "design.coil_separation_deg",
+            "at most 21 coils fit",
+        ),
+        ("free = \"rotor\"\ncoils = 12", "design.coils", "not free"),
+        ("free = \"all\"", "design.free", "\"both\""),
+        (
+            "families = [\"fibonacci\", \"hexagons\"]",
+            "design.families[1]",
+            "tammes",
+        ),
+        ("families = []", "design.families", "at least one"),
+        (
+            "axes = 64\nfull_axes = 32",
+            "design.full_axes",
+            "at least design.axes",
+        ),
+        ("population = 2", "design.population", "at least 4"),
+        ("move_deg = -1", "design.move_deg", "[0, 90]"),
+    ] {
+        let e = refused(extra);
+        assert!(
+            e.contains("d.toml") && e.contains(&format!("`{field}`")) && e.contains(words),
+            "{extra}: {e}"
+        );
+    }
+    assert!(refused("colis = 12").contains("unknown field `colis`"));
+    // the defaults are the scenario's own: 16 coils within 79.19 degrees of -Z
+    let sc = Scenario::from_toml("[design]\n", Path::new("d.toml")).unwrap();
+    let d = sc.design.unwrap();
+    assert_eq!((d.coils, d.magnets), ((16, 16), (80, 80)));
+    assert!((d.cap.0.to_degrees() - 79.188).abs() < 1e-3);
+}
+
+#[test]
+fn design_without_a_design_section_fails_naming_it() {
+    let t = tempfile::tempdir().unwrap();
+    let s = t.path().join("plain.toml");
+    std::fs::write(&s, "").unwrap();
+    let (code, _, err) = common::run(&[
+        "design",
+        s.to_str().unwrap(),
+        "--out",
+        t.path().join("o").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("field `design`") && err.contains("plain.toml"),
+        "{err}"
+    );
+}
