@@ -73,6 +73,17 @@ fn a_design_run_is_the_same_bytes_on_1_and_2_threads_from_shards_and_resumed() {
     assert!(!ra.front.is_empty() && ra.full_evaluations >= ra.front.len());
     let front = String::from_utf8(want["front.csv"].clone()).unwrap();
     assert_eq!(front.lines().count(), ra.front.len() + 1, "{front}");
+    // every row as wide as the header, its objectives those the run reports
+    let columns = |l: &str| l.split(',').count();
+    let header = front.lines().next().unwrap();
+    assert!(front.lines().all(|l| columns(l) == columns(header)), "{front}");
+    for ((id, o), row) in ra.front.iter().zip(front.lines().skip(1)) {
+        let cells: Vec<&str> = row.split(',').collect();
+        assert_eq!(cells[0], id.as_str(), "{front}");
+        assert_eq!(cells[2].parse::<f64>().unwrap(), o.coils, "{front}");
+        assert_eq!(cells[4].parse::<f64>().unwrap(), o.worst_axis_error_deg, "{front}");
+        assert_eq!(cells[8].parse::<f64>().unwrap(), o.worst_steps, "{front}");
+    }
     let svg = String::from_utf8(want["front.svg"].clone()).unwrap();
     assert!(
         ra.front.iter().all(|(id, _)| svg.contains(id.as_str())),

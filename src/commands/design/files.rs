@@ -124,9 +124,8 @@ pub(super) fn front_csv(rows: &[FrontRow]) -> String {
         NAMES[..5].join(",")
     );
     for r in rows {
-        let values: Vec<String> = r
-            .objectives
-            .values()
+        // the first five: the coil count is the `coils` column already
+        let values: Vec<String> = r.objectives.values()[..5]
             .iter()
             .map(|v| v.to_string())
             .collect();
