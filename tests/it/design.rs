@@ -76,12 +76,19 @@ fn a_design_run_is_the_same_bytes_on_1_and_2_threads_from_shards_and_resumed() {
     // every row as wide as the header, its objectives those the run reports
     let columns = |l: &str| l.split(',').count();
     let header = front.lines().next().unwrap();
-    assert!(front.lines().all(|l| columns(l) == columns(header)), "{front}");
+    assert!(
+        front.lines().all(|l| columns(l) == columns(header)),
+        "{front}"
+    );
     for ((id, o), row) in ra.front.iter().zip(front.lines().skip(1)) {
         let cells: Vec<&str> = row.split(',').collect();
         assert_eq!(cells[0], id.as_str(), "{front}");
         assert_eq!(cells[2].parse::<f64>().unwrap(), o.coils, "{front}");
-        assert_eq!(cells[4].parse::<f64>().unwrap(), o.worst_axis_error_deg, "{front}");
+        assert_eq!(
+            cells[4].parse::<f64>().unwrap(),
+            o.worst_axis_error_deg,
+            "{front}"
+        );
         assert_eq!(cells[8].parse::<f64>().unwrap(), o.worst_steps, "{front}");
     }
     let svg = String::from_utf8(want["front.svg"].clone()).unwrap();
