@@ -538,6 +538,20 @@ fn step_residuals(motor: &Motor, wells: &WellFit, steps: &[MeasuredStep]) -> Vec
         .collect()
 }
 
+/// The trial wells (indices, in order) whose robust loss on `steps` is within `var`, the loss
+/// per degree of freedom, of the least: those the steps do not tell from the best.
+fn near_best(motor: &Motor, trials: &[WellFit], steps: &[MeasuredStep]) -> Vec<usize> {
+    let losses: Vec<f64> = trials
+        .par_iter()
+        .map(|w| ssr(&step_residuals(motor, w, steps)))
+        .collect();
+    let least = losses.iter().copied().fold(f64::INFINITY, f64::min);
+    let var = least / (3 * steps.len()).saturating_sub(2).max(1) as f64;
+    (0..trials.len())
+        .filter(|&i| losses[i] <= least + var)
+        .collect()
+}
+
 /// The reach of the grid for `wells`' other parameters: of the reaches whose robust loss is
 /// within `var` (the loss per degree of freedom) of the least, the one nearest `prefer` (the
 /// steps do not tell them apart: the reach moves no further than they say); and the
@@ -550,30 +564,22 @@ fn best_step_reach(
 ) -> (f64, Option<f64>) {
     let (lo, hi, by) = REACH_GRID;
     let min = wells.width_deg.map_or(lo, |w| w.max(lo));
-    let n = ((hi - lo) / by).round() as usize;
-    let mut grid: Vec<f64> = (0..=n)
-        .map(|i| lo + by * i as f64)
+    let mut grid: Vec<f64> = grid_points(REACH_GRID)
+        .into_iter()
         .filter(|&r| r >= min)
         .collect();
     if !grid.contains(&prefer) && (min..=hi).contains(&prefer) {
         grid.push(prefer);
         grid.sort_by(f64::total_cmp);
     }
-    let losses: Vec<f64> = grid
-        .par_iter()
-        .map(|&r| {
-            let w = WellFit {
-                reach_deg: r,
-                ..*wells
-            };
-            ssr(&step_residuals(motor, &w, steps))
+    let trials: Vec<WellFit> = grid
+        .iter()
+        .map(|&r| WellFit {
+            reach_deg: r,
+            ..*wells
         })
         .collect();
-    let least = losses.iter().copied().fold(f64::INFINITY, f64::min);
-    let var = least / (3 * steps.len()).saturating_sub(2).max(1) as f64;
-    let within: Vec<usize> = (0..grid.len())
-        .filter(|&i| losses[i] <= least + var)
-        .collect();
+    let within = near_best(motor, &trials, steps);
     let chosen = within
         .iter()
         .copied()
@@ -628,12 +634,6 @@ fn coarse_start(motor: &Motor, start: &WellFit, steps: &[MeasuredStep]) -> WellF
         })
         .chain(std::iter::once(*start))
         .collect();
-    let losses: Vec<f64> = trials
-        .par_iter()
-        .map(|w| ssr(&step_residuals(motor, w, steps)))
-        .collect();
-    let least = losses.iter().copied().fold(f64::INFINITY, f64::min);
-    let var = least / (3 * steps.len()).saturating_sub(2).max(1) as f64;
     let away = |w: &WellFit| {
         let rel = |a: f64, b: f64| (a / b - 1.0).abs();
         rel(w.reach_deg, start.reach_deg)
@@ -642,8 +642,8 @@ fn coarse_start(motor: &Motor, start: &WellFit, steps: &[MeasuredStep]) -> WellF
                 _ => 0.0,
             }
     };
-    (0..trials.len())
-        .filter(|&i| losses[i] <= least + var)
+    near_best(motor, &trials, steps)
+        .into_iter()
         .min_by(|&a, &b| away(&trials[a]).total_cmp(&away(&trials[b])))
         .map_or(*start, |i| trials[i])
 }
