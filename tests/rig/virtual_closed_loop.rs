@@ -19,11 +19,12 @@
 //!
 //! What the simulation does not have: the relays of a transition are switched one frame at a
 //! time, and the ball moves under the sets in between for the frames' wall time times the
-//! speed of the virtual clock. The virtual clock runs twice the wall clock: a frame's round
-//! trip (well under a millisecond, a few on a loaded machine) is then a few milliseconds on
-//! it. The most sensitive transition of these runs (step 6 without the fit) lands the ball in
-//! another equilibrium from about 10 ms a frame, and the runs then part from there: at 20
-//! times the wall clock a scheduling hiccup of half a millisecond did it. The on-time limit
+//! speed of the virtual clock. The virtual clock runs at the wall clock's speed: a frame's
+//! round trip (well under a millisecond, a few on a loaded machine) is then a few milliseconds
+//! on it. The most sensitive transition of these runs (step 6 without the fit) lands the ball
+//! in another equilibrium from about 10 ms a frame, and the runs then part from there: at 20
+//! times the wall clock a scheduling hiccup of half a millisecond did it, and at twice the wall
+//! clock a machine loaded by three builds once did (frames of 5 ms). The on-time limit
 //! is lifted (the replans' wall time counts while the coils are on, and the limit is not what
 //! this test is about). Nothing asserts how fast anything ran. The two tests take turns (one
 //! virtual motor at a time), so that neither slows the other's frames.
@@ -42,7 +43,7 @@ use std::time::{Duration, Instant};
 const GUARD: Duration = Duration::from_secs(300);
 
 /// The virtual clock's speed, times the wall clock.
-const SPEED: f64 = 2.0;
+const SPEED: f64 = 1.0;
 
 /// One rehearsal at a time.
 static TURNS: Mutex<()> = Mutex::new(());
@@ -348,13 +349,13 @@ fn rehearse_and_compare(identify: bool, dwell_ms: u64) {
 
 #[test]
 fn replay_through_the_virtual_motor_decides_as_the_simulated_loop() {
-    // the settles of this run are at most 1.6 s: 2.5 s on the virtual clock
-    rehearse_and_compare(false, 1250);
+    // the settles of this run are at most 1.6 s: 2.2 s on the virtual clock
+    rehearse_and_compare(false, 2200);
 }
 
 #[test]
 fn replay_through_the_virtual_motor_decides_as_the_simulated_loop_with_the_fit_of_the_wells() {
-    // the fitted wells steer the ball into slower settles (up to 4.5 s): 6 s on the virtual
+    // the fitted wells steer the ball into slower settles (up to 4.5 s): 5.1 s on the virtual
     // clock
-    rehearse_and_compare(true, 3000);
+    rehearse_and_compare(true, 5100);
 }
