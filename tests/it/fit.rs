@@ -59,6 +59,16 @@ fn json(out: &str, err: &str) -> serde_json::Value {
     serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}{err}"))
 }
 
+/// The report of `spherestep fit SCENARIO --torque BENCH MORE... --json`, which must succeed.
+fn fit_torque_report(scenario: &str, bench: &Path, more: &[&str]) -> serde_json::Value {
+    let mut args = vec!["fit", scenario, "--torque", bench.to_str().unwrap()];
+    args.extend_from_slice(more);
+    args.push("--json");
+    let (code, out, err) = run(&args);
+    assert_eq!(code, 0, "{out}{err}");
+    json(&out, &err)
+}
+
 #[test]
 fn a_hidden_wells_curve_with_two_percent_noise_is_recovered_within_three_percent() {
     let dir = tempfile::tempdir().unwrap();
@@ -66,18 +76,8 @@ fn a_hidden_wells_curve_with_two_percent_noise_is_recovered_within_three_percent
     let hidden = Scenario::load(&write(d, "hidden.toml", HIDDEN)).unwrap();
     let bench = write(d, "bench.csv", &noisy_bench(&hidden, 33));
     let fitted = d.join("fitted.toml");
-    let args = [
-        "fit",
-        "scenarios/prototype.toml",
-        "--torque",
-        bench.to_str().unwrap(),
-        "--out",
-        fitted.to_str().unwrap(),
-        "--json",
-    ];
-    let (code, out, err) = run(&args);
-    assert_eq!(code, 0, "{out}{err}");
-    let report = json(&out, &err);
+    let out = ["--out", fitted.to_str().unwrap()];
+    let report = fit_torque_report("scenarios/prototype.toml", &bench, &out);
     let best = &report["curve"][0];
     assert_eq!(best["wells"]["shape"], "gaussian", "{report}");
     // the cosine explains the curve far worse
@@ -159,18 +159,8 @@ fn a_hidden_physical_motors_gap_and_core_gain_are_recovered_within_three_percent
     let bench_text = noisy_bench_every(&hidden, 33, PHYSICAL_STEP_DEG);
     let bench = write(d, "bench.csv", &bench_text);
     let fitted = d.join("fitted.toml");
-    let args = [
-        "fit",
-        "scenarios/prototype-physical.toml",
-        "--torque",
-        bench.to_str().unwrap(),
-        "--out",
-        fitted.to_str().unwrap(),
-        "--json",
-    ];
-    let (code, out, err) = run(&args);
-    assert_eq!(code, 0, "{out}{err}");
-    let report = json(&out, &err);
+    let out = ["--out", fitted.to_str().unwrap()];
+    let report = fit_torque_report("scenarios/prototype-physical.toml", &bench, &out);
     assert_eq!(report["fitted_as"], "physical", "{report}");
     let parts = &report["parts"];
     let value = |k: &str, v: &str| parts[k][v].as_f64().unwrap();
@@ -242,17 +232,8 @@ fn a_hidden_physical_motors_gap_and_core_gain_are_recovered_within_three_percent
         "{reloaded} against {rms}"
     );
     // the wells fit of a physical scenario, asked for
-    let (code, out, err) = run(&[
-        "fit",
-        "scenarios/prototype-physical.toml",
-        "--torque",
-        bench.to_str().unwrap(),
-        "--as",
-        "gaussian",
-        "--json",
-    ]);
-    assert_eq!(code, 0, "{out}{err}");
-    let report = json(&out, &err);
+    let gaussian = ["--as", "gaussian"];
+    let report = fit_torque_report("scenarios/prototype-physical.toml", &bench, &gaussian);
     assert_eq!(report["curve"].as_array().unwrap().len(), 1, "{report}");
     assert_eq!(report["curve"][0]["wells"]["shape"], "gaussian", "{report}");
     assert!(report["parts"].is_null(), "{report}");
