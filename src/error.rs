@@ -124,6 +124,9 @@ pub enum Error {
     /// The wells cannot be fitted to the data given (too few points or steps, no pull).
     #[error(transparent)]
     Fit(#[from] FitError),
+    /// No excitation run can be played within the supply and the on-time limit.
+    #[error(transparent)]
+    Excite(#[from] crate::planning::excitation::ExciteError),
 }
 
 impl From<ConfigError> for Error {

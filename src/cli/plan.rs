@@ -4,7 +4,7 @@
 use super::CsvOutput;
 use anyhow::Result;
 use spherestep::commands::args::check_out;
-use spherestep::commands::{self as app, waypoints};
+use spherestep::commands::{self as app, excite, waypoints};
 use spherestep::io::scenario::Scenario;
 use spherestep::model::geometry::Degrees;
 use spherestep::planning::waypoints::DEFAULT_WAYPOINT_TOLERANCE_DEG;
@@ -75,6 +75,14 @@ pub struct Args {
     /// waypoint within this many degrees (default 3).
     #[arg(long)]
     pub tolerance_deg: Option<f64>,
+    /// An excitation run instead of a motion: the first set and N steps, each a random set
+    /// of 2-3 coils switched on where the set before left the ball, within the supply and the
+    /// on-time limit; replay it with a sensor and --log, then `fit --log` the log.
+    #[arg(long, value_name = "N", conflicts_with_all = ["axis", "angle", "to", "waypoints", "tolerance_deg"])]
+    pub excite: Option<usize>,
+    /// The seed the excitation run's sets are drawn from (the same seed, the same run).
+    #[arg(long, requires = "excite", default_value_t = 1)]
+    pub seed: u64,
     #[command(flatten)]
     pub output: CsvOutput,
 }
@@ -86,6 +94,8 @@ impl Args {
             what,
             waypoints,
             tolerance_deg,
+            excite,
+            seed,
             output: CsvOutput {
                 out: out_file,
                 json,
@@ -104,6 +114,14 @@ impl Args {
         }
         let (file, json) = (out_file.as_deref(), json);
         let mut note = std::io::stderr();
+        if let Some(steps) = excite {
+            let job = excite::ExciteJob {
+                steps: excite::check_steps(steps)?,
+                seed,
+            };
+            excite::excite_command(&sc, &settings, job, file, json, out, &mut note)?;
+            return Ok(());
+        }
         let (reached, message) = match &waypoints {
             Some(waypoints_file) => {
                 let tolerance_deg = tolerance_deg.unwrap_or(DEFAULT_WAYPOINT_TOLERANCE_DEG);

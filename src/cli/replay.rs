@@ -81,6 +81,10 @@ pub struct Args {
     /// the wells that predict the measured steps best).
     #[arg(long, requires = "sensor")]
     pub no_identify: bool,
+    /// With --sensor: play the plan as it is and read the sensor after every step, never
+    /// replanning (an excitation run from `plan --excite`, logged with --log for `fit --log`).
+    #[arg(long, requires = "sensor", conflicts_with_all = ["max_steps", "no_identify"])]
+    pub no_replan: bool,
 }
 
 impl Args {
@@ -94,6 +98,7 @@ impl Args {
             noise_deg: self.sensor_noise_deg,
             max_steps: self.max_steps,
             identify: !self.no_identify,
+            replan: !self.no_replan,
             ..SensorOptions::new(device, format)
         })
     }

@@ -43,6 +43,9 @@ pub struct SensorOptions {
     /// Fit the wells to the measured steps and steer with the fit where the scenario's model
     /// is wrong (`--no-identify` turns it off).
     pub identify: bool,
+    /// Replan from the measurements (`--no-replan` turns it off: the plan is played as it is
+    /// and read after every step, as an excitation run for `fit --log` wants).
+    pub replan: bool,
 }
 
 impl SensorOptions {
@@ -57,6 +60,7 @@ impl SensorOptions {
             noise_deg: 0.0,
             max_steps: None,
             identify: true,
+            replan: true,
         }
     }
 
@@ -101,7 +105,7 @@ pub fn prepare_closed(opts: &ReplayOptions, so: &SensorOptions) -> Result<Closed
     let (rows, scenario, relay) = inputs(opts)?;
     let f = plan_file_loop(&scenario, &scenario.plan, rows, &opts.plan)?;
     let o = LoopOptions {
-        closed: true,
+        closed: so.replan,
         noise_deg: so.noise_deg,
         seed: 0,
         max_steps: so.max_steps,

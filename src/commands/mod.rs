@@ -1,7 +1,8 @@
 //! The commands behind the command line, as library functions that take plain arguments and
 //! write to a given output, so that they are testable without spawning the binary. The entry
 //! points, one per command: [`settle_one`] and [`settle_sets`] (`settle`), [`plan_command`]
-//! (`plan`; [`waypoints::plan_waypoints_command`] with `--waypoints`), [`simulate_plan`]
+//! (`plan`; [`waypoints::plan_waypoints_command`] with `--waypoints`,
+//! [`excite::excite_command`] with `--excite`), [`simulate_plan`]
 //! (`simulate`; [`closed_loop::simulate_closed_loop`] with `--closed-loop`),
 //! [`closed_loop::run_command`] (`run`), [`replay::run`] and [`closed_replay::run`] (`replay`,
 //! open and closed loop), [`rehearse::run`] (`virtual`), [`wells::wells_command`] (`wells`),
@@ -15,6 +16,7 @@ pub mod closed_loop;
 pub mod closed_replay;
 #[cfg(feature = "design")]
 pub mod design;
+pub mod excite;
 pub mod fit;
 pub mod rehearse;
 pub mod replay;

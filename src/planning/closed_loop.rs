@@ -356,6 +356,11 @@ impl<'a> Controller<'a> {
         self.cl.max_steps
     }
 
+    /// Whether the loop replans at all (else the plan is played as it is, measured).
+    pub fn replanning(&self) -> bool {
+        self.cl.replan
+    }
+
     /// The goal tolerance, degrees.
     pub fn goal_tolerance_deg(&self) -> f64 {
         self.cl.goal_tolerance.0.to_degrees()

@@ -10,14 +10,16 @@
 //! goal orientation), the wells fitted to measured steps ([`identify`]), which pairs of a
 //! settled set hold the ball ([`holding`]), how a front end asks for a loop ([`options`]), how
 //! long a replay keeps each coil on ([`on_time`], shared with the hardware replay's check) and
-//! abandoning a planning from another thread ([`cancel`]); the layout optimiser's spec, seed
-//! layouts, objectives and evolution ([`design`]).
+//! abandoning a planning from another thread ([`cancel`]); random coil sets to log for a fit
+//! ([`excitation`]); the layout optimiser's spec, seed layouts, objectives and evolution
+//! ([`design`]).
 
 pub mod cancel;
 pub mod closed_loop;
 pub mod coilsets;
 pub mod commutation;
 pub mod design;
+pub mod excitation;
 pub mod fit;
 pub mod fit_parts;
 pub mod holding;

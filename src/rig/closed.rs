@@ -155,15 +155,7 @@ pub fn execute_closed(
     let (sensor, tare) =
         Tared::tare(sensor, mount, &start).map_err(|e| SensorError::Tare { cause: Box::new(e) })?;
     let frame = sensor.frame();
-    writeln!(
-        out,
-        "closed loop: {}; replan beyond {:.2} deg from the plan, done within {:.2} deg of the goal, at most {} steps",
-        sensor.describe(),
-        s.replan_beyond.0.to_degrees(),
-        s.goal_tolerance.0.to_degrees(),
-        s.max_steps
-    )
-    .map_err(stdout_error)?;
+    writeln!(out, "{}", header(&s, &sensor.describe())).map_err(stdout_error)?;
     let w = frame.reference;
     writeln!(
         out,
@@ -197,7 +189,13 @@ pub fn execute_closed(
     };
     let result = hw.run(&mut controller);
     let (steps, last) = (hw.steps, hw.senses.last);
-    finish(&mut r, result, steps, last, controller.replans())
+    let ending = LoopEnd {
+        steps,
+        last,
+        replans: controller.replans(),
+        replan: s.replan,
+    };
+    finish(&mut r, result, ending)
 }
 
 /// The hardware as the closed loop's [`Plant`]: the runner switching the boards, the sensor.
@@ -233,6 +231,8 @@ impl Hardware<'_, '_, '_> {
         self.r.start_off()?;
         let (ending, step) = drive(ctl, self)?;
         match ending {
+            // played as it is: the end of the plan, wherever the ball is
+            Ending::Done if !ctl.replanning() => Ok(self.r.mark(step, "end")?),
             Ending::Done => match self.senses.last {
                 // the loop decided on its estimate: the measurement must agree
                 Some(d) if d > ctl.goal_tolerance_deg() => Err(RigError::Stuck {
@@ -417,14 +417,43 @@ fn fired(r: &Runner, phase: u8) -> Result<(), RelayError> {
     r.check_on_time(|| phase_name(phase).to_string())
 }
 
-/// Switches everything off and reports: the summary at the goal, else why it stopped.
-fn finish(
-    r: &mut Runner,
-    result: Result<(), RigError>,
+/// The replay's first line: the sensor and how the loop decides.
+fn header(s: &LoopSettings, sensor: &str) -> String {
+    match s.replan {
+        true => format!(
+            "closed loop: {sensor}; replan beyond {:.2} deg from the plan, done within {:.2} deg of the goal, at most {} steps",
+            s.replan_beyond.0.to_degrees(),
+            s.goal_tolerance.0.to_degrees(),
+            s.max_steps
+        ),
+        false => format!(
+            "measured open loop: {sensor}; the plan played as it is (no replanning), read after every step"
+        ),
+    }
+}
+
+/// How the loop ended: the steps switched, the last reading's angle from the goal, the
+/// replans, and whether it replanned at all.
+struct LoopEnd {
     steps: usize,
     last: Option<f64>,
     replans: usize,
+    replan: bool,
+}
+
+/// Switches everything off and reports: the summary at the goal (or, not replanning, at the
+/// plan's end), else why it stopped.
+fn finish(
+    r: &mut Runner,
+    result: Result<(), RigError>,
+    ending: LoopEnd,
 ) -> Result<ClosedSummary, RigError> {
+    let LoopEnd {
+        steps,
+        last,
+        replans,
+        replan,
+    } = ending;
     let (off, written) = r.close_off();
     let result = result.map_err(|e| match e {
         RigError::Relay(e) => RigError::Relay(r.with_off_time(e)),
@@ -444,10 +473,14 @@ fn finish(
         Ok(()) => {
             written?;
             let d = last.unwrap_or(f64::NAN);
-            r.say(&format!(
-                "closed loop done: at the goal after {} step(s), {replans} replan(s); the last measurement {d:.2} deg from the goal; all coils off",
-                steps
-            ))?;
+            r.say(&match replan {
+                true => format!(
+                    "closed loop done: at the goal after {steps} step(s), {replans} replan(s); the last measurement {d:.2} deg from the goal; all coils off"
+                ),
+                false => format!(
+                    "measured open loop done: {steps} step(s) played and read; the last measurement {d:.2} deg from the plan's last orientation; all coils off"
+                ),
+            })?;
             Ok(ClosedSummary {
                 steps,
                 replans,

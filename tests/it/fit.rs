@@ -10,6 +10,7 @@ use crate::common;
 use common::run;
 use spherestep::commands::wells::well_curve;
 use spherestep::io::fitfiles::parse_steps;
+use spherestep::io::planfile::read_plan;
 use spherestep::io::scenario::Scenario;
 use spherestep::model::geometry::{Orientation, Pair, Radians};
 use spherestep::model::random::SplitMix;
@@ -472,6 +473,42 @@ fn a_fit_on_twenty_logged_steps_predicts_ten_held_out_steps_within_two_degrees()
         within(&before_all) + 10 <= within(&after_all),
         "{before_all:?} {after_all:?}"
     );
+}
+
+#[test]
+fn the_log_of_an_excitation_run_planned_by_plan_excite_fits_the_hidden_wells() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let hidden = Scenario::load(&write(d, "hidden.toml", HIDDEN)).unwrap();
+    for seed in ["1", "2"] {
+        // the run as `plan --excite` draws it on the unaltered prototype: what a lab would
+        // replay on its motor (here the hidden one) with a sensor and --log
+        let plan = d.join("excite.csv");
+        let args = [
+            "plan",
+            "scenarios/prototype.toml",
+            "--excite",
+            "30",
+            "--seed",
+            seed,
+        ];
+        let (code, out, err) = run(&[&args[..], &["--out", plan.to_str().unwrap()]].concat());
+        assert_eq!(code, 0, "{out}{err}");
+        let sets: Vec<BTreeSet<usize>> = (read_plan(&plan).unwrap().iter())
+            .map(|r| r.active.iter().map(|p| p.coil.0).collect())
+            .collect();
+        let (report, truth) = fit_a_log(d, &hidden, &sets);
+        let after = held_out(&report, "holdout_after_deg");
+        eprintln!("plan --excite seed {seed}: fitted {after:.2?}\ntruth {truth:.2?}");
+        for k in 0..10 {
+            assert!(
+                truth[k] > 2.0 || after[k] <= 2.0,
+                "seed {seed}, step {k}: {report}"
+            );
+        }
+        assert!(after.iter().filter(|&&e| e <= 2.0).count() >= 9, "{report}");
+        assert_width_recovered(&report);
+    }
 }
 
 #[test]

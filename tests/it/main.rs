@@ -17,6 +17,7 @@ mod closed_loop;
 mod coilsets;
 #[cfg(feature = "design")]
 mod design;
+mod excite;
 mod fit;
 mod front_door;
 mod identify;

@@ -23,4 +23,5 @@ mod relay_signal;
 mod sensor_mount;
 mod sensors;
 mod virtual_closed_loop;
+mod virtual_excitation;
 mod virtual_motor;
