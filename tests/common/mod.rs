@@ -124,3 +124,66 @@ pub mod relay_support;
 /// library's loop, and the ball the boards' far ends switch.
 #[cfg(unix)]
 pub mod scripted;
+
+/// Starts `spherestep virtual ARGS` and waits, until `deadline`, for its `ready:` line; from
+/// then on its standard output is drained on a thread (its standard error is dropped).
+pub fn start_virtual(args: &[&str], deadline: std::time::Instant) -> std::process::Child {
+    use std::io::BufRead;
+    use std::process::{Command, Stdio};
+    let mut v = Command::new(bin())
+        .arg("virtual")
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(v.stdout.take().unwrap()).lines();
+    loop {
+        if std::time::Instant::now() >= deadline {
+            let _ = v.kill();
+            let _ = v.wait();
+            panic!("the virtual motor never got ready");
+        }
+        match lines.next() {
+            Some(Ok(l)) if l.starts_with("ready:") => break,
+            Some(Ok(_)) => {}
+            _ => panic!("the virtual motor ended before it was ready"),
+        }
+    }
+    std::thread::spawn(move || for _ in lines.by_ref() {});
+    v
+}
+
+/// Runs `spherestep ARGS` beside the virtual motor `v` until `deadline` (past it both are
+/// killed, and the test fails): its exit status, standard output and standard error.
+pub fn run_beside(
+    args: &[&str],
+    v: &mut std::process::Child,
+    deadline: std::time::Instant,
+) -> (std::process::ExitStatus, String, String) {
+    use std::process::{Command, Stdio};
+    let mut r = Command::new(bin())
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let status = loop {
+        if let Some(s) = r.try_wait().unwrap() {
+            break s;
+        }
+        if std::time::Instant::now() > deadline {
+            let _ = r.kill();
+            let _ = v.kill();
+            let _ = (r.wait(), v.wait());
+            panic!("`spherestep {}` did not end in time", args.join(" "));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    let out = r.wait_with_output().unwrap();
+    (
+        status,
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}

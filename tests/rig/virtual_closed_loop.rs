@@ -34,9 +34,7 @@ use crate::common;
 
 use spherestep::model::geometry::Orientation;
 use std::collections::BTreeSet;
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Command, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -194,9 +192,9 @@ fn rehearse_and_compare(identify: bool, dwell_ms: u64) {
     let links = d.join("dev");
     let links_s = links.display().to_string();
     let speed = SPEED.to_string();
-    let mut v = Command::new(common::bin())
-        .args([
-            "virtual",
+    let deadline = Instant::now() + GUARD;
+    let mut v = common::start_virtual(
+        &[
             &plant,
             "--speed",
             &speed,
@@ -212,25 +210,9 @@ fn rehearse_and_compare(identify: bool, dwell_ms: u64) {
             &plan,
             "--max-seconds",
             "250",
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(v.stdout.take().unwrap()).lines();
-    let deadline = Instant::now() + GUARD;
-    loop {
-        assert!(
-            Instant::now() < deadline,
-            "the virtual motor never got ready"
-        );
-        match lines.next() {
-            Some(Ok(l)) if l.starts_with("ready:") => break,
-            Some(Ok(_)) => {}
-            _ => panic!("the virtual motor ended before it was ready"),
-        }
-    }
-    std::thread::spawn(move || for _ in lines.by_ref() {});
+        ],
+        deadline,
+    );
     let log = d.join("replay.csv").display().to_string();
     let board = links.join("board0").display().to_string();
     let sensor = links.join("sensor").display().to_string();
@@ -250,28 +232,8 @@ fn rehearse_and_compare(identify: bool, dwell_ms: u64) {
         "--dwell-ms",
         &dwell_s,
     ];
-    let mut r = Command::new(common::bin())
-        .args([&replay_args[..], fit].concat())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let status = loop {
-        if let Some(s) = r.try_wait().unwrap() {
-            break s;
-        }
-        if Instant::now() > deadline {
-            let _ = r.kill();
-            let _ = v.kill();
-            panic!("the replay did not end in time");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    let replay_out = r.wait_with_output().unwrap();
-    let (stdout, stderr) = (
-        String::from_utf8_lossy(&replay_out.stdout),
-        String::from_utf8_lossy(&replay_out.stderr),
-    );
+    let (status, stdout, stderr) =
+        common::run_beside(&[&replay_args[..], fit].concat(), &mut v, deadline);
     let said = format!("{status}\n{stdout}\n{stderr}");
     let vend = Instant::now() + Duration::from_secs(30);
     while v.try_wait().unwrap().is_none() {

@@ -9,9 +9,7 @@
 
 use crate::common;
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const GUARD: Duration = Duration::from_secs(300);
@@ -50,9 +48,9 @@ fn an_excitation_run_replayed_with_a_sensor_and_not_replanned_fits_the_hidden_we
     assert_eq!(code, 0, "{out}{err}");
     let links = d.join("dev");
     let links_s = links.display().to_string();
-    let mut v = Command::new(common::bin())
-        .args([
-            "virtual",
+    let deadline = Instant::now() + GUARD;
+    let mut v = common::start_virtual(
+        &[
             &plant,
             "--speed",
             "5",
@@ -68,25 +66,9 @@ fn an_excitation_run_replayed_with_a_sensor_and_not_replanned_fits_the_hidden_we
             &plan,
             "--max-seconds",
             "250",
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(v.stdout.take().unwrap()).lines();
-    let deadline = Instant::now() + GUARD;
-    loop {
-        assert!(
-            Instant::now() < deadline,
-            "the virtual motor never got ready"
-        );
-        match lines.next() {
-            Some(Ok(l)) if l.starts_with("ready:") => break,
-            Some(Ok(_)) => {}
-            _ => panic!("the virtual motor ended before it was ready"),
-        }
-    }
-    std::thread::spawn(move || for _ in lines.by_ref() {});
+        ],
+        deadline,
+    );
     let log = d.join("log.csv").display().to_string();
     let (board, sensor) = (
         links.join("board0").display().to_string(),
@@ -108,30 +90,9 @@ fn an_excitation_run_replayed_with_a_sensor_and_not_replanned_fits_the_hidden_we
         "--log",
         &log,
     ];
-    let mut r = Command::new(common::bin())
-        .args(replay)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let status = loop {
-        if let Some(s) = r.try_wait().unwrap() {
-            break s;
-        }
-        if Instant::now() > deadline {
-            let _ = r.kill();
-            let _ = v.kill();
-            panic!("the replay did not end in time");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    let said = r.wait_with_output().unwrap();
+    let (status, stdout, stderr) = common::run_beside(&replay, &mut v, deadline);
     let _ = v.kill();
     let _ = v.wait();
-    let (stdout, stderr) = (
-        String::from_utf8_lossy(&said.stdout),
-        String::from_utf8_lossy(&said.stderr),
-    );
     assert!(status.success(), "{stdout}{stderr}");
     assert!(stdout.contains("measured open loop: "), "{stdout}");
     assert!(
