@@ -22,6 +22,8 @@ pub struct NearbyMagnets<'a> {
     /// ... and their nearby magnets (body frame): those of coil k at `starts[k]..starts[k + 1]`.
     pub(super) magnets: Vec<Vector3<f64>>,
     pub(super) starts: Vec<usize>,
+    /// A bit for each (coil, magnet) pair of the lists (all of a [`SideMask`] beyond its 128).
+    listed: SideMask,
 }
 
 impl<'a> NearbyMagnets<'a> {
@@ -40,6 +42,7 @@ impl<'a> NearbyMagnets<'a> {
             r0: *r0,
             trace_min: 1.0 + 2.0 * NEAR_SKIN.cos(),
             coils,
+            listed: first_bits(magnets.len()),
             magnets,
             starts,
         }
@@ -53,6 +56,7 @@ impl<'a> NearbyMagnets<'a> {
     }
 
     /// Coil k's body-frame axis at `r` and its nearby magnets.
+    #[inline]
     fn coil(&self, k: usize, r: &Matrix3<f64>) -> (Vector3<f64>, &[Vector3<f64>]) {
         (
             r.tr_mul(&self.coils[k]),
@@ -94,7 +98,8 @@ impl TorqueModel for NearbyMagnets<'_> {
         let cos_far = self.full.well.cos_far;
         for k in 0..self.coils.len() {
             let (s, magnets) = self.coil(k, r);
-            for m in magnets {
+            // a magnet beyond the margin's cap adds nothing (the same test as the call's)
+            for m in magnets.iter().filter(|m| m.dot(&s) >= cos_far) {
                 self.full.pair_linearization(m, &s, cos_far, &mut lin)?;
             }
         }
@@ -122,14 +127,24 @@ impl TorqueModel for NearbyMagnets<'_> {
         if !self.covers(&r, active) {
             return self.full.body_torque(&r, active);
         }
-        let mut tau = Vector3::zeros();
-        for k in 0..self.coils.len() {
-            let s = r.tr_mul(&self.coils[k]);
-            for i in self.starts[k]..self.starts[k + 1] {
-                if within >> i & 1 == 1 {
-                    tau += self.full.well.pair_torque_continued(&self.magnets[i], &s);
+        // the set bits in ascending order are the (coil, magnet) pairs in the sum's order: coil
+        // by coil, each coil's magnets in the lists' order; a coil is turned into the body
+        // frame when its first pair held within reach comes
+        let mut bits = within & self.listed;
+        let (mut tau, mut s) = (Vector3::zeros(), Vector3::zeros());
+        let (mut next, mut end) = (0, 0);
+        while bits != 0 {
+            let i = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            if i >= end {
+                while self.starts[next + 1] <= i {
+                    next += 1;
                 }
+                s = r.tr_mul(&self.coils[next]);
+                end = self.starts[next + 1];
+                next += 1;
             }
+            tau += self.full.well.pair_torque_continued(&self.magnets[i], &s);
         }
         tau
     }
@@ -155,5 +170,14 @@ impl TorqueModel for NearbyMagnets<'_> {
             );
         }
         true
+    }
+}
+
+/// A mask of the first `n` bits (all of them from [`SideMask::BITS`] on).
+fn first_bits(n: usize) -> SideMask {
+    match n {
+        0 => 0,
+        n if n >= SideMask::BITS as usize => SideMask::MAX,
+        n => SideMask::MAX >> (SideMask::BITS as usize - n),
     }
 }
