@@ -1133,8 +1133,9 @@ mod tests {
             };
             let near = m.nearby(r0.matrix(), &active).unwrap();
             assert!(near.magnets.len() < 100, "{} of 400", near.magnets.len());
-            // turns of 0 to 19.5 degrees (within the skin) and of 25 and 70 (beyond it)
-            for (k, deg) in [0.0f64, 0.5, 3.0, 8.0, 14.0, 19.5, 25.0, 70.0]
+            // turns of 0 to 19.5 degrees (within the skin) and of 25 to 175 (beyond it: lists
+            // built again at 25, 70, 120 and 175 degrees, then the whole model's at 150)
+            for (k, deg) in [0.0f64, 0.5, 3.0, 8.0, 14.0, 19.5, 25.0, 70.0, 120.0, 175.0, 150.0]
                 .into_iter()
                 .enumerate()
             {
@@ -1155,6 +1156,7 @@ mod tests {
                     m.torque_energy(r.matrix(), &active)
                 );
             }
+            assert_eq!(near.rebuilds(), 4);
             // another active set: the whole model
             let other = [Pair::new(1, 0)];
             assert_eq!(

@@ -86,6 +86,12 @@ impl<'a> NearbyMagnets<'a> {
         Some(lists)
     }
 
+    /// How many lists were built beyond the skin (the chain's length).
+    #[cfg(test)]
+    pub(super) fn rebuilds(&self) -> usize {
+        self.beyond.get().map_or(0, |next| 1 + next.rebuilds())
+    }
+
     /// Whether `r` is within the skin of the orientation the lists were built at.
     #[inline]
     fn within_skin(&self, r: &Matrix3<f64>) -> bool {
