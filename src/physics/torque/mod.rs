@@ -783,9 +783,19 @@ impl TorqueModel for MagnetTorques {
                 }
             }
             Interaction::Coils => {
+                // a magnet beyond the cut-off by more than the margin's cap (a cheap body-frame
+                // test) adds the well's constant energy there, the same bits as its pair's
+                // (its torque is a zero, which leaves the sum as it is: the sum, from +0,
+                // never holds a -0)
+                let (cos_far, u_far) = (self.well.cos_far, self.well.potential(self.well.max_attraction.0));
                 for c in Self::coils(active) {
                     let s = self.stator[c];
+                    let s_body = r.tr_mul(&s);
                     for m in &self.rotor {
+                        if m.dot(&s_body) < cos_far {
+                            u += u_far;
+                            continue;
+                        }
                         let (t, e) = self.pair(&(r * m), &s);
                         tau += t;
                         u += e;
@@ -1175,6 +1185,48 @@ mod tests {
             interaction: Interaction::Pairs,
         };
         assert!(m.nearby(r0.matrix(), &active).is_none());
+    }
+
+    #[test]
+    fn the_coils_energy_passes_over_far_magnets_to_the_bit() {
+        // the whole "coils" sum of every pair, each magnet turned into the world frame
+        let every_pair = |m: &MagnetTorques, r: &Matrix3<f64>, active: &[Pair]| {
+            let (mut tau, mut u) = (Vector3::zeros(), 0.0);
+            for c in MagnetTorques::coils(active) {
+                for p in &m.rotor {
+                    let (t, e) = m.pair(&(r * p), &m.stator[c]);
+                    tau += t;
+                    u += e;
+                }
+            }
+            (tau, u)
+        };
+        let stator = vec![
+            Vector3::new(0.0, 0.0, -1.0),
+            Vector3::new(0.4, 0.1, -1.0).normalize(),
+            Vector3::new(-0.2, 0.5, -1.0).normalize(),
+        ];
+        let active = [Pair::new(0, 3), Pair::new(2, 7), Pair::new(0, 9)];
+        for w in wells() {
+            let m = MagnetTorques {
+                rotor: crate::io::scenario::sphere_axes(150)
+                    .iter()
+                    .map(|a| a.into_inner())
+                    .collect(),
+                stator: stator.clone(),
+                well: w,
+                interaction: Interaction::Coils,
+            };
+            for k in 0..12 {
+                let axis = Vector3::new(1.0, k as f64 - 5.0, 0.3 * k as f64).normalize();
+                let r = nalgebra::Rotation3::from_scaled_axis(axis * (0.4 * k as f64));
+                let (tau, u) = m.torque_energy(r.matrix(), &active);
+                let (tau_all, u_all) = every_pair(&m, r.matrix(), &active);
+                assert_eq!(tau.map(f64::to_bits), tau_all.map(f64::to_bits), "turn {k}");
+                assert_eq!(u.to_bits(), u_all.to_bits(), "turn {k}");
+                assert!(tau.norm() > 0.0 && u < 0.0);
+            }
+        }
     }
 
     #[test]
