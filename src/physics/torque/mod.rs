@@ -787,7 +787,10 @@ impl TorqueModel for MagnetTorques {
                 // test) adds the well's constant energy there, the same bits as its pair's
                 // (its torque is a zero, which leaves the sum as it is: the sum, from +0,
                 // never holds a -0)
-                let (cos_far, u_far) = (self.well.cos_far, self.well.potential(self.well.max_attraction.0));
+                let (cos_far, u_far) = (
+                    self.well.cos_far,
+                    self.well.potential(self.well.max_attraction.0),
+                );
                 for c in Self::coils(active) {
                     let s = self.stator[c];
                     let s_body = r.tr_mul(&s);
@@ -1144,10 +1147,12 @@ mod tests {
             let near = m.nearby(r0.matrix(), &active).unwrap();
             assert!(near.magnets.len() < 100, "{} of 400", near.magnets.len());
             // turns of 0 to 19.5 degrees (within the skin) and of 25 to 175 (beyond it: lists
-            // built again at 25, 70, 120 and 175 degrees, then the whole model's at 150)
-            for (k, deg) in [0.0f64, 0.5, 3.0, 8.0, 14.0, 19.5, 25.0, 70.0, 120.0, 175.0, 150.0]
-                .into_iter()
-                .enumerate()
+            // built again at 25, 70, 120 and 175 degrees, the chain full at 150)
+            for (k, deg) in [
+                0.0f64, 0.5, 3.0, 8.0, 14.0, 19.5, 25.0, 70.0, 120.0, 175.0, 150.0,
+            ]
+            .into_iter()
+            .enumerate()
             {
                 let axis = Vector3::new(1.0, k as f64 - 3.0, 0.5 * k as f64).normalize();
                 let r = r0 * nalgebra::Rotation3::from_scaled_axis(axis * deg.to_radians());
