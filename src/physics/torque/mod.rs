@@ -52,8 +52,9 @@ pub trait TorqueModel: Sync {
 
     /// The same model for the motion from `r0` with `active` on, restricted to the magnets that
     /// can come within reach of an energised coil while the ball stays within [`NEAR_SKIN`] of
-    /// `r0` (and the whole model beyond it): the same torques to the bit, at a fraction of the
-    /// cost where every coil pulls every magnet. `None` where there is nothing to gain.
+    /// `r0` (beyond it, lists built again where the ball went): the same torques to the bit,
+    /// at a fraction of the cost where every coil pulls every magnet. `None` where there is
+    /// nothing to gain.
     fn nearby(&self, _r0: &Matrix3<f64>, _active: &[Pair]) -> Option<NearbyMagnets<'_>> {
         None
     }
@@ -119,7 +120,8 @@ pub struct Linearization {
 pub const MARGIN_CAP: f64 = 0.1;
 
 /// How far (rad, 20 degrees) the ball may turn from where a [`NearbyMagnets`] was built before
-/// it evaluates every magnet again: the settles a planner weighs turn the ball by a few degrees.
+/// its lists are built again (and its cut-off margins go off): the settles a planner weighs
+/// turn the ball by a few degrees.
 pub const NEAR_SKIN: f64 = 0.35;
 
 /// The sides of the pairs' cut-offs between the settle's cut-off events, a bit per pair (set:
