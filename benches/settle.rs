@@ -19,7 +19,11 @@
 //!   table) and a point dipole passing a thin loop (`tests/data/prototype-physical-point.toml`,
 //!   W = dipole), against the prototype's gaussian wells with the same "coils" interaction
 //!   (W = gaussian): one evaluation with 3 coils on over the 80 magnets, and one settle of a
-//!   2-coil set (each coil's nearest magnet at the start).
+//!   2-coil set (each coil's nearest magnet at the start);
+//! - `coil_sets/soft-wells/56`: the 56 sets of three of the first eight coils (each with its
+//!   nearest magnet at the start) on `scenarios/soft-wells.toml` ("coils" interaction, gaussian
+//!   wells reaching 30 degrees, t_max 60 s), settled one after the other on one thread (per
+//!   set: the time over 56): the settles a coil-set plan weighs.
 //!
 //! Run: `cargo bench --bench settle` (a group: `cargo bench --bench settle -- growth_pairs`).
 
@@ -241,6 +245,30 @@ fn bench_dipole(c: &mut Criterion) {
     g.finish();
 }
 
+fn bench_coil_sets(c: &mut Criterion) {
+    let sc = load("scenarios/soft-wells.toml");
+    let q0 = start();
+    let mut sets = Vec::new();
+    for a in 0..8 {
+        for b in a + 1..8 {
+            for d in b + 1..8 {
+                sets.push([a, b, d].map(|k| nearest(&sc, k, &q0)));
+            }
+        }
+    }
+    let mut g = c.benchmark_group("coil_sets");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(sets.len() as u64));
+    g.bench_function(BenchmarkId::new("soft-wells", sets.len()), |b| {
+        b.iter(|| {
+            for set in &sets {
+                black_box(settle(&sc.torques, black_box(set), &q0, sc.body, sc.settle));
+            }
+        })
+    });
+    g.finish();
+}
+
 criterion_group!(
     benches,
     bench_settle,
@@ -248,6 +276,7 @@ criterion_group!(
     bench_threads,
     bench_planner_sets,
     bench_planner,
-    bench_dipole
+    bench_dipole,
+    bench_coil_sets
 );
 criterion_main!(benches);

@@ -52,8 +52,9 @@ pub trait TorqueModel: Sync {
 
     /// The same model for the motion from `r0` with `active` on, restricted to the magnets that
     /// can come within reach of an energised coil while the ball stays within [`NEAR_SKIN`] of
-    /// `r0` (and the whole model beyond it): the same torques to the bit, at a fraction of the
-    /// cost where every coil pulls every magnet. `None` where there is nothing to gain.
+    /// `r0` (beyond it, lists built again where the ball went): the same torques to the bit,
+    /// at a fraction of the cost where every coil pulls every magnet. `None` where there is
+    /// nothing to gain.
     fn nearby(&self, _r0: &Matrix3<f64>, _active: &[Pair]) -> Option<NearbyMagnets<'_>> {
         None
     }
@@ -119,7 +120,8 @@ pub struct Linearization {
 pub const MARGIN_CAP: f64 = 0.1;
 
 /// How far (rad, 20 degrees) the ball may turn from where a [`NearbyMagnets`] was built before
-/// it evaluates every magnet again: the settles a planner weighs turn the ball by a few degrees.
+/// its lists are built again (and its cut-off margins go off): the settles a planner weighs
+/// turn the ball by a few degrees.
 pub const NEAR_SKIN: f64 = 0.35;
 
 /// The sides of the pairs' cut-offs between the settle's cut-off events, a bit per pair (set:
@@ -783,9 +785,22 @@ impl TorqueModel for MagnetTorques {
                 }
             }
             Interaction::Coils => {
+                // a magnet beyond the cut-off by more than the margin's cap (a cheap body-frame
+                // test) adds the well's constant energy there, the same bits as its pair's
+                // (its torque is a zero, which leaves the sum as it is: the sum, from +0,
+                // never holds a -0)
+                let (cos_far, u_far) = (
+                    self.well.cos_far,
+                    self.well.potential(self.well.max_attraction.0),
+                );
                 for c in Self::coils(active) {
                     let s = self.stator[c];
+                    let s_body = r.tr_mul(&s);
                     for m in &self.rotor {
+                        if m.dot(&s_body) < cos_far {
+                            u += u_far;
+                            continue;
+                        }
                         let (t, e) = self.pair(&(r * m), &s);
                         tau += t;
                         u += e;
@@ -1133,10 +1148,13 @@ mod tests {
             };
             let near = m.nearby(r0.matrix(), &active).unwrap();
             assert!(near.magnets.len() < 100, "{} of 400", near.magnets.len());
-            // turns of 0 to 19.5 degrees (within the skin) and of 25 and 70 (beyond it)
-            for (k, deg) in [0.0f64, 0.5, 3.0, 8.0, 14.0, 19.5, 25.0, 70.0]
-                .into_iter()
-                .enumerate()
+            // turns of 0 to 19.5 degrees (within the skin) and of 25 to 175 (beyond it: lists
+            // built again at 25, 70, 120 and 175 degrees, the chain full at 150)
+            for (k, deg) in [
+                0.0f64, 0.5, 3.0, 8.0, 14.0, 19.5, 25.0, 70.0, 120.0, 175.0, 150.0,
+            ]
+            .into_iter()
+            .enumerate()
             {
                 let axis = Vector3::new(1.0, k as f64 - 3.0, 0.5 * k as f64).normalize();
                 let r = r0 * nalgebra::Rotation3::from_scaled_axis(axis * deg.to_radians());
@@ -1155,6 +1173,7 @@ mod tests {
                     m.torque_energy(r.matrix(), &active)
                 );
             }
+            assert_eq!(near.rebuilds(), 4);
             // another active set: the whole model
             let other = [Pair::new(1, 0)];
             assert_eq!(
@@ -1173,6 +1192,48 @@ mod tests {
             interaction: Interaction::Pairs,
         };
         assert!(m.nearby(r0.matrix(), &active).is_none());
+    }
+
+    #[test]
+    fn the_coils_energy_passes_over_far_magnets_to_the_bit() {
+        // the whole "coils" sum of every pair, each magnet turned into the world frame
+        let every_pair = |m: &MagnetTorques, r: &Matrix3<f64>, active: &[Pair]| {
+            let (mut tau, mut u) = (Vector3::zeros(), 0.0);
+            for c in MagnetTorques::coils(active) {
+                for p in &m.rotor {
+                    let (t, e) = m.pair(&(r * p), &m.stator[c]);
+                    tau += t;
+                    u += e;
+                }
+            }
+            (tau, u)
+        };
+        let stator = vec![
+            Vector3::new(0.0, 0.0, -1.0),
+            Vector3::new(0.4, 0.1, -1.0).normalize(),
+            Vector3::new(-0.2, 0.5, -1.0).normalize(),
+        ];
+        let active = [Pair::new(0, 3), Pair::new(2, 7), Pair::new(0, 9)];
+        for w in wells() {
+            let m = MagnetTorques {
+                rotor: crate::io::scenario::sphere_axes(150)
+                    .iter()
+                    .map(|a| a.into_inner())
+                    .collect(),
+                stator: stator.clone(),
+                well: w,
+                interaction: Interaction::Coils,
+            };
+            for k in 0..12 {
+                let axis = Vector3::new(1.0, k as f64 - 5.0, 0.3 * k as f64).normalize();
+                let r = nalgebra::Rotation3::from_scaled_axis(axis * (0.4 * k as f64));
+                let (tau, u) = m.torque_energy(r.matrix(), &active);
+                let (tau_all, u_all) = every_pair(&m, r.matrix(), &active);
+                assert_eq!(tau.map(f64::to_bits), tau_all.map(f64::to_bits), "turn {k}");
+                assert_eq!(u.to_bits(), u_all.to_bits(), "turn {k}");
+                assert!(tau.norm() > 0.0 && u < 0.0);
+            }
+        }
     }
 
     #[test]

@@ -9,7 +9,10 @@ use super::*;
 /// While R stays within [`NEAR_SKIN`] of R0 no other magnet can come within reach (the angle
 /// between R m and s changes by at most the angle of R0^T R), so the sums have the same
 /// non-zero terms in the same order as the whole model's: the same torques to the bit. Beyond
-/// the skin, or for another active set, it is the whole model.
+/// the skin the torques (and the linearization) are those of lists built again where the ball
+/// first went beyond it (the same bits again; up to [`MAX_REBUILDS`] times in a chain, then
+/// the whole model's), and the model offers no cut-off margins or events there; for another
+/// active set it is the whole model.
 #[derive(Debug, Clone)]
 pub struct NearbyMagnets<'a> {
     full: &'a MagnetTorques,
@@ -22,10 +25,25 @@ pub struct NearbyMagnets<'a> {
     /// ... and their nearby magnets (body frame): those of coil k at `starts[k]..starts[k + 1]`.
     pub(super) magnets: Vec<Vector3<f64>>,
     pub(super) starts: Vec<usize>,
+    /// A bit for each (coil, magnet) pair of the lists (all of a [`SideMask`] beyond its 128).
+    listed: SideMask,
+    /// The lists built where the ball first went beyond this one's skin (at most
+    /// [`MAX_REBUILDS`] deep): each settle builds its own, so the bits never depend on threads.
+    beyond: std::sync::OnceLock<Box<NearbyMagnets<'a>>>,
+    /// How many lists came before this one in the chain.
+    depth: usize,
 }
+
+/// How many times the lists are built again beyond the skin before the whole model's sums
+/// take over (a settle that turns the ball by more than about 100 degrees).
+const MAX_REBUILDS: usize = 4;
 
 impl<'a> NearbyMagnets<'a> {
     pub(super) fn new(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &[Pair]) -> Self {
+        Self::at_depth(full, r0, active, 0)
+    }
+
+    fn at_depth(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &[Pair], depth: usize) -> Self {
         let cos_list = cos_within(full.well.max_attraction.0 + NEAR_SKIN + MARGIN_CAP);
         let (mut coils, mut magnets, mut starts) = (Vec::new(), Vec::new(), vec![0]);
         for c in MagnetTorques::coils(active) {
@@ -40,19 +58,82 @@ impl<'a> NearbyMagnets<'a> {
             r0: *r0,
             trace_min: 1.0 + 2.0 * NEAR_SKIN.cos(),
             coils,
+            listed: first_bits(magnets.len()),
             magnets,
             starts,
+            beyond: std::sync::OnceLock::new(),
+            depth,
         }
+    }
+
+    /// Lists that hold every magnet in reach at `r` with `active` on: these within their skin,
+    /// else those of the chain built beyond it (built here where missing); `None` for another
+    /// active set or past the chain's end (then the whole model's sums are the same bits).
+    fn lists_at(&self, r: &Matrix3<f64>, active: &[Pair]) -> Option<&Self> {
+        if active != self.active.as_slice() {
+            return None;
+        }
+        let mut lists = self;
+        while !lists.within_skin(r) {
+            if lists.depth >= MAX_REBUILDS {
+                return None;
+            }
+            let depth = lists.depth + 1;
+            lists = lists
+                .beyond
+                .get_or_init(|| Box::new(Self::at_depth(self.full, r, active, depth)));
+        }
+        Some(lists)
+    }
+
+    /// How many lists were built beyond the skin (the chain's length).
+    #[cfg(test)]
+    pub(super) fn rebuilds(&self) -> usize {
+        self.beyond.get().map_or(0, |next| 1 + next.rebuilds())
+    }
+
+    /// Whether `r` is within the skin of the orientation the lists were built at.
+    #[inline]
+    fn within_skin(&self, r: &Matrix3<f64>) -> bool {
+        self.r0.component_mul(r).sum() >= self.trace_min
+    }
+
+    /// The sum of the listed pairs' torques at `r` (within the skin: the whole model's).
+    fn listed_torque(&self, r: &Matrix3<f64>) -> Vector3<f64> {
+        let cos_cutoff = self.full.well.cos_cutoff;
+        let mut tau = Vector3::zeros();
+        for k in 0..self.coils.len() {
+            let (s, magnets) = self.coil(k, r);
+            for m in magnets {
+                tau += self.full.well.pair_torque(m, &s, cos_cutoff);
+            }
+        }
+        tau
+    }
+
+    /// The listed pairs' linearization at `r` (within the skin: the whole model's).
+    fn listed_linearization(&self, r: &Matrix3<f64>) -> Option<Linearization> {
+        let mut lin = MagnetTorques::no_linearization();
+        let cos_far = self.full.well.cos_far;
+        for k in 0..self.coils.len() {
+            let (s, magnets) = self.coil(k, r);
+            // a magnet beyond the margin's cap adds nothing (the same test as the call's)
+            for m in magnets.iter().filter(|m| m.dot(&s) >= cos_far) {
+                self.full.pair_linearization(m, &s, cos_far, &mut lin)?;
+            }
+        }
+        Some(lin)
     }
 
     /// Whether the lists hold every magnet in reach at `r` with `active` on (and every magnet
     /// within the margin's cap beyond it).
     #[inline]
     fn covers(&self, r: &Matrix3<f64>, active: &[Pair]) -> bool {
-        self.r0.component_mul(r).sum() >= self.trace_min && active == self.active.as_slice()
+        self.within_skin(r) && active == self.active.as_slice()
     }
 
     /// Coil k's body-frame axis at `r` and its nearby magnets.
+    #[inline]
     fn coil(&self, k: usize, r: &Matrix3<f64>) -> (Vector3<f64>, &[Vector3<f64>]) {
         (
             r.tr_mul(&self.coils[k]),
@@ -72,33 +153,17 @@ impl TorqueModel for NearbyMagnets<'_> {
     }
 
     fn body_torque(&self, r: &Matrix3<f64>, active: &[Pair]) -> Vector3<f64> {
-        if !self.covers(r, active) {
-            return self.full.body_torque(r, active);
+        match self.lists_at(r, active) {
+            Some(lists) => lists.listed_torque(r),
+            None => self.full.body_torque(r, active),
         }
-        let cos_cutoff = self.full.well.cos_cutoff;
-        let mut tau = Vector3::zeros();
-        for k in 0..self.coils.len() {
-            let (s, magnets) = self.coil(k, r);
-            for m in magnets {
-                tau += self.full.well.pair_torque(m, &s, cos_cutoff);
-            }
-        }
-        tau
     }
 
     fn linearize(&self, r: &Matrix3<f64>, active: &[Pair]) -> Option<Linearization> {
-        if !self.covers(r, active) {
-            return self.full.linearize(r, active);
+        match self.lists_at(r, active) {
+            Some(lists) => lists.listed_linearization(r),
+            None => self.full.linearize(r, active),
         }
-        let mut lin = MagnetTorques::no_linearization();
-        let cos_far = self.full.well.cos_far;
-        for k in 0..self.coils.len() {
-            let (s, magnets) = self.coil(k, r);
-            for m in magnets {
-                self.full.pair_linearization(m, &s, cos_far, &mut lin)?;
-            }
-        }
-        Some(lin)
     }
 
     fn stiffness_scale(&self) -> Option<f64> {
@@ -116,20 +181,31 @@ impl TorqueModel for NearbyMagnets<'_> {
 
     /// Each energised coil pulling only the nearby magnets whose bit (their index in the lists)
     /// is set in `within`, by the well's formula continued beyond the cut-off; beyond the skin
-    /// (where the lists may miss a magnet in reach) the whole model's torque.
+    /// (where the lists may miss a magnet in reach) [`TorqueModel::body_torque`], the whole
+    /// model's bits.
     fn body_torque_within(&self, q: &[f64; 4], active: &[Pair], within: SideMask) -> Vector3<f64> {
         let r = rotation_matrix(q[0], q[1], q[2], q[3]);
         if !self.covers(&r, active) {
-            return self.full.body_torque(&r, active);
+            return self.body_torque(&r, active);
         }
-        let mut tau = Vector3::zeros();
-        for k in 0..self.coils.len() {
-            let s = r.tr_mul(&self.coils[k]);
-            for i in self.starts[k]..self.starts[k + 1] {
-                if within >> i & 1 == 1 {
-                    tau += self.full.well.pair_torque_continued(&self.magnets[i], &s);
+        // the set bits in ascending order are the (coil, magnet) pairs in the sum's order: coil
+        // by coil, each coil's magnets in the lists' order; a coil is turned into the body
+        // frame when its first pair held within reach comes
+        let mut bits = within & self.listed;
+        let (mut tau, mut s) = (Vector3::zeros(), Vector3::zeros());
+        let (mut next, mut end) = (0, 0);
+        while bits != 0 {
+            let i = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            if i >= end {
+                while self.starts[next + 1] <= i {
+                    next += 1;
                 }
+                s = r.tr_mul(&self.coils[next]);
+                end = self.starts[next + 1];
+                next += 1;
             }
+            tau += self.full.well.pair_torque_continued(&self.magnets[i], &s);
         }
         tau
     }
@@ -155,5 +231,14 @@ impl TorqueModel for NearbyMagnets<'_> {
             );
         }
         true
+    }
+}
+
+/// A mask of the first `n` bits (all of them from [`SideMask::BITS`] on).
+fn first_bits(n: usize) -> SideMask {
+    match n {
+        0 => 0,
+        n if n >= SideMask::BITS as usize => SideMask::MAX,
+        n => SideMask::MAX >> (SideMask::BITS as usize - n),
     }
 }
