@@ -51,7 +51,14 @@ fn outputs(out: &Path) -> BTreeMap<String, Vec<u8>> {
     let mut m = BTreeMap::new();
     for p in common::files_below(out) {
         let rel = p.strip_prefix(out).unwrap().to_string_lossy().into_owned();
-        let ours = ["front.csv", "history.csv", "front.svg", "front.png"];
+        let ours = [
+            "front.csv",
+            "history.csv",
+            "front.svg",
+            "front.png",
+            "best-layouts.svg",
+            "best-layouts.png",
+        ];
         if ours.contains(&rel.as_str()) || rel.starts_with("layouts") {
             m.insert(rel, std::fs::read(&p).unwrap());
         }
@@ -121,7 +128,13 @@ fn a_design_run_is_the_same_bytes_on_1_and_2_threads_from_shards_and_resumed() {
         .any(|p| p.to_string_lossy().contains(".shard-1-of-2")));
     assert_eq!(outputs(&c), want);
     // a run cut short: the last generation's results gone, the outputs not written yet
-    for gone in ["front.csv", "history.csv", "front.svg", "front.png"] {
+    for gone in [
+        "front.csv",
+        "history.csv",
+        "front.svg",
+        "front.png",
+        "best-layouts.svg",
+    ] {
         std::fs::remove_file(a.join(gone)).unwrap();
     }
     std::fs::remove_dir_all(a.join("gen-001")).unwrap();
@@ -170,6 +183,49 @@ fn the_fronts_layouts_load_and_plan_as_the_front_says() {
         t.path().join("p.csv").to_str().unwrap(),
     ]);
     assert_eq!(code, 0, "{err}");
+    best_layouts_show_the_scenario_and_the_fronts_best(&out, &r.front);
+}
+
+/// `best-layouts.svg`: the scenario's layout, then the front's best three by worst axis error
+/// (the scenario's own left out), each with its coils ('+': two strokes) and 80 magnets (dots).
+fn best_layouts_show_the_scenario_and_the_fronts_best(
+    out: &Path,
+    front: &[(String, spherestep::planning::design::objectives::Objectives)],
+) {
+    let own = spherestep::model::packing::prototype_stator();
+    let is_own = |sc: &Scenario| {
+        sc.stator.len() == own.points.len()
+            && sc
+                .stator
+                .points
+                .iter()
+                .zip(&own.points)
+                .all(|(p, q)| (p.into_inner() - q.into_inner()).norm() < 1e-9)
+    };
+    let mut best: Vec<(f64, String, usize)> = front
+        .iter()
+        .filter_map(|(id, o)| {
+            let sc = Scenario::load(&out.join(format!("layouts/{id}.toml"))).unwrap();
+            (!is_own(&sc)).then(|| (o.worst_axis_error_deg, id.clone(), sc.stator.len()))
+        })
+        .collect();
+    best.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    best.truncate(3);
+    let svg = std::fs::read_to_string(out.join("best-layouts.svg")).unwrap();
+    assert!(out.join("best-layouts.png").is_file());
+    let coils: usize = own.points.len() + best.iter().map(|b| b.2).sum::<usize>();
+    let strokes = svg
+        .split("<polyline")
+        .skip(1)
+        .filter(|p| p.contains("stroke=\"#1F77B4\"") && p.contains("stroke-width=\"2\""))
+        .count();
+    assert_eq!(strokes, 2 * coils, "two strokes a coil");
+    assert_eq!(
+        svg.matches("<circle ").count(),
+        80 * (1 + best.len()),
+        "80 magnets a panel"
+    );
+    assert!(best.iter().all(|b| svg.contains(&b.1)), "{best:?}");
 }
 
 fn refused(extra: &str) -> String {
