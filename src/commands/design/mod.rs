@@ -143,7 +143,8 @@ fn history_row(g: usize, report: &DesignReport, ranked: &Ranked, front: usize) -
 
 impl Run<'_> {
     /// Generation `g`: its layouts planned about the coarse axes, the survivors of them and
-    /// `parents`, and the first front's newcomers planned about the full axes (into `full`).
+    /// `parents` (a parent planned about the full axes ranked on its full objectives), and the
+    /// first front's newcomers planned about the full axes (into `full`).
     /// `None` when a sharded stage waits for its other parts.
     fn generation(
         &mut self,
@@ -165,7 +166,13 @@ impl Run<'_> {
             return Ok(None);
         };
         self.report.evaluations += layouts.len();
-        let mut pool = parents.map(|p| p.members).unwrap_or_default();
+        // a parent planned about the full axes competes on those (steadier) objectives
+        let mut pool: Vec<Member> = parents.map(|p| p.members).unwrap_or_default();
+        for m in &mut pool {
+            if let Some((_, o)) = full.get(&m.id) {
+                m.objectives = o.values().to_vec();
+            }
+        }
         pool.extend(
             layouts
                 .iter()
@@ -304,10 +311,11 @@ impl Run<'_> {
         for &k in &front {
             let (id, (l, o)) = entries[k];
             let what = format!(
-                "design layout {id} ({} family): worst axis error {:.2} deg, median steps {} \
-                 on the design's {} full axes",
+                "design layout {id} ({} family): axis error worst {:.2} deg, mean of the worst \
+                 quarter {:.2} deg, median steps {} on the design's {} full axes",
                 l.family.name(),
                 o.worst_axis_error_deg,
+                o.tail_axis_error_deg,
                 o.median_steps,
                 axes.len()
             );

@@ -1,5 +1,5 @@
-//! The design run's pictures: every fully planned layout's worst axis error against its
-//! median steps (`DIR/front.svg`, `.png`), and the scenario's own layout beside the front's
+//! The design run's pictures: every fully planned layout's mean of the worst quarter of its
+//! axis errors against its median steps (`DIR/front.svg`, `.png`), and the scenario's own layout beside the front's
 //! best in 3-D (`DIR/best-layouts.svg`, `.png`).
 
 use crate::figures::{DesignFront, DesignLayouts, FrontPoint, LayoutPanel, MAX_PANELS};
@@ -17,7 +17,7 @@ pub(super) fn front_picture(entries: &[Entry], front: &[usize]) -> DesignFront {
         .enumerate()
         .map(|(k, (id, (l, o)))| FrontPoint {
             name: id.to_string(),
-            worst_axis_error_deg: o.worst_axis_error_deg,
+            tail_axis_error_deg: o.tail_axis_error_deg,
             median_steps: o.median_steps,
             coils: l.stator.len(),
             on_front: front.contains(&k),
@@ -42,35 +42,37 @@ fn same_points(a: &[UnitVec], b: &[UnitVec]) -> bool {
 }
 
 /// What a layout scored on the full axes, as a panel's caption.
-fn caption(l: &Layout, o: &Objectives) -> String {
+fn caption(o: &Objectives) -> String {
     format!(
-        "{} coils, {} magnets; axis error worst {:.2}, median {:.2} deg; median steps {}",
-        l.stator.len(),
-        l.rotor.len(),
-        o.worst_axis_error_deg,
-        o.median_axis_error_deg,
-        o.median_steps
+        "axis error worst {:.2}, worst quarter {:.2}, median {:.2} deg; median steps {}",
+        o.worst_axis_error_deg, o.tail_axis_error_deg, o.median_axis_error_deg, o.median_steps
     )
 }
 
+/// A panel's first line: the layout's name, family and counts.
+fn heading(what: &str, l_coils: usize, l_magnets: usize) -> String {
+    format!("{what}: {l_coils} coils, {l_magnets} magnets")
+}
+
 /// The scenario's own layout (with its full objectives when a fully planned layout is it),
-/// then the front's best by worst axis error (`DIR/best-layouts.svg`, `.png`).
+/// then the front's best by the mean of the worst quarter of their axis errors
+/// (`DIR/best-layouts.svg`, `.png`).
 pub(super) fn best_picture(entries: &[Entry], front: &[usize], own: Own) -> DesignLayouts {
     let is_own =
         |l: &Layout| same_points(&l.stator, own.stator) && same_points(&l.rotor, own.rotor);
     let mine = entries.iter().find(|(_, (l, _))| is_own(l));
     let first = LayoutPanel {
         name: match mine {
-            Some((id, _)) => format!("the scenario's layout ({id})"),
-            None => "the scenario's layout".into(),
+            Some((id, _)) => heading(
+                &format!("the scenario's ({id})"),
+                own.stator.len(),
+                own.rotor.len(),
+            ),
+            None => heading("the scenario's", own.stator.len(), own.rotor.len()),
         },
         caption: match mine {
-            Some((_, (l, o))) => caption(l, o),
-            None => format!(
-                "{} coils, {} magnets; not planned about the full axes",
-                own.stator.len(),
-                own.rotor.len()
-            ),
+            Some((_, (_, o))) => caption(o),
+            None => "not planned about the full axes".into(),
         },
         coils: own.stator.iter().map(v3).collect(),
         magnets: own.rotor.iter().map(v3).collect(),
@@ -81,8 +83,8 @@ pub(super) fn best_picture(entries: &[Entry], front: &[usize], own: Own) -> Desi
         .filter(|(_, (l, _))| !is_own(l))
         .collect();
     best.sort_by(|(a, (_, oa)), (b, (_, ob))| {
-        oa.worst_axis_error_deg
-            .total_cmp(&ob.worst_axis_error_deg)
+        oa.tail_axis_error_deg
+            .total_cmp(&ob.tail_axis_error_deg)
             .then(a.cmp(b))
     });
     let panels = std::iter::once(first)
@@ -90,16 +92,20 @@ pub(super) fn best_picture(entries: &[Entry], front: &[usize], own: Own) -> Desi
             best.iter()
                 .take(MAX_PANELS - 1)
                 .map(|(id, (l, o))| LayoutPanel {
-                    name: format!("{id} ({} family)", l.family.name()),
-                    caption: caption(l, o),
+                    name: heading(
+                        &format!("{id} ({})", l.family.name()),
+                        l.stator.len(),
+                        l.rotor.len(),
+                    ),
+                    caption: caption(o),
                     coils: l.stator.iter().map(v3).collect(),
                     magnets: l.rotor.iter().map(v3).collect(),
                 }),
         )
         .collect();
     DesignLayouts {
-        title: "design: the scenario's layout and the front's best by worst axis error \
-                (+ coil, dot magnet, faded: far side)"
+        title: "design: the scenario's layout and the front's best by the worst quarter's \
+                axis error (+ coil, dot magnet, faded: far side)"
             .into(),
         panels,
     }
