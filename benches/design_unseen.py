@@ -61,6 +61,18 @@ def relocated(line, name, here):
     return line
 
 
+def coil_count(scenario):
+    """The coils of a scenario: its `[stator] points`, or the rows of its `[stator] file`."""
+    with open(scenario, "rb") as t:
+        stator = tomllib.load(t).get("stator", {})
+    if "points" in stator:
+        return len(stator["points"])
+    if "file" in stator:
+        with open(stator["file"], newline="") as f:
+            return sum(1 for r in csv.reader(f) if r and r[0][:1] in "-.0123456789")
+    return "?"
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("layouts", nargs="+")
@@ -99,8 +111,7 @@ def main():
     for name, f in files:
         rs = rows(os.path.join(res, f"unseen-{name}.shard-0-of-{a.every}.csv"))
         assert [r["case"] for r in rs] == [r["case"] for r in proto], name
-        with open(f, "rb") as t:
-            coils = len(tomllib.load(t)["stator"]["points"])
+        coils = coil_count(f)
         line(name, coils, stats(rs, proto))
 
 
