@@ -104,9 +104,7 @@ pub(super) fn best_picture(entries: &[Entry], front: &[usize], own: Own) -> Desi
         )
         .collect();
     DesignLayouts {
-        title: "design: the scenario's layout and the front's best by the worst quarter's \
-                axis error (+ coil, dot magnet, faded: far side)"
-            .into(),
+        title: "design: the best layouts (+ coil, dot magnet; faded: far side)".into(),
         panels,
     }
 }
