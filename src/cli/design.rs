@@ -66,10 +66,11 @@ impl Args {
         for (id, o) in &report.front {
             writeln!(
                 out,
-                "  {id}: {} coils, worst axis error {:.2} deg, median {:.2} deg, worst final \
-                 error {:.2} deg, median steps {}, worst steps {}",
+                "  {id}: {} coils, axis error worst {:.2} deg, worst quarter {:.2} deg, median \
+                 {:.2} deg, worst final error {:.2} deg, median steps {}, worst steps {}",
                 o.coils,
                 o.worst_axis_error_deg,
+                o.tail_axis_error_deg,
                 o.median_axis_error_deg,
                 o.worst_final_error_deg,
                 o.median_steps,

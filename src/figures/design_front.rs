@@ -1,5 +1,6 @@
 //! The design search's front as a picture (`spherestep design`: `DIR/front.svg` and `.png`):
-//! every fully planned layout's worst axis error against its median steps, the front's
+//! every fully planned layout's mean of the worst quarter of its axis errors (what the search
+//! ranks on) against its median steps, the front's
 //! layouts marked and named, each coloured by its coil count.
 
 use crate::figures::chart::{axes, draw_legend, titled};
@@ -15,8 +16,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 pub struct FrontPoint {
     /// Its name (`g003-017`).
     pub name: String,
-    /// Its worst axis error over the full axes, degrees.
-    pub worst_axis_error_deg: f64,
+    /// The mean of the worst quarter of its axis errors over the full axes, degrees.
+    pub tail_axis_error_deg: f64,
     /// Its median steps.
     pub median_steps: f64,
     /// Its coils.
@@ -40,7 +41,7 @@ impl DesignFront {
             return Err(DrawError("no layout to draw".into()));
         }
         let finite =
-            |p: &FrontPoint| p.worst_axis_error_deg.is_finite() && p.median_steps.is_finite();
+            |p: &FrontPoint| p.tail_axis_error_deg.is_finite() && p.median_steps.is_finite();
         if !self.points.iter().all(finite) {
             return Err(DrawError("a layout's objectives are not finite".into()));
         }
@@ -67,7 +68,7 @@ impl Figure for DesignFront {
         let x1 = self
             .points
             .iter()
-            .map(|p| p.worst_axis_error_deg)
+            .map(|p| p.tail_axis_error_deg)
             .fold(0.0, f64::max)
             * 1.15
             + 0.1;
@@ -83,12 +84,16 @@ impl Figure for DesignFront {
             .y_label_area_size(70)
             .build_cartesian_2d(0.0..x1, 0.0..y1)?;
         let (xd, yd) = (tick_decimals(x1), tick_decimals(y1));
-        axes(&mut chart, "worst axis error (deg)", "median steps")
-            .x_label_formatter(&|v| tick(*v, xd))
-            .y_label_formatter(&|v| tick(*v, yd))
-            .light_line_style(RGBColor(238, 238, 238))
-            .bold_line_style(RGBColor(215, 215, 215))
-            .draw()?;
+        axes(
+            &mut chart,
+            "axis error, mean of the worst quarter of the axes (deg)",
+            "median steps",
+        )
+        .x_label_formatter(&|v| tick(*v, xd))
+        .y_label_formatter(&|v| tick(*v, yd))
+        .light_line_style(RGBColor(238, 238, 238))
+        .bold_line_style(RGBColor(215, 215, 215))
+        .draw()?;
         for (k, coils) in self.counts().into_iter().enumerate() {
             let color = SERIES_COLORS[k % SERIES_COLORS.len()];
             let mine: Vec<&FrontPoint> = self.points.iter().filter(|p| p.coils == coils).collect();
@@ -98,14 +103,14 @@ impl Figure for DesignFront {
                         true => color.filled(),
                         false => color.stroke_width(1),
                     };
-                    Circle::new((p.worst_axis_error_deg, p.median_steps), 5, style)
+                    Circle::new((p.tail_axis_error_deg, p.median_steps), 5, style)
                 }))?
                 .label(format!("{coils} coils"))
                 .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
             chart.draw_series(mine.iter().filter(|p| p.on_front).map(|p| {
                 Text::new(
                     p.name.clone(),
-                    (p.worst_axis_error_deg, p.median_steps),
+                    (p.tail_axis_error_deg, p.median_steps),
                     text(12).pos(Pos::new(HPos::Left, VPos::Bottom)),
                 )
             }))?;

@@ -25,8 +25,10 @@
 //! - [`batch_pictures`]: the pictures and page `batch --plots` draws for each result;
 //! - [`WellPlot`] (`well_plot.rs`): `spherestep wells`, the torque on one magnet passing one coil
 //!   against the angle, with the well's cut-off;
-//! - [`DesignFront`] (`design_front.rs`): `spherestep design`, every fully planned layout's worst
-//!   axis error against its median steps, the front's layouts named, coloured by coil count.
+//! - [`DesignFront`] (`design_front.rs`): `spherestep design`, every fully planned layout's mean
+//!   of the worst quarter of its axis errors against its median steps, the front's layouts named, coloured by coil count;
+//! - [`DesignLayouts`] (`design_layouts.rs`): `spherestep design`, the best layouts' coils and
+//!   magnets on the sphere, a panel each, under Figure 6's projection.
 //!
 //! Shared by the figures: `figure.rs` (the [`Figure`] trait, writing SVG and PNG atomically),
 //! `style.rs` (font, colours, series styles: [`series_style`], marks, ticks), `chart.rs` (title,
@@ -45,6 +47,7 @@ pub mod batch_pictures;
 mod chart;
 mod commutation_plot;
 mod design_front;
+mod design_layouts;
 mod figure;
 mod labels;
 mod loop_plot;
@@ -60,6 +63,7 @@ mod well_plot;
 pub use axis_error::{plan_series, AxisErrorPlot, ErrorSeries, ReferenceLine};
 pub use commutation_plot::CommutationPlot;
 pub use design_front::{DesignFront, FrontPoint};
+pub use design_layouts::{DesignLayouts, LayoutPanel, MAX_PANELS};
 pub use figure::{render_svg, write_figure, DrawError, Figure};
 pub use labels::{label_size, place_labels};
 pub use loop_plot::LoopPlot;

@@ -37,18 +37,18 @@ pub struct View3d {
 }
 
 /// The 3-D chart of Figure 6.
-type Chart3d<'a, DB> =
+pub(super) type Chart3d<'a, DB> =
     ChartContext<'a, DB, Cartesian3d<RangedCoordf64, RangedCoordf64, RangedCoordf64>>;
 /// A point in the chart's coordinates (see [`to_chart`]).
-type ChartPoint = (f64, f64, f64);
+pub(super) type ChartPoint = (f64, f64, f64);
 
 /// World (x, y, z) to the 3-D chart's (x, y, z): plotters draws its y axis upwards and its frame
 /// is right-handed, so world z goes to the chart's y and world y to the chart's -z.
-fn to_chart(p: [f64; 3]) -> ChartPoint {
+pub(super) fn to_chart(p: [f64; 3]) -> ChartPoint {
     (p[0], p[2], -p[1])
 }
 
-fn scaled(p: [f64; 3], s: f64) -> [f64; 3] {
+pub(super) fn scaled(p: [f64; 3], s: f64) -> [f64; 3] {
     [p[0] * s, p[1] * s, p[2] * s]
 }
 
@@ -56,7 +56,7 @@ fn scaled(p: [f64; 3], s: f64) -> [f64; 3] {
 /// bottom), turned about the vertical.
 const VIEW_YAW: f64 = 0.6;
 const VIEW_PITCH: f64 = -0.5;
-const COIL_RADIUS: f64 = 1.1;
+pub(super) const COIL_RADIUS: f64 = 1.1;
 const AXIS_LENGTH: f64 = 1.45;
 const WORLD_AXIS_LENGTH: f64 = 1.3;
 
@@ -192,7 +192,7 @@ const WORLD_AXES: [(&str, [f64; 3]); 3] = [
 ];
 
 /// The chart on `area`, under the fixed projection of Figure 6.
-fn projected_chart<DB: DrawingBackend>(
+pub(super) fn projected_chart<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
 ) -> Result<Chart3d<'_, DB>, DrawError> {
     let lim = 1.6;
@@ -207,7 +207,7 @@ fn projected_chart<DB: DrawingBackend>(
 }
 
 /// The ball: latitude circles and meridians.
-fn draw_guides<'a, DB: DrawingBackend + 'a>(chart: &mut Chart3d<'a, DB>) -> DrawResult {
+pub(super) fn draw_guides<'a, DB: DrawingBackend + 'a>(chart: &mut Chart3d<'a, DB>) -> DrawResult {
     let circle = |f: &dyn Fn(f64) -> [f64; 3]| -> Vec<ChartPoint> {
         (0..=96)
             .map(|k| to_chart(f(k as f64 * std::f64::consts::TAU / 96.0)))

@@ -116,17 +116,19 @@ pub(super) struct FrontRow<'a> {
     pub(super) scenario: String,
 }
 
-/// `front.csv`: one row per non-dominated layout.
+/// `front.csv`: one row per non-dominated layout: its name, family, counts, worst axis error
+/// and the objectives but the coil count, and its scenario.
 pub(super) fn front_csv(rows: &[FrontRow]) -> String {
-    // the coil count is a column of its own already
+    // the worst axis error (reported) first, then the objectives but the coil count, which is
+    // the `coils` column already
     let mut s = format!(
-        "layout,family,coils,magnets,{},scenario\n",
+        "layout,family,coils,magnets,worst_axis_error_deg,{},scenario\n",
         NAMES[..5].join(",")
     );
     for r in rows {
-        // the first five: the coil count is the `coils` column already
-        let values: Vec<String> = r.objectives.values()[..5]
-            .iter()
+        let o = &r.objectives;
+        let values: Vec<String> = std::iter::once(o.worst_axis_error_deg)
+            .chain(o.values()[..5].iter().copied())
             .map(|v| v.to_string())
             .collect();
         s.push_str(&format!(

@@ -8,10 +8,12 @@
 //! resumes (`--resume` replays the seeded evolution, taking each finished stage's results),
 //! and the bytes are the same on any thread count. At the end: `DIR/front.csv` (the layouts
 //! no other fully planned layout dominates), `DIR/layouts/*.toml` (their complete scenarios)
-//! `DIR/history.csv` (per generation: evaluations and the best objectives) and `DIR/front.svg`
-//! and `.png` (every fully planned layout's worst axis error against its median steps).
+//! `DIR/history.csv` (per generation: evaluations and the best objectives), `DIR/front.svg`
+//! and `.png` (every fully planned layout's worst axis error against its median steps) and
+//! `DIR/best-layouts.svg` and `.png` (the scenario's layout and the front's best in 3-D).
 
 mod files;
+mod pictures;
 
 use crate::commands::batch::{run_batch, BatchOptions, Shard};
 use crate::error::{Error, Result};
@@ -114,30 +116,8 @@ pub fn run_design(spec_file: &Path, opts: &DesignOptions) -> Result<DesignReport
         run.report.generations = g + 1;
     }
     write_atomic(&opts.out.join("history.csv"), history.as_bytes())?;
-    run.write_front(&full)?;
+    run.write_front(&full, own)?;
     Ok(run.report)
-}
-
-/// The picture of every fully planned layout, the front's marked (`DIR/front.svg`, `.png`).
-fn front_picture(
-    entries: &[(&String, &(Layout, Objectives))],
-    front: &[usize],
-) -> crate::figures::DesignFront {
-    let points = entries
-        .iter()
-        .enumerate()
-        .map(|(k, (id, (l, o)))| crate::figures::FrontPoint {
-            name: id.to_string(),
-            worst_axis_error_deg: o.worst_axis_error_deg,
-            median_steps: o.median_steps,
-            coils: l.stator.len(),
-            on_front: front.contains(&k),
-        })
-        .collect();
-    crate::figures::DesignFront {
-        title: "design: every fully planned layout (filled: the front)".into(),
-        points,
-    }
 }
 
 /// `history.csv`'s row of generation `g`: evaluations so far, the front's size and the
@@ -163,7 +143,8 @@ fn history_row(g: usize, report: &DesignReport, ranked: &Ranked, front: usize) -
 
 impl Run<'_> {
     /// Generation `g`: its layouts planned about the coarse axes, the survivors of them and
-    /// `parents`, and the first front's newcomers planned about the full axes (into `full`).
+    /// `parents` (a parent planned about the full axes ranked on its full objectives), and the
+    /// first front's newcomers planned about the full axes (into `full`).
     /// `None` when a sharded stage waits for its other parts.
     fn generation(
         &mut self,
@@ -185,7 +166,13 @@ impl Run<'_> {
             return Ok(None);
         };
         self.report.evaluations += layouts.len();
-        let mut pool = parents.map(|p| p.members).unwrap_or_default();
+        // a parent planned about the full axes competes on those (steadier) objectives
+        let mut pool: Vec<Member> = parents.map(|p| p.members).unwrap_or_default();
+        for m in &mut pool {
+            if let Some((_, o)) = full.get(&m.id) {
+                m.objectives = o.values().to_vec();
+            }
+        }
         pool.extend(
             layouts
                 .iter()
@@ -308,8 +295,12 @@ impl Run<'_> {
 
     /// `front.csv` and `layouts/*.toml`: the fully planned layouts no other dominates (the
     /// scenarios of earlier fronts in `layouts/` removed).
-    fn write_front(&mut self, full: &BTreeMap<String, (Layout, Objectives)>) -> Result<()> {
-        let entries: Vec<(&String, &(Layout, Objectives))> = full.iter().collect();
+    fn write_front(
+        &mut self,
+        full: &BTreeMap<String, (Layout, Objectives)>,
+        own: Own,
+    ) -> Result<()> {
+        let entries: Vec<pictures::Entry> = full.iter().collect();
         let objs: Vec<Objectives> = entries.iter().map(|(_, (_, o))| *o).collect();
         let front: Vec<usize> = non_dominated(&objs);
         let dir = self.opts.out.join("layouts");
@@ -320,10 +311,11 @@ impl Run<'_> {
         for &k in &front {
             let (id, (l, o)) = entries[k];
             let what = format!(
-                "design layout {id} ({} family): worst axis error {:.2} deg, median steps {} \
-                 on the design's {} full axes",
+                "design layout {id} ({} family): axis error worst {:.2} deg, mean of the worst \
+                 quarter {:.2} deg, median steps {} on the design's {} full axes",
                 l.family.name(),
                 o.worst_axis_error_deg,
+                o.tail_axis_error_deg,
                 o.median_steps,
                 axes.len()
             );
@@ -354,9 +346,11 @@ impl Run<'_> {
             files::front_csv(&rows).as_bytes(),
         )?;
         if !entries.is_empty() {
-            let picture = front_picture(&entries, &front);
+            let picture = pictures::front_picture(&entries, &front);
             crate::figures::write_figure(&picture, &self.opts.out.join("front"))?;
         }
+        let best = pictures::best_picture(&entries, &front, own);
+        crate::figures::write_figure(&best, &self.opts.out.join("best-layouts"))?;
         Ok(())
     }
 }

@@ -1,7 +1,9 @@
-//! What a layout is judged by, from its plans about the design's axes: the worst and the
-//! median axis error, the worst final orientation error, the median and the worst steps, and
-//! the coil count, all to be made smaller. A layout that breaks the separations is not
-//! planned: its objectives are [`PENALTY`] plus its shortfall, worse than any planned one.
+//! What a layout is judged by, from its plans about the design's axes: the mean of the worst
+//! quarter of the axis errors (a tail that does not hang on one axis, unlike the worst, which
+//! is reported beside it), the median axis error, the worst final orientation error, the
+//! median and the worst steps, and the coil count, all to be made smaller. A layout that
+//! breaks the separations is not planned: its objectives are [`PENALTY`] plus its shortfall,
+//! worse than any planned one.
 
 /// One axis's plan, as a sweep's row reports it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -14,11 +16,14 @@ pub struct AxisResult {
     pub final_error_deg: f64,
 }
 
-/// The objectives of a layout (every one smaller is better).
+/// The objectives of a layout (every one smaller is better) and its worst axis error.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Objectives {
-    /// The worst axis error over the axes, degrees.
+    /// The worst axis error over the axes, degrees: reported, not optimised (one unlucky axis
+    /// moves it; [`Objectives::tail_axis_error_deg`] is what the search ranks on).
     pub worst_axis_error_deg: f64,
+    /// The mean of the worst quarter of the axis errors ([`tail_mean`]), degrees.
+    pub tail_axis_error_deg: f64,
     /// The median axis error, degrees.
     pub median_axis_error_deg: f64,
     /// The worst final orientation error, degrees.
@@ -31,9 +36,10 @@ pub struct Objectives {
     pub coils: f64,
 }
 
-/// The objectives' names, as `front.csv` heads their columns.
+/// The objectives' names, in the order of [`Objectives::values`], as `front.csv` and
+/// `history.csv` head their columns.
 pub const NAMES: [&str; 6] = [
-    "worst_axis_error_deg",
+    "tail_axis_error_deg",
     "median_axis_error_deg",
     "worst_final_error_deg",
     "median_steps",
@@ -55,6 +61,19 @@ pub fn median(v: &[f64]) -> f64 {
     }
 }
 
+/// The mean of the worst quarter of `v` (its largest `ceil(len / 4)` values; 0 when empty):
+/// the conditional value at risk at 75%, a tail statistic that one axis moves by at most a
+/// quarter as much as it moves the worst.
+pub fn tail_mean(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(|a, b| b.total_cmp(a));
+    let k = s.len().div_ceil(4);
+    match k {
+        0 => 0.0,
+        _ => s[..k].iter().sum::<f64>() / k as f64,
+    }
+}
+
 impl Objectives {
     /// The objectives of a layout of `coils` coils from its plans' results.
     pub fn from_axes(results: &[AxisResult], coils: usize) -> Objectives {
@@ -63,6 +82,7 @@ impl Objectives {
         let worst = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
         Objectives {
             worst_axis_error_deg: worst(&errors),
+            tail_axis_error_deg: tail_mean(&errors),
             median_axis_error_deg: median(&errors),
             worst_final_error_deg: worst(
                 &results
@@ -81,6 +101,7 @@ impl Objectives {
         let p = PENALTY + violation_deg;
         Objectives {
             worst_axis_error_deg: p,
+            tail_axis_error_deg: p,
             median_axis_error_deg: p,
             worst_final_error_deg: p,
             median_steps: p,
@@ -89,10 +110,11 @@ impl Objectives {
         }
     }
 
-    /// In the order of [`NAMES`].
+    /// The objectives the search ranks on, in the order of [`NAMES`] (the worst axis error
+    /// is not among them).
     pub fn values(&self) -> [f64; 6] {
         [
-            self.worst_axis_error_deg,
+            self.tail_axis_error_deg,
             self.median_axis_error_deg,
             self.worst_final_error_deg,
             self.median_steps,
@@ -120,7 +142,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn objectives_are_the_worst_and_medians_of_the_axes() {
+    fn objectives_are_the_tails_worsts_and_medians_of_the_axes() {
         let r = |e: f64, s: usize, f: f64| AxisResult {
             axis_error_deg: e,
             steps: s,
@@ -135,7 +157,16 @@ mod tests {
             ],
             16,
         );
+        // the worst quarter of four axes is the worst one
         assert_eq!(o.values(), [8.0, 3.5, 0.9, 8.5, 12.0, 16.0]);
+        assert_eq!(o.worst_axis_error_deg, 8.0);
+        assert_eq!(tail_mean(&[1.0, 9.0, 2.0, 3.0, 7.0, 4.0, 5.0, 6.0]), 8.0);
+        assert_eq!(
+            tail_mean(&[1.0, 9.0, 2.0, 3.0, 7.0]),
+            8.0,
+            "ceil(5 / 4) = 2"
+        );
+        assert_eq!(tail_mean(&[]), 0.0);
         let p = Objectives::penalised(2.0, 12);
         assert!(o.dominates(&Objectives { coils: 17.0, ..o }));
         assert!(!o.dominates(&o));
