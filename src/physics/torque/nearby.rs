@@ -10,7 +10,7 @@ use super::*;
 /// between R m and s changes by at most the angle of R0^T R), so the sums have the same
 /// non-zero terms in the same order as the whole model's: the same torques to the bit. Beyond
 /// the skin the torques (and the linearization) are those of lists built again where the ball
-/// first went beyond it (the same bits again; up to [`MAX_REBUILDS`] times in a chain, then
+/// first went beyond it (the same bits again; up to four times in a chain, then
 /// the whole model's), and the model offers no cut-off margins or events there; for another
 /// active set it is the whole model.
 #[derive(Debug, Clone)]
