@@ -13,6 +13,7 @@ use crate::physics::torque::{Interaction, MagnetTorques, TorqueTable, Well, Well
 use crate::planning::commutation::{default_step_model, PairsPerStep, StepLimits, StepModel};
 use crate::planning::planner::{
     target_angle, PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET,
+    DEFAULT_STALL_SETTLES,
 };
 use crate::text::shown;
 use nalgebra::UnitQuaternion;
@@ -426,6 +427,11 @@ impl Checker<'_> {
                 "plan.settles_per_state",
                 raw.settles_per_state,
                 DEFAULT_SETTLES_PER_STATE,
+            )?,
+            stall_settles: count(
+                "plan.stall_settles",
+                raw.stall_settles,
+                DEFAULT_STALL_SETTLES,
             )?,
             angle_tolerance: angle_field(
                 "plan.angle_tolerance_deg",

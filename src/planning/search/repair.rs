@@ -70,7 +70,7 @@ fn search_from(
     current: &Node,
     budget: usize,
 ) -> (Option<Node>, usize) {
-    let found = explore(src, sp, vec![prefix], Some(current.clone()), budget);
+    let found = explore(src, sp, vec![prefix], Some(current.clone()), budget, true);
     let mut spent = found.spent;
     // the plans that stray less than the current one (it is the search's best until beaten)
     let gain = |n: &Node| score(n, sp) < score(current, sp) - MIN_GAIN;
