@@ -71,7 +71,7 @@ pub const DEFAULT_SETTLE_BUDGET: usize = 10_000;
 
 /// The dynamic search's default stall: it stops this many settles after its best plan last
 /// improved ([`PlanSettings::stall_settles`]).
-pub const DEFAULT_STALL_SETTLES: usize = 2_000;
+pub const DEFAULT_STALL_SETTLES: usize = 3_000;
 
 /// How many of each state's best-ranked proposals the dynamic search settles by default.
 pub const DEFAULT_SETTLES_PER_STATE: usize = 24;
@@ -201,7 +201,7 @@ pub struct PlanSettings {
     pub settles_per_state: usize,
     /// The best-first search stops once it has a plan of its own and has spent this many
     /// settles since its best plan last improved (by more than 0.01 degree); its repair's
-    /// searches likewise, counted from their start. Settles, counted, never time: the plan
+    /// searches after a quarter as many, counted from their start. Settles, counted, never time: the plan
     /// is the same on any machine. A stall of `settle_budget` or more never stops a search.
     pub stall_settles: usize,
     /// The search counts the target angle as turned within this angle of it.

@@ -714,5 +714,10 @@ fn the_search_stops_when_it_stalls() {
     // the search's own improvements are what the stall waits for: the plan searched longest
     // strays least
     let worst = |p: &spherestep::planning::planner::Plan| max_axis_error_deg(&p.rows);
-    assert!(worst(&never) <= worst(&first) + 1e-9, "{} {}", worst(&never), worst(&first));
+    assert!(
+        worst(&never) <= worst(&first) + 1e-9,
+        "{} {}",
+        worst(&never),
+        worst(&first)
+    );
 }
