@@ -690,19 +690,19 @@ fn the_sweeps_worst_ends_land_within_the_tolerance_on_sets_that_hold_nearest_the
 
 #[test]
 fn the_search_stops_when_it_stalls() {
-    // about X the search's best keeps improving until late: a stall of one settle stops it at
-    // its first plan of its own, a stall of the whole budget never stops it early, and the
-    // default lies between (counted settles: the same on any machine)
+    // about Y a stall of one settle stops the search at its first plan of its own, a stall of
+    // the whole budget never stops it early, and the default lies between (counted settles:
+    // the same on any machine; 1,257 / 6,798 / 10,886 when written)
     let sc = load("scenarios/prototype.toml");
-    let about_x = settings(&sc, "1,0,0", "search", "dynamic", "2-4");
+    let about_y = settings(&sc, "0,1,0", "search", "dynamic", "2-4");
     let with = |stall: usize| {
         let s = PlanSettings {
             stall_settles: stall,
-            ..about_x.clone()
+            ..about_y.clone()
         };
         plan(&sc.motor(), &s)
     };
-    let (first, default, never) = (with(1), with(about_x.stall_settles), with(10_000));
+    let (first, default, never) = (with(1), with(about_y.stall_settles), with(10_000));
     assert!(first.reached && default.reached && never.reached);
     assert!(
         first.settles < default.settles && default.settles < never.settles,
@@ -718,6 +718,12 @@ fn the_search_stops_when_it_stalls() {
         worst(&never) <= worst(&first) + 1e-9,
         "{} {}",
         worst(&never),
+        worst(&first)
+    );
+    assert!(
+        worst(&default) < worst(&first),
+        "{} {}",
+        worst(&default),
         worst(&first)
     );
 }
