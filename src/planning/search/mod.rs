@@ -662,8 +662,9 @@ impl Frontiers {
 /// [`SAME_STATE_RAD`]) are one: only the better goes on. The greedy plans are solutions from
 /// the start, so the search is never worse than them. Its best plan is then landed,
 /// straightened and repaired ([`repair`]: the search run again from before its worst row, with
-/// the fifth of the budget the first search leaves). The budget is counted in settles, so the
-/// plan is the same on any machine and any number of threads.
+/// the fifth of the budget the first search leaves). The searches stop early when they stall
+/// ([`PlanSettings::stall_settles`]). The budget is counted in settles, so the plan is the
+/// same on any machine and any number of threads.
 fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan {
     let Some(root) = roots.first().cloned() else {
         return no_initial_state();
