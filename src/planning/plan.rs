@@ -69,6 +69,12 @@ impl PlanRow {
 /// The dynamic search's default budget, in settles.
 pub const DEFAULT_SETTLE_BUDGET: usize = 10_000;
 
+/// The dynamic search's default stall ([`PlanSettings::stall_settles`]): never (a search runs
+/// to its budget). A stall of 3,000 settles spends a fifth fewer settles on the 500-axis sweep
+/// for a worst axis error 5% worse (docs/speed.md, "Tenth round"): the default keeps the
+/// plans' quality, and a scenario that wants the speed says so.
+pub const DEFAULT_STALL_SETTLES: usize = usize::MAX;
+
 /// How many of each state's best-ranked proposals the dynamic search settles by default.
 pub const DEFAULT_SETTLES_PER_STATE: usize = 24;
 
@@ -195,6 +201,11 @@ pub struct PlanSettings {
     pub settle_budget: usize,
     /// The search settles this many of each state's best-ranked proposals (dynamic model).
     pub settles_per_state: usize,
+    /// The best-first search stops once it has a plan of its own and has spent this many
+    /// settles since its best plan last improved (by more than 0.01 degree); its repair's
+    /// searches after a quarter as many, counted from their start. Settles, counted, never time: the plan
+    /// is the same on any machine. A stall of `settle_budget` or more never stops a search.
+    pub stall_settles: usize,
     /// The search counts the target angle as turned within this angle of it.
     pub angle_tolerance: Radians,
     /// The plan is reached when it ends within this angle of the target orientation

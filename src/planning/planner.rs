@@ -27,7 +27,7 @@ use rayon::prelude::*;
 
 pub use crate::planning::plan::{
     max_axis_error_deg, target_angle, total_settle_time, Plan, PlanSettings, PlanSummary, Scheme,
-    DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET, MAX_TARGET_DEG,
+    DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET, DEFAULT_STALL_SETTLES, MAX_TARGET_DEG,
 };
 
 /// Plans a motion, with the settings' step model. With a target orientation

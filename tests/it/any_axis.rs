@@ -223,6 +223,8 @@ fn pairs_and_budgets_out_of_range_are_refused_naming_the_field() {
         &["plan.max_pairs_per_step", "not both"],
     );
     plan_fails_with("settle_budget = 0", &[], &["plan.settle_budget", ">= 1"]);
+    plan_fails_with("stall_settles = 0", &[], &["plan.stall_settles", ">= 1"]);
+    plan_fails_with("stall_settles = -3", &[], &["stall_settles"]);
     plan_fails_with(
         "settles_per_state = 0",
         &[],

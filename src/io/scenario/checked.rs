@@ -5,7 +5,7 @@
 use super::raw::*;
 use super::*;
 use crate::error::{Error, Result};
-use crate::model::geometry::{orientation_from_xyzw, unit, Degrees, Radians, UnitVec};
+use crate::model::geometry::{orientation_from_xyzw, unit, Degrees, Orientation, Radians, UnitVec};
 use crate::model::packing::{self, Cap, Packing, SemiRegular};
 use crate::model::symmetry::Group;
 use crate::physics::dynamics::{Body, SettleParams};
@@ -13,6 +13,7 @@ use crate::physics::torque::{Interaction, MagnetTorques, TorqueTable, Well, Well
 use crate::planning::commutation::{default_step_model, PairsPerStep, StepLimits, StepModel};
 use crate::planning::planner::{
     target_angle, PlanSettings, Scheme, DEFAULT_SETTLES_PER_STATE, DEFAULT_SETTLE_BUDGET,
+    DEFAULT_STALL_SETTLES,
 };
 use crate::text::shown;
 use nalgebra::UnitQuaternion;
@@ -360,6 +361,19 @@ impl Checker<'_> {
         })
     }
 
+    /// `plan.start`: the identity when absent.
+    fn plan_start(&self, start: Option<[f64; 4]>) -> Result<Orientation> {
+        match start {
+            None => Ok(UnitQuaternion::identity()),
+            Some(v) => orientation_from_xyzw(v[0], v[1], v[2], v[3]).ok_or_else(|| {
+                self.err(
+                    "plan.start",
+                    "a non-zero, finite quaternion [qx, qy, qz, qw]",
+                )
+            }),
+        }
+    }
+
     /// The `[plan]` section; without `model`, the motor's physics chooses
     /// ([`default_step_model`]).
     /// `relay`: the scenario's `[relay]` section, whose limits the plans keep to (its
@@ -389,15 +403,7 @@ impl Checker<'_> {
                 (None, None) => (default_pairs_per_step(model), "plan.model"),
             };
         check_pairs_per_step(model, pairs).map_err(|m| self.err(field, m))?;
-        let start = match raw.start {
-            None => UnitQuaternion::identity(),
-            Some(v) => orientation_from_xyzw(v[0], v[1], v[2], v[3]).ok_or_else(|| {
-                self.err(
-                    "plan.start",
-                    "a non-zero, finite quaternion [qx, qy, qz, qw]",
-                )
-            })?,
-        };
+        let start = self.plan_start(raw.start)?;
         let count = |field: &str, v: Option<usize>, default: usize| self.count(field, v, default);
         let angle_field =
             |field: &str, v: Option<f64>, default: Radians| self.small_angle(field, v, default);
@@ -426,6 +432,11 @@ impl Checker<'_> {
                 "plan.settles_per_state",
                 raw.settles_per_state,
                 DEFAULT_SETTLES_PER_STATE,
+            )?,
+            stall_settles: count(
+                "plan.stall_settles",
+                raw.stall_settles,
+                DEFAULT_STALL_SETTLES,
             )?,
             angle_tolerance: angle_field(
                 "plan.angle_tolerance_deg",

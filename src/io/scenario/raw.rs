@@ -65,6 +65,7 @@ pub(super) struct RawPlan {
     pub(super) max_pairs_per_step: Option<usize>,
     pub(super) settle_budget: Option<usize>,
     pub(super) settles_per_state: Option<usize>,
+    pub(super) stall_settles: Option<usize>,
     pub(super) start: Option<[f64; 4]>,
     pub(super) max_steps: Option<usize>,
     pub(super) beam_width: Option<usize>,

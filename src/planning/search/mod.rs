@@ -662,8 +662,9 @@ impl Frontiers {
 /// [`SAME_STATE_RAD`]) are one: only the better goes on. The greedy plans are solutions from
 /// the start, so the search is never worse than them. Its best plan is then landed,
 /// straightened and repaired ([`repair`]: the search run again from before its worst row, with
-/// the fifth of the budget the first search leaves). The budget is counted in settles, so the
-/// plan is the same on any machine and any number of threads.
+/// the fifth of the budget the first search leaves). The searches stop early when they stall
+/// ([`PlanSettings::stall_settles`]). The budget is counted in settles, so the plan is the
+/// same on any machine and any number of threads.
 fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan {
     let Some(root) = roots.first().cloned() else {
         return no_initial_state();
@@ -673,7 +674,7 @@ fn best_first(src: &dyn StepSource, s: &PlanSettings, roots: Vec<Node>) -> Plan 
         StepModel::Pivot => 0,
         _ => s.settle_budget / repair::REPAIR_SHARE,
     };
-    let run = explore(src, s, roots, best, s.settle_budget - share);
+    let run = explore(src, s, roots, best, s.settle_budget - share, false);
     let mut spent = run.spent;
     let (best, landing) = land::land_best(src, s, run.best, run.solutions, None);
     spent += landing;
@@ -700,13 +701,17 @@ struct Explored {
 }
 
 /// The best-first search from `roots` (at least one), within `budget` settles, with `best` the
-/// plan it must beat (partial plans already as bad are pruned).
+/// plan it must beat (partial plans already as bad are pruned). It stops early once its best
+/// has not improved by more than [`STALL_MARGIN`] for `s.stall_settles` settles, counted from
+/// its first plan of its own (`from_start`: from its start, the plan it must beat counting as
+/// its own).
 fn explore(
     src: &dyn StepSource,
     s: &PlanSettings,
     roots: Vec<Node>,
     mut best: Option<Node>,
     budget: usize,
+    from_start: bool,
 ) -> Explored {
     let mut f = Frontiers {
         nodes: Vec::new(),
@@ -723,7 +728,8 @@ fn explore(
     let mut solutions: Vec<Node> = Vec::new();
     // whether the search has completed a plan of its own (the greedy plans are not its own)
     let mut own = false;
-    while spent < budget {
+    let mut stall = Stall::new(from_start.then(|| best_score(best.as_ref(), s)));
+    while spent < budget && !stall.stalled(spent, s.stall_settles) {
         if !own && f.ranking != ONWARD && 2 * spent >= budget {
             f.rerank(ONWARD, s);
         }
@@ -757,6 +763,7 @@ fn explore(
             if reached(&c, s) {
                 own = true;
                 file_solution(c, &mut best, &mut solutions, s);
+                stall.found(spent, best_score(best.as_ref(), s));
                 continue;
             }
             f.admit(src, root_id, c, s);
@@ -769,6 +776,39 @@ fn explore(
         over,
         spent,
     }
+}
+
+/// A search's best must improve by more than this (rad; 0.01 degree) to restart its stall.
+const STALL_MARGIN: f64 = 0.01 * std::f64::consts::PI / 180.0;
+
+/// When a best-first search last improved its best: the settles spent then and the best's
+/// [`score`] (`None` before its first plan of its own).
+struct Stall(Option<(usize, f64)>);
+
+impl Stall {
+    /// The stall of a search that starts with a best scored `at_start` (`None`: the clock
+    /// starts with its first plan of its own).
+    fn new(at_start: Option<f64>) -> Stall {
+        Stall(at_start.map(|sc| (0, sc)))
+    }
+
+    /// A plan of its own found with `spent` settles spent, the best now scored `best`.
+    fn found(&mut self, spent: usize, best: f64) {
+        match self.0 {
+            Some((_, last)) if best >= last - STALL_MARGIN => {}
+            _ => self.0 = Some((spent, best)),
+        }
+    }
+
+    /// Whether `stall` settles have passed since the last improvement.
+    fn stalled(&self, spent: usize, stall: usize) -> bool {
+        self.0.is_some_and(|(at, _)| spent - at >= stall)
+    }
+}
+
+/// The [`score`] of a search's best plan (infinite without one).
+fn best_score(best: Option<&Node>, s: &PlanSettings) -> f64 {
+    best.map_or(f64::INFINITY, |b| score(b, s))
 }
 
 /// Files a complete plan the search found: the best so far if [`better_landing`] says so (the
@@ -973,4 +1013,29 @@ pub fn weighed<T: Ord>(
         })
         .map(|(_, p)| p)
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Stall, STALL_MARGIN};
+
+    #[test]
+    fn a_stall_restarts_only_on_an_improvement_past_the_margin() {
+        // the first search's clock starts with its first plan of its own
+        let mut s = Stall::new(None);
+        assert!(!s.stalled(50_000, 100));
+        s.found(300, 0.1);
+        assert!(!s.stalled(399, 100));
+        assert!(s.stalled(400, 100));
+        // an improvement within the margin does not restart it, one past it does
+        s.found(350, 0.1 - 0.5 * STALL_MARGIN);
+        assert!(s.stalled(400, 100));
+        s.found(380, 0.1 - 2.0 * STALL_MARGIN);
+        assert!(!s.stalled(400, 100));
+        assert!(s.stalled(480, 100));
+        // the repair's clock starts with the search
+        let r = Stall::new(Some(0.2));
+        assert!(!r.stalled(99, 100));
+        assert!(r.stalled(100, 100));
+    }
 }
