@@ -928,6 +928,24 @@ impl TorqueModel for MagnetTorques {
 mod tests {
     use super::*;
 
+    /// Three coils around -Z and `magnets` magnets spread over the sphere, every coil pulling
+    /// every magnet in reach of `well` (the "coils" interaction).
+    fn three_coils(well: Well, magnets: usize) -> MagnetTorques {
+        MagnetTorques {
+            rotor: crate::io::scenario::sphere_axes(magnets)
+                .iter()
+                .map(|a| a.into_inner())
+                .collect(),
+            stator: vec![
+                Vector3::new(0.0, 0.0, -1.0),
+                Vector3::new(0.4, 0.1, -1.0).normalize(),
+                Vector3::new(-0.2, 0.5, -1.0).normalize(),
+            ],
+            well,
+            interaction: Interaction::Coils,
+        }
+    }
+
     fn wells() -> Vec<Well> {
         let table = TorqueTable::from_rows(&[
             (0.0, 0.0),
@@ -1129,23 +1147,10 @@ mod tests {
 
     #[test]
     fn nearby_magnets_give_the_whole_models_torques_to_the_bit() {
-        let stator = vec![
-            Vector3::new(0.0, 0.0, -1.0),
-            Vector3::new(0.4, 0.1, -1.0).normalize(),
-            Vector3::new(-0.2, 0.5, -1.0).normalize(),
-        ];
         let active = [Pair::new(0, 3), Pair::new(2, 7), Pair::new(0, 9)];
         let r0 = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -0.2, 0.5));
         for w in wells() {
-            let m = MagnetTorques {
-                rotor: crate::io::scenario::sphere_axes(200)
-                    .iter()
-                    .map(|a| a.into_inner())
-                    .collect(),
-                stator: stator.clone(),
-                well: w,
-                interaction: Interaction::Coils,
-            };
+            let m = three_coils(w, 200);
             let near = m.nearby(r0.matrix(), &active).unwrap();
             assert!(near.magnets.len() < 100, "{} of 400", near.magnets.len());
             // turns of 0 to 19.5 degrees (within the skin) and of 25 to 175 (beyond it: lists
@@ -1183,13 +1188,8 @@ mod tests {
         }
         // the pairs interaction has nothing to gain
         let m = MagnetTorques {
-            rotor: crate::io::scenario::sphere_axes(20)
-                .iter()
-                .map(|a| a.into_inner())
-                .collect(),
-            stator,
-            well: wells().remove(0),
             interaction: Interaction::Pairs,
+            ..three_coils(wells().remove(0), 20)
         };
         assert!(m.nearby(r0.matrix(), &active).is_none());
     }
@@ -1208,22 +1208,9 @@ mod tests {
             }
             (tau, u)
         };
-        let stator = vec![
-            Vector3::new(0.0, 0.0, -1.0),
-            Vector3::new(0.4, 0.1, -1.0).normalize(),
-            Vector3::new(-0.2, 0.5, -1.0).normalize(),
-        ];
         let active = [Pair::new(0, 3), Pair::new(2, 7), Pair::new(0, 9)];
         for w in wells() {
-            let m = MagnetTorques {
-                rotor: crate::io::scenario::sphere_axes(150)
-                    .iter()
-                    .map(|a| a.into_inner())
-                    .collect(),
-                stator: stator.clone(),
-                well: w,
-                interaction: Interaction::Coils,
-            };
+            let m = three_coils(w, 150);
             for k in 0..12 {
                 let axis = Vector3::new(1.0, k as f64 - 5.0, 0.3 * k as f64).normalize();
                 let r = nalgebra::Rotation3::from_scaled_axis(axis * (0.4 * k as f64));
@@ -1238,20 +1225,7 @@ mod tests {
 
     #[test]
     fn nearby_magnets_hold_their_cut_offs_as_events() {
-        let stator = vec![
-            Vector3::new(0.0, 0.0, -1.0),
-            Vector3::new(0.4, 0.1, -1.0).normalize(),
-            Vector3::new(-0.2, 0.5, -1.0).normalize(),
-        ];
-        let m = MagnetTorques {
-            rotor: crate::io::scenario::sphere_axes(80)
-                .iter()
-                .map(|a| a.into_inner())
-                .collect(),
-            stator,
-            well: wells().remove(1),
-            interaction: Interaction::Coils,
-        };
+        let m = three_coils(wells().remove(1), 80);
         let active = [Pair::new(0, 3), Pair::new(2, 7)];
         let r0 = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -0.2, 0.5));
         let near = m.nearby(r0.matrix(), &active).unwrap();
