@@ -125,14 +125,51 @@ pub mod relay_support;
 #[cfg(unix)]
 pub mod scripted;
 
-/// Starts `spherestep virtual ARGS` and waits, until `deadline`, for its `ready:` line; from
-/// then on its standard output is drained on a thread (its standard error is dropped).
-pub fn start_virtual(args: &[&str], deadline: std::time::Instant) -> std::process::Child {
+/// `spherestep plan SCENARIO --excite STEPS --seed SEED --json --out OUT`, which must succeed:
+/// its summary.
+pub fn excite(scenario: &str, steps: &str, seed: &str, out: &std::path::Path) -> serde_json::Value {
+    let args = [
+        "plan", scenario, "--excite", steps, "--seed", seed, "--json", "--out",
+    ];
+    let (code, stdout, err) = run(&[&args[..], &[out.to_str().unwrap()]].concat());
+    assert_eq!(code, 0, "{stdout}{err}");
+    serde_json::from_str(stdout.trim()).unwrap_or_else(|e| panic!("{e}: {stdout}{err}"))
+}
+
+/// Starts `spherestep virtual PLANT` with its boards and a quat-csv sensor of `noise_deg`
+/// (seed 7) linked in `links`, at rest at `plan`'s start, its clock `speed` times the wall
+/// clock, and waits, until `deadline`, for its `ready:` line; from then on its standard output
+/// is drained on a thread (its standard error is dropped).
+pub fn start_virtual(
+    plant: &str,
+    plan: &str,
+    links: &std::path::Path,
+    (speed, noise_deg): (&str, &str),
+    deadline: std::time::Instant,
+) -> std::process::Child {
     use std::io::BufRead;
     use std::process::{Command, Stdio};
+    let links = links.display().to_string();
     let mut v = Command::new(bin())
         .arg("virtual")
-        .args(args)
+        .args([
+            plant,
+            "--speed",
+            speed,
+            "--sensor",
+            "quat-csv",
+            "--sensor-noise-deg",
+        ])
+        .args([
+            noise_deg,
+            "--seed",
+            "7",
+            "--link-dir",
+            &links,
+            "--plan",
+            plan,
+        ])
+        .args(["--max-seconds", "250"])
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()

@@ -2,12 +2,11 @@
 //! before, the on-time limit as `replay` counts it: its dry run takes the file), every row is
 //! where the motor's settle takes the ball from the row before, and one seed gives one file.
 
-use crate::common::run;
+use crate::common::{excite, run};
 use spherestep::io::planfile::read_plan;
 use spherestep::io::scenario::Scenario;
 use spherestep::physics::dynamics::settle;
 use std::collections::BTreeSet;
-use std::path::Path;
 
 /// The prototype with a supply of 3 coils and a 3 s on-time limit: a coil held through two
 /// slow steps is over it, so most draws are refused (817 for 41 rows with seed 5; with a 2 s
@@ -16,14 +15,6 @@ const TIGHT: &str = "name = \"tight\"\n[rotor]\npreset = \"prototype\"\n[stator]
                      preset = \"prototype\"\n[relay]\nboard = \"numato\"\nmax_coils_on = 3\n\
                      max_on_time_s = 3.0\n";
 
-fn excite(scenario: &Path, steps: &str, seed: &str, out: &Path) -> serde_json::Value {
-    let args = ["plan", scenario.to_str().unwrap(), "--excite", steps];
-    let more = ["--seed", seed, "--json", "--out", out.to_str().unwrap()];
-    let (code, stdout, err) = run(&[&args[..], &more].concat());
-    assert_eq!(code, 0, "{stdout}{err}");
-    serde_json::from_str(stdout.trim()).unwrap_or_else(|e| panic!("{e}: {stdout}{err}"))
-}
-
 #[test]
 fn an_excitation_run_is_what_the_supply_and_the_on_time_limit_allow_and_where_the_ball_settles() {
     let dir = tempfile::tempdir().unwrap();
@@ -31,7 +22,7 @@ fn an_excitation_run_is_what_the_supply_and_the_on_time_limit_allow_and_where_th
     let sc_path = d.join("tight.toml");
     std::fs::write(&sc_path, TIGHT).unwrap();
     let plan = d.join("excite.csv");
-    let summary = excite(&sc_path, "40", "5", &plan);
+    let summary = excite(sc_path.to_str().unwrap(), "40", "5", &plan);
     let rows = read_plan(&plan).unwrap();
     assert_eq!(rows.len(), 41);
     assert_eq!(summary["steps"], 40);
@@ -75,12 +66,12 @@ fn an_excitation_run_is_what_the_supply_and_the_on_time_limit_allow_and_where_th
     );
     // the same seed, the same bytes; another seed, another run
     let again = d.join("again.csv");
-    excite(&sc_path, "40", "5", &again);
+    excite(sc_path.to_str().unwrap(), "40", "5", &again);
     assert_eq!(
         std::fs::read(&plan).unwrap(),
         std::fs::read(&again).unwrap()
     );
-    excite(&sc_path, "40", "6", &again);
+    excite(sc_path.to_str().unwrap(), "40", "6", &again);
     assert_ne!(
         std::fs::read(&plan).unwrap(),
         std::fs::read(&again).unwrap()

@@ -438,6 +438,26 @@ fn assert_width_recovered(report: &serde_json::Value) {
     assert!((w / 7.0 - 1.0).abs() < 0.03, "width {w}: {report}");
 }
 
+/// An excitation log's fit (seed `seed`): every held-out step the hidden wells predict within
+/// 2 degrees (`truth`; from a start measured a degree off, a few end in another basin even
+/// there) the fit predicts within 2 degrees too (`after`), at least 9 of the 10, and the width
+/// is recovered.
+fn assert_predicted_as_the_hidden_wells(
+    seed: impl std::fmt::Display,
+    after: &[f64],
+    truth: &[f64],
+    report: &serde_json::Value,
+) {
+    for k in 0..10 {
+        assert!(
+            truth[k] > 2.0 || after[k] <= 2.0,
+            "seed {seed}, step {k}: {report}"
+        );
+    }
+    assert!(after.iter().filter(|&&e| e <= 2.0).count() >= 9, "{report}");
+    assert_width_recovered(report);
+}
+
 #[test]
 fn a_fit_on_twenty_logged_steps_predicts_ten_held_out_steps_within_two_degrees() {
     let dir = tempfile::tempdir().unwrap();
@@ -453,16 +473,7 @@ fn a_fit_on_twenty_logged_steps_predicts_ten_held_out_steps_within_two_degrees()
         let after = held_out(&report, "holdout_after_deg");
         eprintln!("seed {seed}: unfitted {before:.2?}\nfitted {after:.2?}\ntruth {truth:.2?}");
         assert_eq!(after.len(), 10);
-        // every held-out step the hidden wells predict within 2 degrees (from a start measured
-        // a degree off, a few end in another basin even there), the fit does too
-        for k in 0..10 {
-            assert!(
-                truth[k] > 2.0 || after[k] <= 2.0,
-                "seed {seed}, step {k}: {report}"
-            );
-        }
-        assert!(after.iter().filter(|&&e| e <= 2.0).count() >= 9, "{report}");
-        assert_width_recovered(&report);
+        assert_predicted_as_the_hidden_wells(seed, &after, &truth, &report);
         before_all.extend(before);
         after_all.extend(after);
     }
@@ -484,30 +495,14 @@ fn the_log_of_an_excitation_run_planned_by_plan_excite_fits_the_hidden_wells() {
         // the run as `plan --excite` draws it on the unaltered prototype: what a lab would
         // replay on its motor (here the hidden one) with a sensor and --log
         let plan = d.join("excite.csv");
-        let args = [
-            "plan",
-            "scenarios/prototype.toml",
-            "--excite",
-            "30",
-            "--seed",
-            seed,
-        ];
-        let (code, out, err) = run(&[&args[..], &["--out", plan.to_str().unwrap()]].concat());
-        assert_eq!(code, 0, "{out}{err}");
+        common::excite("scenarios/prototype.toml", "30", seed, &plan);
         let sets: Vec<BTreeSet<usize>> = (read_plan(&plan).unwrap().iter())
             .map(|r| r.active.iter().map(|p| p.coil.0).collect())
             .collect();
         let (report, truth) = fit_a_log(d, &hidden, &sets);
         let after = held_out(&report, "holdout_after_deg");
         eprintln!("plan --excite seed {seed}: fitted {after:.2?}\ntruth {truth:.2?}");
-        for k in 0..10 {
-            assert!(
-                truth[k] > 2.0 || after[k] <= 2.0,
-                "seed {seed}, step {k}: {report}"
-            );
-        }
-        assert!(after.iter().filter(|&&e| e <= 2.0).count() >= 9, "{report}");
-        assert_width_recovered(&report);
+        assert_predicted_as_the_hidden_wells(seed, &after, &truth, &report);
     }
 }
 

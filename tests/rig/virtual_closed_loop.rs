@@ -190,29 +190,9 @@ fn rehearse_and_compare(identify: bool, dwell_ms: u64) {
     );
 
     let links = d.join("dev");
-    let links_s = links.display().to_string();
     let speed = SPEED.to_string();
     let deadline = Instant::now() + GUARD;
-    let mut v = common::start_virtual(
-        &[
-            &plant,
-            "--speed",
-            &speed,
-            "--sensor",
-            "quat-csv",
-            "--sensor-noise-deg",
-            "0",
-            "--seed",
-            "7",
-            "--link-dir",
-            &links_s,
-            "--plan",
-            &plan,
-            "--max-seconds",
-            "250",
-        ],
-        deadline,
-    );
+    let mut v = common::start_virtual(&plant, &plan, &links, (&speed, "0"), deadline);
     let log = d.join("replay.csv").display().to_string();
     let board = links.join("board0").display().to_string();
     let sensor = links.join("sensor").display().to_string();

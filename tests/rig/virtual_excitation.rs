@@ -35,40 +35,12 @@ fn an_excitation_run_replayed_with_a_sensor_and_not_replanned_fits_the_hidden_we
         "model.toml",
         "name = \"model\"\n[relay]\nboard = \"numato\"\nmax_on_time_s = 1000\n",
     );
-    let plan = d.join("excite.csv").display().to_string();
-    let args = [
-        "plan",
-        "scenarios/prototype.toml",
-        "--excite",
-        "30",
-        "--seed",
-        "1",
-    ];
-    let (code, out, err) = common::run(&[&args[..], &["--out", &plan]].concat());
-    assert_eq!(code, 0, "{out}{err}");
+    let plan_path = d.join("excite.csv");
+    common::excite("scenarios/prototype.toml", "30", "1", &plan_path);
+    let plan = plan_path.display().to_string();
     let links = d.join("dev");
-    let links_s = links.display().to_string();
     let deadline = Instant::now() + GUARD;
-    let mut v = common::start_virtual(
-        &[
-            &plant,
-            "--speed",
-            "5",
-            "--sensor",
-            "quat-csv",
-            "--sensor-noise-deg",
-            "1",
-            "--seed",
-            "7",
-            "--link-dir",
-            &links_s,
-            "--plan",
-            &plan,
-            "--max-seconds",
-            "250",
-        ],
-        deadline,
-    );
+    let mut v = common::start_virtual(&plant, &plan, &links, ("5", "1"), deadline);
     let log = d.join("log.csv").display().to_string();
     let (board, sensor) = (
         links.join("board0").display().to_string(),
