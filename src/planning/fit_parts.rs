@@ -291,6 +291,16 @@ mod tests {
         }
     }
 
+    /// `well`'s passing torque times `scale` every 0.5 degrees from 0 to `points` halves.
+    fn curve(well: &Well, points: usize, scale: f64) -> Vec<(f64, f64)> {
+        (0..=points)
+            .map(|i| {
+                let deg = 0.5 * i as f64;
+                (deg, scale * well.passing_torque(deg.to_radians()))
+            })
+            .collect()
+    }
+
     #[test]
     fn an_exact_curve_of_other_parts_is_fitted_exactly_from_the_scenarios() {
         let m = model();
@@ -300,12 +310,7 @@ mod tests {
             gap_m: 0.0115,
         };
         let well = m.well(truth).unwrap();
-        let pts: Vec<(f64, f64)> = (0..=60)
-            .map(|i| {
-                let deg = 0.5 * i as f64;
-                (deg, well.passing_torque(deg.to_radians()))
-            })
-            .collect();
+        let pts = curve(&well, 60, 1.0);
         let fit = fit_parts(&m, &pts).unwrap();
         assert_eq!(fit.start, m.values());
         assert!((fit.fitted.core_gain / 2.6 - 1.0).abs() < 1e-6, "{fit:?}");
@@ -323,12 +328,7 @@ mod tests {
         };
         let well = m.well(truth).unwrap();
         // half the air coil's pull: the gain it asks for is about 0.5
-        let pts: Vec<(f64, f64)> = (0..=40)
-            .map(|i| {
-                let deg = 0.5 * i as f64;
-                (deg, 0.5 * well.passing_torque(deg.to_radians()))
-            })
-            .collect();
+        let pts = curve(&well, 40, 0.5);
         let fit = fit_parts(&m, &pts).unwrap();
         let wanted = fit.core_gain_wanted.unwrap();
         assert!((wanted - 0.5).abs() < 1e-4, "{fit:?}");
