@@ -8,7 +8,7 @@
 //! rest under it within the settle's t_max, so the sensor reads a ball at rest. The rows are a
 //! plan file's: `simulate`, `view` and `replay` take them as they take any plan.
 
-use crate::model::geometry::{CoilId, Orientation, Pair, Radians};
+use crate::model::geometry::{CoilId, Orientation, Pair};
 use crate::model::random::SplitMix;
 use crate::physics::dynamics::settle;
 use crate::planning::commutation::{cumulative_from, nearest_magnet, step_measure, Motor};
@@ -222,8 +222,8 @@ fn measured_row(
         return row;
     };
     let (a, e) = step_measure(&before.q, &row.q, &s.axis);
-    let before_cum = Radians(before.cum_angle_deg.to_radians());
-    let (ca, ce) = cumulative_from(&first.q, &row.q, &s.axis, before_cum.0);
+    let before_cum = before.cum_angle_deg.to_radians();
+    let (ca, ce) = cumulative_from(&first.q, &row.q, &s.axis, before_cum);
     row.step_angle_deg = a.0.to_degrees();
     row.step_axis_error_deg = e.0.to_degrees();
     row.cum_angle_deg = ca.0.to_degrees();
