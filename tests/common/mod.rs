@@ -191,16 +191,32 @@ pub fn start_virtual(
     v
 }
 
-/// Runs `spherestep ARGS` beside the virtual motor `v` until `deadline` (past it both are
-/// killed, and the test fails): its exit status, standard output and standard error.
-pub fn run_beside(
-    args: &[&str],
+/// `spherestep replay PLAN MODEL` on the boards and quat-csv sensor of the virtual motor `v`
+/// (linked in `links`, as [`start_virtual`] starts it), dwelling `dwell_ms` a step, logging
+/// to `log`, with `extra` arguments, until `deadline` (past it both are killed, and the test
+/// fails): its exit status, standard output and standard error.
+pub fn replay_beside(
     v: &mut std::process::Child,
+    (plan, model): (&str, &str),
+    links: &std::path::Path,
+    (log, dwell_ms): (&str, &str),
+    extra: &[&str],
     deadline: std::time::Instant,
 ) -> (std::process::ExitStatus, String, String) {
     use std::process::{Command, Stdio};
+    let (board, sensor) = (links.join("board0"), links.join("sensor"));
+    let (board, sensor) = (board.to_str().unwrap(), sensor.to_str().unwrap());
     let mut r = Command::new(bin())
-        .args(args)
+        .args(["replay", plan, model, "--port", board, "--sensor", sensor])
+        .args([
+            "--sensor-format",
+            "quat-csv",
+            "--log",
+            log,
+            "--dwell-ms",
+            dwell_ms,
+        ])
+        .args(extra)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -213,7 +229,7 @@ pub fn run_beside(
             let _ = r.kill();
             let _ = v.kill();
             let _ = (r.wait(), v.wait());
-            panic!("`spherestep {}` did not end in time", args.join(" "));
+            panic!("the replay of {plan} did not end in time");
         }
         std::thread::sleep(std::time::Duration::from_millis(50));
     };

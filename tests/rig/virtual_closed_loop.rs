@@ -194,26 +194,15 @@ fn rehearse_and_compare(identify: bool, dwell_ms: u64) {
     let deadline = Instant::now() + GUARD;
     let mut v = common::start_virtual(&plant, &plan, &links, (&speed, "0"), deadline);
     let log = d.join("replay.csv").display().to_string();
-    let board = links.join("board0").display().to_string();
-    let sensor = links.join("sensor").display().to_string();
     let dwell_s = dwell_ms.to_string();
-    let replay_args = [
-        "replay",
-        &plan,
-        &model,
-        "--port",
-        &board,
-        "--sensor",
-        &sensor,
-        "--sensor-format",
-        "quat-csv",
-        "--log",
-        &log,
-        "--dwell-ms",
-        &dwell_s,
-    ];
-    let (status, stdout, stderr) =
-        common::run_beside(&[&replay_args[..], fit].concat(), &mut v, deadline);
+    let (status, stdout, stderr) = common::replay_beside(
+        &mut v,
+        (&plan, &model),
+        &links,
+        (&log, &dwell_s),
+        fit,
+        deadline,
+    );
     let said = format!("{status}\n{stdout}\n{stderr}");
     let vend = Instant::now() + Duration::from_secs(30);
     while v.try_wait().unwrap().is_none() {

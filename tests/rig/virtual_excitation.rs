@@ -42,27 +42,14 @@ fn an_excitation_run_replayed_with_a_sensor_and_not_replanned_fits_the_hidden_we
     let deadline = Instant::now() + GUARD;
     let mut v = common::start_virtual(&plant, &plan, &links, ("5", "1"), deadline);
     let log = d.join("log.csv").display().to_string();
-    let (board, sensor) = (
-        links.join("board0").display().to_string(),
-        links.join("sensor").display().to_string(),
+    let (status, stdout, stderr) = common::replay_beside(
+        &mut v,
+        (&plan, &model),
+        &links,
+        (&log, "800"),
+        &["--no-replan"],
+        deadline,
     );
-    let replay = [
-        "replay",
-        &plan,
-        &model,
-        "--port",
-        &board,
-        "--sensor",
-        &sensor,
-        "--sensor-format",
-        "quat-csv",
-        "--no-replan",
-        "--dwell-ms",
-        "800",
-        "--log",
-        &log,
-    ];
-    let (status, stdout, stderr) = common::run_beside(&replay, &mut v, deadline);
     let _ = v.kill();
     let _ = v.wait();
     assert!(status.success(), "{stdout}{stderr}");
