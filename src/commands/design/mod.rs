@@ -20,7 +20,7 @@ use crate::error::{Error, Result};
 use crate::io::output::write_atomic;
 use crate::io::scenario::Scenario;
 use crate::model::geometry::UnitVec;
-use crate::planning::design::layout::{decode, gene_bounds, seed_genes, Layout, Own};
+use crate::planning::design::layout::{decode, gene_bounds, seeds, Layout, Own};
 use crate::planning::design::objectives::{non_dominated, Objectives};
 use crate::planning::design::search::{Evolution, Member, Ranked};
 use crate::planning::design::DesignSpec;
@@ -97,9 +97,7 @@ pub fn run_design(spec_file: &Path, opts: &DesignOptions) -> Result<DesignReport
         rotor: &sc.rotor.points,
     };
     let mut evo = Evolution::new(opts.seed, gene_bounds(&spec));
-    let mut genes: Vec<Vec<f64>> = (0..spec.families.len().min(spec.population))
-        .map(|k| seed_genes(&spec, k, own.stator.len(), own.rotor.len()))
-        .collect();
+    let mut genes = seeds(&spec, own);
     genes.extend(evo.random_genes(spec.population - genes.len()));
     let mut ranked: Option<Ranked> = None;
     let mut full: BTreeMap<String, (Layout, Objectives)> = BTreeMap::new();

@@ -68,6 +68,43 @@ pub fn seed_genes(spec: &DesignSpec, k: usize, own_coils: usize, own_magnets: us
     g
 }
 
+/// The first generation's seeds: every family's unmoved, unturned layout ([`seed_genes`]) at
+/// every coil count of the spec's range when the stator is free (the count nearest the
+/// scenario's first, then outwards, the smaller first at equal distance; a fixed stator keeps
+/// its own), with the magnet count nearest the scenario's; families inner. A seed whose layout
+/// an earlier seed already is (a family without that count falls back to the Tammes packing)
+/// is left out, so no layout is planned twice; at most `spec.population` seeds.
+pub fn seeds(spec: &DesignSpec, own: Own) -> Vec<Vec<f64>> {
+    let (c0, c1) = spec.coils;
+    let nearest = own.stator.len().clamp(c0, c1);
+    let mut counts: Vec<usize> = if spec.free.stator() {
+        (c0..=c1).collect()
+    } else {
+        vec![nearest]
+    };
+    counts.sort_by_key(|&c| (c.abs_diff(nearest), c));
+    let mut out: Vec<Vec<f64>> = Vec::new();
+    let mut seen: Vec<Layout> = Vec::new();
+    for c in counts {
+        for k in 0..spec.families.len() {
+            if out.len() >= spec.population {
+                return out;
+            }
+            let g = seed_genes(spec, k, c, own.rotor.len());
+            let l = decode(spec, &g, own);
+            if seen
+                .iter()
+                .any(|s| s.stator == l.stator && s.rotor == l.rotor)
+            {
+                continue;
+            }
+            seen.push(l);
+            out.push(g);
+        }
+    }
+    out
+}
+
 /// The scenario's packings, as the layout starts from when they are not free.
 #[derive(Debug, Clone, Copy)]
 pub struct Own<'a> {
@@ -209,6 +246,59 @@ mod tests {
             cap: sp.cap,
         };
         assert!(l.stator.iter().all(|p| cap.contains(p)));
+    }
+
+    #[test]
+    fn seeds_cover_every_coil_count_nearest_first_and_never_repeat_a_layout() {
+        let (s, r) = (prototype_stator(), prototype_rotor());
+        let own = Own {
+            stator: &s.points,
+            rotor: &r.points,
+        };
+        let mut sp = spec();
+        sp.families = vec![
+            Family::Scenario,
+            Family::Platonic,
+            Family::Fibonacci,
+            Family::Tammes,
+        ];
+        sp.population = 40;
+        let layouts: Vec<Layout> = seeds(&sp, own)
+            .iter()
+            .map(|g| decode(&sp, g, own))
+            .collect();
+        let counts: Vec<(usize, Family)> =
+            layouts.iter().map(|l| (l.stator.len(), l.family)).collect();
+        // 16 (the prototype's own, nearest) first, then 15, 14, 13, 12: the scenario family has
+        // only 16, the Platonic solids none in this cap (an icosahedron spans the sphere), so
+        // they fall back to the Tammes packing, and the Tammes family's own seed is then the
+        // same layout, left out
+        let expected = [16, 15, 14, 13, 12]
+            .into_iter()
+            .flat_map(|c| {
+                let mut f = if c == 16 {
+                    vec![Family::Scenario]
+                } else {
+                    vec![]
+                };
+                f.extend([Family::Tammes, Family::Fibonacci]);
+                f.into_iter().map(move |f| (c, f))
+            })
+            .collect::<Vec<_>>();
+        assert_eq!(counts, expected);
+        for (i, a) in layouts.iter().enumerate() {
+            for b in &layouts[..i] {
+                assert!(a.stator != b.stator || a.rotor != b.rotor);
+            }
+        }
+        assert_eq!(layouts[0].stator, s.points);
+        // the population caps the seeds, nearest counts kept
+        sp.population = 4;
+        let few: Vec<usize> = seeds(&sp, own)
+            .iter()
+            .map(|g| decode(&sp, g, own).stator.len())
+            .collect();
+        assert_eq!(few, vec![16, 16, 16, 15]);
     }
 
     #[test]
