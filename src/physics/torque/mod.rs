@@ -75,6 +75,31 @@ pub trait TorqueModel: Sync {
         false
     }
 
+    /// [`TorqueModel::cutoff_margins`] of the pairs whose bit is set in `pairs` only (the same
+    /// bits), each written at its index in `out`, which holds a place for every pair; the others
+    /// are left as they are. `false` where [`TorqueModel::cutoff_margins`] offers none (with
+    /// `pairs` empty, only that is asked). By default every margin is computed and the asked
+    /// ones are copied.
+    fn cutoff_margins_of(
+        &self,
+        r: &Matrix3<f64>,
+        w: &Vector3<f64>,
+        active: &[Pair],
+        pairs: SideMask,
+        out: &mut [(f64, f64)],
+    ) -> bool {
+        let mut all = Vec::with_capacity(out.len());
+        if !self.cutoff_margins(r, w, active, &mut all) {
+            return false;
+        }
+        for (i, (o, m)) in out.iter_mut().zip(all).enumerate() {
+            if i < SideMask::BITS as usize && pairs >> i & 1 == 1 {
+                *o = m;
+            }
+        }
+        true
+    }
+
     /// Whether the settle may treat the cut-offs of `active` as events
     /// ([`TorqueModel::body_torque_within`]): a well whose torque jumps at its cut-off, at most
     /// [`MAX_EVENT_PAIRS`] pairs, in the "pairs" interaction (the active pairs) or a [`NearbyMagnets`] of the
@@ -131,6 +156,15 @@ pub type SideMask = u128;
 /// At most this many pairs' cut-offs are events (the bits of a [`SideMask`]): a "coils" set of
 /// three or four coils in wells reaching 40 degrees lists 70 to 100 (coil, magnet) pairs.
 pub const MAX_EVENT_PAIRS: usize = 128;
+
+/// A mask of the first `n` bits (all of them from [`SideMask::BITS`] on).
+pub(crate) fn first_bits(n: usize) -> SideMask {
+    match n {
+        0 => 0,
+        n if n >= SideMask::BITS as usize => SideMask::MAX,
+        n => SideMask::MAX >> (SideMask::BITS as usize - n),
+    }
+}
 
 /// The body-to-world rotation matrix of the quaternion (x, y, z, w), which need not be
 /// normalised: it is the rotation of q / |q|, built without a square root or trigonometry.
@@ -919,6 +953,28 @@ impl TorqueModel for MagnetTorques {
         for pr in active {
             let s = r.tr_mul(&self.stator[pr.coil.0]);
             out.push(self.well.cutoff_margin(&self.rotor[pr.magnet.0], &s, w));
+        }
+        true
+    }
+
+    fn cutoff_margins_of(
+        &self,
+        r: &Matrix3<f64>,
+        w: &Vector3<f64>,
+        active: &[Pair],
+        pairs: SideMask,
+        out: &mut [(f64, f64)],
+    ) -> bool {
+        if self.interaction != Interaction::Pairs || !self.well.cutoff_jump {
+            return false;
+        }
+        let mut bits = pairs & first_bits(active.len().min(out.len()));
+        while bits != 0 {
+            let i = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let pr = active[i];
+            let s = r.tr_mul(&self.stator[pr.coil.0]);
+            out[i] = self.well.cutoff_margin(&self.rotor[pr.magnet.0], &s, w);
         }
         true
     }
