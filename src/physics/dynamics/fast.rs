@@ -444,7 +444,7 @@ impl GrazeWatch {
         let h = t - self.t_before;
         let turn = 2.0 * w_now.max(self.w_before) * h;
         self.turned += turn;
-        let seen = if self.turned >= self.slack || self.landing {
+        let seen = if self.turned + LOOK_AHEAD * turn >= self.slack || self.landing {
             match self.look_near(sides, y, h, turn) {
                 Ok(seen) => seen,
                 // the step is taken back, or the integration stops
@@ -466,19 +466,29 @@ impl GrazeWatch {
         seen
     }
 
-    /// The pairs whose margins may have come near their cut-off: every pair while landing on
-    /// an event or where they are not followed one by one.
-    fn due(&self) -> SideMask {
+    /// The pairs whose margins may have come near their cut-off (their decisions are made
+    /// now), and those that may by the end of a next step that turns the ball up to
+    /// [`LOOK_AHEAD`] times as far as this one (`turn`): their margins are computed now, so that
+    /// they are at hand as the next step's start. Every pair while landing on an event or where
+    /// they are not followed one by one. Also the least `due_at` of the others.
+    fn due(&self, turn: f64) -> (SideMask, SideMask, f64) {
         if self.landing || !self.by_pair {
-            return first_bits(self.now.len().max(self.before.len()));
+            let all = first_bits(self.now.len().max(self.before.len()));
+            return (all, all, f64::INFINITY);
         }
-        let turned = self.turned;
-        let due = self
-            .due_at
-            .iter()
-            .enumerate()
-            .filter(|&(_, &at)| turned >= at);
-        due.fold(0, |acc: SideMask, (i, _)| acc | 1 << i)
+        let (turned, ahead) = (self.turned, self.turned + LOOK_AHEAD * turn);
+        let (mut due, mut soon, mut rest): (SideMask, SideMask, f64) = (0, 0, f64::INFINITY);
+        for (i, &at) in self.due_at.iter().enumerate() {
+            if at <= ahead {
+                soon |= 1 << i;
+                if at <= turned {
+                    due |= 1 << i;
+                }
+            } else {
+                rest = rest.min(at);
+            }
+        }
+        (due, soon, rest)
     }
 
     /// [`GrazeWatch::look`] where some pairs may be near their cut-off: their margins at the
@@ -492,12 +502,12 @@ impl GrazeWatch {
         turn: f64,
     ) -> Result<Look, Look> {
         let sys = sides.sys;
-        let due = self.due();
+        let (due, soon, rest) = self.due(turn);
         std::mem::swap(&mut self.before, &mut self.now);
         let stale = due & !self.fresh;
         self.on = (stale == 0
             || margins_of(sys, &self.y_before, self.by_pair, stale, &mut self.before))
-            && margins_of(sys, y, self.by_pair, due, &mut self.now);
+            && margins_of(sys, y, self.by_pair, soon, &mut self.now);
         let mut seen = Look::Quiet;
         if self.on && sides.events {
             match events::seen(sides, &self.before, &self.now, h, due) {
@@ -537,21 +547,25 @@ impl GrazeWatch {
                 seen = Look::Crossed;
             }
         }
-        self.fresh = due;
-        self.wait(due);
+        self.fresh = soon;
+        self.wait(soon, rest);
         Ok(seen)
     }
 
-    /// After the margins of the pairs of `due` were computed: when each is computed again.
-    fn wait(&mut self, due: SideMask) {
+    /// After the margins of the pairs of `due` were computed: when each is computed again, and
+    /// when the next is (`rest`: the least of the others).
+    fn wait(&mut self, due: SideMask, rest: f64) {
         if !self.by_pair {
             self.slack = self.turned + least(&self.now) - GRAZE_EPS;
             return;
         }
+        let mut slack = rest;
         for i in events::each(due, self.now.len()) {
-            self.due_at[i] = self.turned + self.now[i].0.abs() - GRAZE_EPS;
+            let at = self.turned + self.now[i].0.abs() - GRAZE_EPS;
+            self.due_at[i] = at;
+            slack = slack.min(at);
         }
-        self.slack = self.due_at.iter().fold(f64::INFINITY, |a, &b| a.min(b));
+        self.slack = slack;
     }
 
     /// After [`MAX_REDOS`] landings on one event: the pairs (of those computed, `due`) on the
@@ -621,6 +635,12 @@ const NONLINEAR_RTOL_FLOOR: f64 = 1e-5;
 /// equilibrium so; 1e-5 caught seed 19's only. The cost: the sets that graze (3 to 15% of the
 /// random sets, most at light damping) settle at tight tolerances.
 const GRAZE_EPS: f64 = 1e-4;
+
+/// How many times as far as the step at hand the graze watch expects the next step to turn the
+/// ball at most: the margins of the pairs that may come near their cut-off within that are
+/// computed ahead, at the step's end, so that the next step has them at its start. Only the
+/// work depends on it (a margin not at hand is computed where it is needed).
+const LOOK_AHEAD: f64 = 2.0;
 
 /// Points of a step's interpolant at which [`grazes`] looks.
 const GRAZE_SAMPLES: u32 = 16;
