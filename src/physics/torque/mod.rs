@@ -677,6 +677,32 @@ fn dipole_f_and_slope(w: &DipoleWell, d: f64, sin_d: f64) -> (f64, f64) {
     (f(d), (f(d + H) - f(d - H)) / (2.0 * H) / sin_d)
 }
 
+/// Adds one pair's terms to `lin`: N += f u and dN/d delta += (s p^T - c 1) f - u u^T slope,
+/// element by element with nalgebra's operations in its order (s p^T and u u^T are the
+/// products s_i p_j and u_i u_j, c 1 is 1 c on the diagonal and 0 c off it, then the scalings,
+/// the difference and the sum), so the same bits, signed zeros included, without the
+/// temporary matrices.
+#[inline(always)]
+fn add_pair_terms(
+    lin: &mut Linearization,
+    p: &Vector3<f64>,
+    s: &Vector3<f64>,
+    u: &Vector3<f64>,
+    c: f64,
+    f: f64,
+    slope: f64,
+) {
+    lin.torque += u * f;
+    let off = 0.0 * c;
+    for j in 0..3 {
+        for i in 0..3 {
+            let ic = if i == j { c } else { off };
+            let term = (s[i] * p[j] - ic) * f - u[i] * u[j] * slope;
+            lin.jacobian[(i, j)] += term;
+        }
+    }
+}
+
 /// The cosine below which a point is more than `angle` away (-2, no point, where `angle`
 /// passes the antipode).
 fn cos_within(angle: f64) -> f64 {
@@ -764,9 +790,7 @@ impl MagnetTorques {
                 self.well.f_and_slope(d, sin_d)?
             }
         };
-        lin.torque += u * f;
-        lin.jacobian +=
-            (s * p.transpose() - Matrix3::identity() * c) * f - u * u.transpose() * slope;
+        add_pair_terms(lin, p, s, &u, c, f, slope);
         Some(())
     }
 
@@ -1330,6 +1354,51 @@ mod tests {
             bits(near.body_torque_within(&q, &active, SideMask::MAX)),
             bits(m.body_torque(&r, &active))
         );
+    }
+
+    #[test]
+    fn a_pairs_terms_are_nalgebras_to_the_bit() {
+        // the terms by nalgebra's matrix expressions, as the linearization summed them before
+        fn by_matrices(
+            lin: &mut Linearization,
+            (p, s, u): (&Vector3<f64>, &Vector3<f64>, &Vector3<f64>),
+            (c, f, slope): (f64, f64, f64),
+        ) {
+            lin.torque += u * f;
+            lin.jacobian +=
+                (s * p.transpose() - Matrix3::identity() * c) * f - u * u.transpose() * slope;
+        }
+        let mut rng = crate::model::random::SplitMix::new(5);
+        let mut unit = |zeros: bool| {
+            let mut r = || 2.0 * rng.uniform() - 1.0;
+            let mut v = Vector3::new(r(), r(), r()).normalize();
+            if zeros {
+                // exact and signed zeros, which only the order of the operations keeps
+                v[(rng.uniform() * 3.0) as usize % 3] =
+                    if rng.uniform() < 0.5 { 0.0 } else { -0.0 };
+            }
+            v
+        };
+        for k in 0..20_000 {
+            let (p, s) = (unit(k % 3 == 0), unit(k % 5 == 0));
+            let u = p.cross(&s);
+            let c = p.dot(&s);
+            let (f, slope) = (1.0 + c * 0.37, if k % 7 == 0 { 0.0 } else { -2.5 * c });
+            let start = Linearization {
+                torque: Vector3::new(0.1, -0.2, 0.0),
+                jacobian: Matrix3::new(0.0, -0.0, 1.0, 2.0, -3.0, 0.0, -0.0, 0.5, 0.25),
+                cutoff_margin: MARGIN_CAP,
+            };
+            let (mut a, mut b) = (start, start);
+            add_pair_terms(&mut a, &p, &s, &u, c, f, slope);
+            by_matrices(&mut b, (&p, &s, &u), (c, f, slope));
+            let bits = |l: &Linearization| {
+                let mut v: Vec<u64> = l.torque.iter().map(|x| x.to_bits()).collect();
+                v.extend(l.jacobian.iter().map(|x| x.to_bits()));
+                v
+            };
+            assert_eq!(bits(&a), bits(&b), "p {p:?} s {s:?}");
+        }
     }
 
     #[test]
