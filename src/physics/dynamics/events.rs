@@ -7,7 +7,7 @@
 
 use super::RotorDynamics;
 use crate::physics::integrator::OdeSystem;
-use crate::physics::torque::{SideMask, TorqueModel};
+use crate::physics::torque::{first_bits, SideMask, TorqueModel};
 use std::cell::Cell;
 
 /// How far (in cosine: 1e-9 is 1.3e-7 degrees at a 25 degree cut-off) a pair's margin may be on
@@ -89,17 +89,20 @@ pub(super) enum Seen {
     Flip(SideMask),
 }
 
-/// What the pairs' margins (m, dm/dt) at a step's start (`before`) and end (`now`), `h` apart,
-/// say with the pairs on the sides of `sides`.
+/// What the margins (m, dm/dt) of the pairs of `due` at a step's start (`before`) and end
+/// (`now`), `h` apart, say with the pairs on the sides of `sides` (the other pairs are far
+/// from their cut-offs).
 pub(super) fn seen<M: TorqueModel>(
     sides: &Sides<'_, '_, M>,
     before: &[(f64, f64)],
     now: &[(f64, f64)],
     h: f64,
+    due: SideMask,
 ) -> Seen {
     let mut first: Option<f64> = None;
     let mut flips: SideMask = 0;
-    for (i, (&a, &b)) in before.iter().zip(now).enumerate() {
+    for i in each(due, now.len().min(before.len())) {
+        let (a, b) = (before[i], now[i]);
         let side = sides.side(i);
         if let Some(s) = leaves(side, a, b, h) {
             first = Some(first.map_or(s, |f: f64| f.min(s)));
@@ -112,6 +115,21 @@ pub(super) fn seen<M: TorqueModel>(
         None if flips != 0 => Seen::Flip(flips),
         None => Seen::Quiet,
     }
+}
+
+/// The pairs of `pairs` among `n`, ascending: the set bits below `n`, or every pair where
+/// there are more than a [`SideMask`] has bits.
+pub(super) fn each(pairs: SideMask, n: usize) -> impl Iterator<Item = usize> {
+    let all = n > SideMask::BITS as usize;
+    let mut bits = if all { 0 } else { pairs & first_bits(n) };
+    let next = move || {
+        (bits != 0).then(|| {
+            let i = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            i
+        })
+    };
+    (0..if all { n } else { 0 }).chain(std::iter::from_fn(next))
 }
 
 /// The first fraction s of a step at which a pair's margin, on its cubic Hermite interpolant

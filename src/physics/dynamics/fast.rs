@@ -8,7 +8,7 @@ use super::events::{self, Seen, Sides, MAX_REDOS};
 use super::reference::{dopri5_run, settle_dopri5};
 use super::{finish, hermite_weights, RotorDynamics, SettleParams, SettleResult, State, Stop};
 use crate::physics::integrator::{integrate_until, End, Outcome, Tolerances, Verdict};
-use crate::physics::torque::{rotation_matrix, SideMask, TorqueModel};
+use crate::physics::torque::{first_bits, rotation_matrix, SideMask, TorqueModel};
 use nalgebra::Vector3;
 
 /// The fast path's stiffness scale (isotropic bodies of models that have one: the linear
@@ -320,24 +320,32 @@ fn end_phase_result<M: TorqueModel>(
 }
 
 /// The graze watch: each pair's cut-off margin and its rate at the last accepted step looked
-/// at, and now. A margin changes no faster than |w| (|d(p . s)/dt| <= |w|), so while the ball
-/// has turned less since the margins were last looked at than the least of them (less
-/// [`GRAZE_EPS`], with |w| taken at twice the larger of a step's ends), no pair can have come
-/// near its cut-off and the margins are not computed.
+/// at, and now. A margin changes no faster than |w| (|d(p . s)/dt| <= |w|), so until the ball
+/// has turned, since a pair's margin was last computed, as far as that margin was from the
+/// cut-off (less [`GRAZE_EPS`], with |w| taken at twice the larger of a step's ends), the pair
+/// cannot have come near its cut-off and its margin is not computed again: a step computes the
+/// margins of the pairs that may be near their cut-off only (every pair where there are more
+/// than a [`SideMask`] has bits, and while landing on an event), and the others can neither
+/// cross, graze nor turn back, so the watch decides as it would on every margin.
 struct GrazeWatch {
     /// Whether the watch is on: the model offers margins (a "coils" model beyond its skin
     /// does not), and the path has a linear regime.
     on: bool,
+    /// Whether the pairs' margins are followed one by one (at most [`SideMask::BITS`] pairs).
+    by_pair: bool,
     before: Vec<(f64, f64)>,
     now: Vec<(f64, f64)>,
-    /// How far the ball may turn before the margins are looked at again.
+    /// Each pair's `turned` at which its margin must be computed again (followed one by one),
+    /// and the least of them: no margin is computed before the ball has turned this far.
+    due_at: Vec<f64>,
     slack: f64,
     y_before: [f64; 7],
     t_before: f64,
     w_before: f64,
+    /// How far the ball may have turned since the watch began (twice |w| over each step).
     turned: f64,
-    /// Whether `now` holds the margins at `y_before` (the last step looked at them).
-    looked: bool,
+    /// The pairs whose margins in `now` are those at `y_before` (the last step computed them).
+    fresh: SideMask,
     /// Landings tried for the event at hand, and whether the next step must be looked at
     /// (it is one).
     redos: u32,
@@ -378,104 +386,194 @@ fn margins<M: TorqueModel>(
     sys.model.cutoff_margins(&r, &w, sys.active, out)
 }
 
+/// The cut-off margins at the state `y` of the pairs of `pairs` into their places in `out`
+/// (`by_pair`), or of every pair ([`margins`]); false where the model offers none.
+fn margins_of<M: TorqueModel>(
+    sys: &RotorDynamics<'_, M>,
+    y: &[f64; 7],
+    by_pair: bool,
+    pairs: SideMask,
+    out: &mut Vec<(f64, f64)>,
+) -> bool {
+    if !by_pair {
+        return margins(sys, y, out);
+    }
+    let r = rotation_matrix(y[0], y[1], y[2], y[3]);
+    let w = Vector3::new(y[4], y[5], y[6]);
+    sys.model.cutoff_margins_of(&r, &w, sys.active, pairs, out)
+}
+
 impl GrazeWatch {
     /// The watch from the start `y0` (at rest), on when `linear` (the path has a linear
     /// regime) and the model offers margins there.
     fn new<M: TorqueModel>(sys: &RotorDynamics<'_, M>, y0: [f64; 7], linear: bool) -> Self {
         let mut before = Vec::new();
         let on = linear && margins(sys, &y0, &mut before);
-        let slack = least(&before) - GRAZE_EPS;
+        let by_pair = before.len() <= SideMask::BITS as usize;
+        let due_at: Vec<f64> = before.iter().map(|&(m, _)| m.abs() - GRAZE_EPS).collect();
+        let (now, fresh) = if by_pair {
+            (before.clone(), first_bits(before.len()))
+        } else {
+            (Vec::new(), 0)
+        };
         GrazeWatch {
             on,
+            by_pair,
+            slack: least(&before) - GRAZE_EPS,
             before,
-            now: Vec::new(),
-            slack,
+            now,
+            due_at,
             y_before: y0,
             t_before: 0.0,
             w_before: Vector3::new(y0[4], y0[5], y0[6]).norm(),
             turned: 0.0,
-            looked: false,
+            fresh,
             redos: 0,
             landing: false,
         }
     }
 
     /// Looks at the accepted step ending at (t, y); the watch goes off where the model offers
-    /// no margins. With cut-off events (`sides.events`) it finds them instead of grazes and
-    /// crossings: a step in which a pair leaves its side is taken again to land where it does
-    /// (the watch then stays where the step began), and pairs at their cut-off where a step
-    /// ends, moving on across it, are switched.
+    /// no margins (followed one by one, that is looked at every step). With cut-off events
+    /// (`sides.events`) it finds them instead of grazes and crossings: a step in which a pair
+    /// leaves its side is taken again to land where it does (the watch then stays where the
+    /// step began), and pairs at their cut-off where a step ends, moving on across it, are
+    /// switched.
     fn look<M: TorqueModel>(&mut self, sides: &Sides<'_, '_, M>, t: f64, y: &[f64; 7]) -> Look {
-        let sys = sides.sys;
         let w_now = Vector3::new(y[4], y[5], y[6]).norm();
         let h = t - self.t_before;
         let turn = 2.0 * w_now.max(self.w_before) * h;
         self.turned += turn;
-        let mut seen = Look::Quiet;
-        if self.turned >= self.slack || self.landing {
-            if self.looked {
-                std::mem::swap(&mut self.before, &mut self.now);
+        let seen = if self.turned + LOOK_AHEAD * turn >= self.slack || self.landing {
+            match self.look_near(sides, y, h, turn) {
+                Ok(seen) => seen,
+                // the step is taken back, or the integration stops
+                Err(seen) => return seen,
             }
-            self.on = (self.looked || margins(sys, &self.y_before, &mut self.before))
-                && margins(sys, y, &mut self.now);
-            if self.on && sides.events {
-                match events::seen(sides, &self.before, &self.now, h) {
-                    Seen::Redo(s) if self.redos < MAX_REDOS => {
-                        // the step is taken back: the watch stays at its start
-                        std::mem::swap(&mut self.before, &mut self.now);
-                        self.turned -= turn;
-                        (self.looked, self.landing) = (true, true);
-                        self.redos += 1;
-                        return Look::Redo(s * h);
-                    }
-                    Seen::Redo(_) => seen = self.switch_beyond(sides),
-                    Seen::Flip(flips) => {
-                        let pairs = || self.before.iter().zip(&self.now).enumerate();
-                        let grazing = pairs().any(|(i, (&a, &b))| {
-                            flips >> i & 1 == 1 && barely_crosses(sides.side(i), a, b, h)
-                        });
-                        if grazing {
-                            return Look::Grazed;
-                        }
-                        sides.flip(flips);
-                        seen = Look::Changed;
-                    }
-                    Seen::Quiet => {
-                        let pairs = || self.before.iter().zip(&self.now).enumerate();
-                        if pairs().any(|(i, (&a, &b))| turns_back(sides.side(i), a, b, h)) {
-                            return Look::Grazed;
-                        }
-                    }
-                }
-                (self.redos, self.landing) = (0, false);
-            } else {
-                let pairs = || self.before.iter().zip(&self.now);
-                if self.on && pairs().any(|(&a, &b)| grazes(a, b, h)) {
-                    return Look::Grazed;
-                }
-                if !self.on || pairs().any(|(a, b)| (a.0 < 0.0) != (b.0 < 0.0)) {
-                    seen = Look::Crossed;
-                }
-            }
-            self.slack = least(&self.now) - GRAZE_EPS;
-            self.turned = 0.0;
-            self.looked = true;
         } else {
-            self.looked = false;
-        }
+            self.fresh = 0;
+            // no pair near its cut-off: whether the model still offers margins is all there
+            // is to see
+            let off = self.by_pair && !margins_of(sides.sys, y, true, 0, &mut self.now);
+            if off {
+                self.on = false;
+                Look::Crossed
+            } else {
+                Look::Quiet
+            }
+        };
         (self.y_before, self.t_before, self.w_before) = (*y, t, w_now);
         seen
     }
 
-    /// After [`MAX_REDOS`] landings on one event: the pairs on the wrong side of their cut-off
-    /// where the step ends are switched there.
-    fn switch_beyond<M: TorqueModel>(&self, sides: &Sides<'_, '_, M>) -> Look {
-        let flips = self
-            .now
-            .iter()
-            .enumerate()
-            .filter(|&(i, &(m, _))| sides.side(i) * m < 0.0)
-            .fold(0, |acc: SideMask, (i, _)| acc | 1 << i);
+    /// The pairs whose margins may have come near their cut-off (their decisions are made
+    /// now), and those that may by the end of a next step that turns the ball up to
+    /// [`LOOK_AHEAD`] times as far as this one (`turn`): their margins are computed now, so that
+    /// they are at hand as the next step's start. Every pair while landing on an event or where
+    /// they are not followed one by one. Also the least `due_at` of the others.
+    fn due(&self, turn: f64) -> (SideMask, SideMask, f64) {
+        if self.landing || !self.by_pair {
+            let all = first_bits(self.now.len().max(self.before.len()));
+            return (all, all, f64::INFINITY);
+        }
+        let (turned, ahead) = (self.turned, self.turned + LOOK_AHEAD * turn);
+        let (mut due, mut soon, mut rest): (SideMask, SideMask, f64) = (0, 0, f64::INFINITY);
+        for (i, &at) in self.due_at.iter().enumerate() {
+            if at <= ahead {
+                soon |= 1 << i;
+                if at <= turned {
+                    due |= 1 << i;
+                }
+            } else {
+                rest = rest.min(at);
+            }
+        }
+        (due, soon, rest)
+    }
+
+    /// [`GrazeWatch::look`] where some pairs may be near their cut-off: their margins at the
+    /// step's start and end `h` later (`turn` the step's part of `turned`), and what they say;
+    /// `Err` where the step is taken back or the integration stops at once.
+    fn look_near<M: TorqueModel>(
+        &mut self,
+        sides: &Sides<'_, '_, M>,
+        y: &[f64; 7],
+        h: f64,
+        turn: f64,
+    ) -> Result<Look, Look> {
+        let sys = sides.sys;
+        let (due, soon, rest) = self.due(turn);
+        std::mem::swap(&mut self.before, &mut self.now);
+        let stale = due & !self.fresh;
+        self.on = (stale == 0
+            || margins_of(sys, &self.y_before, self.by_pair, stale, &mut self.before))
+            && margins_of(sys, y, self.by_pair, soon, &mut self.now);
+        let mut seen = Look::Quiet;
+        if self.on && sides.events {
+            match events::seen(sides, &self.before, &self.now, h, due) {
+                Seen::Redo(s) if self.redos < MAX_REDOS => {
+                    // the step is taken back: the watch stays at its start
+                    std::mem::swap(&mut self.before, &mut self.now);
+                    self.turned -= turn;
+                    (self.fresh, self.landing) = (self.fresh | due, true);
+                    self.redos += 1;
+                    return Err(Look::Redo(s * h));
+                }
+                Seen::Redo(_) => seen = self.switch_beyond(sides, due),
+                Seen::Flip(flips) => {
+                    let grazing = events::each(flips, self.now.len())
+                        .any(|i| barely_crosses(sides.side(i), self.before[i], self.now[i], h));
+                    if grazing {
+                        return Err(Look::Grazed);
+                    }
+                    sides.flip(flips);
+                    seen = Look::Changed;
+                }
+                Seen::Quiet => {
+                    let n = self.now.len();
+                    let (a, b) = (&self.before, &self.now);
+                    if events::each(due, n).any(|i| turns_back(sides.side(i), a[i], b[i], h)) {
+                        return Err(Look::Grazed);
+                    }
+                }
+            }
+            (self.redos, self.landing) = (0, false);
+        } else {
+            let pairs = || events::each(due, self.now.len()).map(|i| (self.before[i], self.now[i]));
+            if self.on && pairs().any(|(a, b)| grazes(a, b, h)) {
+                return Err(Look::Grazed);
+            }
+            if !self.on || pairs().any(|(a, b)| (a.0 < 0.0) != (b.0 < 0.0)) {
+                seen = Look::Crossed;
+            }
+        }
+        self.fresh = soon;
+        self.wait(soon, rest);
+        Ok(seen)
+    }
+
+    /// After the margins of the pairs of `due` were computed: when each is computed again, and
+    /// when the next is (`rest`: the least of the others).
+    fn wait(&mut self, due: SideMask, rest: f64) {
+        if !self.by_pair {
+            self.slack = self.turned + least(&self.now) - GRAZE_EPS;
+            return;
+        }
+        let mut slack = rest;
+        for i in events::each(due, self.now.len()) {
+            let at = self.turned + self.now[i].0.abs() - GRAZE_EPS;
+            self.due_at[i] = at;
+            slack = slack.min(at);
+        }
+        self.slack = slack;
+    }
+
+    /// After [`MAX_REDOS`] landings on one event: the pairs (of those computed, `due`) on the
+    /// wrong side of their cut-off where the step ends are switched there.
+    fn switch_beyond<M: TorqueModel>(&self, sides: &Sides<'_, '_, M>, due: SideMask) -> Look {
+        let flips = events::each(due, self.now.len())
+            .filter(|&i| sides.side(i) * self.now[i].0 < 0.0)
+            .fold(0, |acc: SideMask, i| acc | 1 << i);
         if flips == 0 {
             return Look::Quiet;
         }
@@ -537,6 +635,12 @@ const NONLINEAR_RTOL_FLOOR: f64 = 1e-5;
 /// equilibrium so; 1e-5 caught seed 19's only. The cost: the sets that graze (3 to 15% of the
 /// random sets, most at light damping) settle at tight tolerances.
 const GRAZE_EPS: f64 = 1e-4;
+
+/// How many times as far as the step at hand the graze watch expects the next step to turn the
+/// ball at most: the margins of the pairs that may come near their cut-off within that are
+/// computed ahead, at the step's end, so that the next step has them at its start. Only the
+/// work depends on it (a margin not at hand is computed where it is needed).
+const LOOK_AHEAD: f64 = 2.0;
 
 /// Points of a step's interpolant at which [`grazes`] looks.
 const GRAZE_SAMPLES: u32 = 16;

@@ -75,6 +75,31 @@ pub trait TorqueModel: Sync {
         false
     }
 
+    /// [`TorqueModel::cutoff_margins`] of the pairs whose bit is set in `pairs` only (the same
+    /// bits), each written at its index in `out`, which holds a place for every pair; the others
+    /// are left as they are. `false` where [`TorqueModel::cutoff_margins`] offers none (with
+    /// `pairs` empty, only that is asked). By default every margin is computed and the asked
+    /// ones are copied.
+    fn cutoff_margins_of(
+        &self,
+        r: &Matrix3<f64>,
+        w: &Vector3<f64>,
+        active: &[Pair],
+        pairs: SideMask,
+        out: &mut [(f64, f64)],
+    ) -> bool {
+        let mut all = Vec::with_capacity(out.len());
+        if !self.cutoff_margins(r, w, active, &mut all) {
+            return false;
+        }
+        for (i, (o, m)) in out.iter_mut().zip(all).enumerate() {
+            if i < SideMask::BITS as usize && pairs >> i & 1 == 1 {
+                *o = m;
+            }
+        }
+        true
+    }
+
     /// Whether the settle may treat the cut-offs of `active` as events
     /// ([`TorqueModel::body_torque_within`]): a well whose torque jumps at its cut-off, at most
     /// [`MAX_EVENT_PAIRS`] pairs, in the "pairs" interaction (the active pairs) or a [`NearbyMagnets`] of the
@@ -131,6 +156,15 @@ pub type SideMask = u128;
 /// At most this many pairs' cut-offs are events (the bits of a [`SideMask`]): a "coils" set of
 /// three or four coils in wells reaching 40 degrees lists 70 to 100 (coil, magnet) pairs.
 pub const MAX_EVENT_PAIRS: usize = 128;
+
+/// A mask of the first `n` bits (all of them from [`SideMask::BITS`] on).
+pub(crate) fn first_bits(n: usize) -> SideMask {
+    match n {
+        0 => 0,
+        n if n >= SideMask::BITS as usize => SideMask::MAX,
+        n => SideMask::MAX >> (SideMask::BITS as usize - n),
+    }
+}
 
 /// The body-to-world rotation matrix of the quaternion (x, y, z, w), which need not be
 /// normalised: it is the rotation of q / |q|, built without a square root or trigonometry.
@@ -643,6 +677,32 @@ fn dipole_f_and_slope(w: &DipoleWell, d: f64, sin_d: f64) -> (f64, f64) {
     (f(d), (f(d + H) - f(d - H)) / (2.0 * H) / sin_d)
 }
 
+/// Adds one pair's terms to `lin`: N += f u and dN/d delta += (s p^T - c 1) f - u u^T slope,
+/// element by element with nalgebra's operations in its order (s p^T and u u^T are the
+/// products s_i p_j and u_i u_j, c 1 is 1 c on the diagonal and 0 c off it, then the scalings,
+/// the difference and the sum), so the same bits, signed zeros included, without the
+/// temporary matrices.
+#[inline(always)]
+fn add_pair_terms(
+    lin: &mut Linearization,
+    p: &Vector3<f64>,
+    s: &Vector3<f64>,
+    u: &Vector3<f64>,
+    c: f64,
+    f: f64,
+    slope: f64,
+) {
+    lin.torque += u * f;
+    let off = 0.0 * c;
+    for j in 0..3 {
+        for i in 0..3 {
+            let ic = if i == j { c } else { off };
+            let term = (s[i] * p[j] - ic) * f - u[i] * u[j] * slope;
+            lin.jacobian[(i, j)] += term;
+        }
+    }
+}
+
 /// The cosine below which a point is more than `angle` away (-2, no point, where `angle`
 /// passes the antipode).
 fn cos_within(angle: f64) -> f64 {
@@ -730,9 +790,7 @@ impl MagnetTorques {
                 self.well.f_and_slope(d, sin_d)?
             }
         };
-        lin.torque += u * f;
-        lin.jacobian +=
-            (s * p.transpose() - Matrix3::identity() * c) * f - u * u.transpose() * slope;
+        add_pair_terms(lin, p, s, &u, c, f, slope);
         Some(())
     }
 
@@ -919,6 +977,28 @@ impl TorqueModel for MagnetTorques {
         for pr in active {
             let s = r.tr_mul(&self.stator[pr.coil.0]);
             out.push(self.well.cutoff_margin(&self.rotor[pr.magnet.0], &s, w));
+        }
+        true
+    }
+
+    fn cutoff_margins_of(
+        &self,
+        r: &Matrix3<f64>,
+        w: &Vector3<f64>,
+        active: &[Pair],
+        pairs: SideMask,
+        out: &mut [(f64, f64)],
+    ) -> bool {
+        if self.interaction != Interaction::Pairs || !self.well.cutoff_jump {
+            return false;
+        }
+        let mut bits = pairs & first_bits(active.len().min(out.len()));
+        while bits != 0 {
+            let i = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let pr = active[i];
+            let s = r.tr_mul(&self.stator[pr.coil.0]);
+            out[i] = self.well.cutoff_margin(&self.rotor[pr.magnet.0], &s, w);
         }
         true
     }
@@ -1274,6 +1354,51 @@ mod tests {
             bits(near.body_torque_within(&q, &active, SideMask::MAX)),
             bits(m.body_torque(&r, &active))
         );
+    }
+
+    #[test]
+    fn a_pairs_terms_are_nalgebras_to_the_bit() {
+        // the terms by nalgebra's matrix expressions, as the linearization summed them before
+        fn by_matrices(
+            lin: &mut Linearization,
+            (p, s, u): (&Vector3<f64>, &Vector3<f64>, &Vector3<f64>),
+            (c, f, slope): (f64, f64, f64),
+        ) {
+            lin.torque += u * f;
+            lin.jacobian +=
+                (s * p.transpose() - Matrix3::identity() * c) * f - u * u.transpose() * slope;
+        }
+        let mut rng = crate::model::random::SplitMix::new(5);
+        let mut unit = |zeros: bool| {
+            let mut r = || 2.0 * rng.uniform() - 1.0;
+            let mut v = Vector3::new(r(), r(), r()).normalize();
+            if zeros {
+                // exact and signed zeros, which only the order of the operations keeps
+                v[(rng.uniform() * 3.0) as usize % 3] =
+                    if rng.uniform() < 0.5 { 0.0 } else { -0.0 };
+            }
+            v
+        };
+        for k in 0..20_000 {
+            let (p, s) = (unit(k % 3 == 0), unit(k % 5 == 0));
+            let u = p.cross(&s);
+            let c = p.dot(&s);
+            let (f, slope) = (1.0 + c * 0.37, if k % 7 == 0 { 0.0 } else { -2.5 * c });
+            let start = Linearization {
+                torque: Vector3::new(0.1, -0.2, 0.0),
+                jacobian: Matrix3::new(0.0, -0.0, 1.0, 2.0, -3.0, 0.0, -0.0, 0.5, 0.25),
+                cutoff_margin: MARGIN_CAP,
+            };
+            let (mut a, mut b) = (start, start);
+            add_pair_terms(&mut a, &p, &s, &u, c, f, slope);
+            by_matrices(&mut b, (&p, &s, &u), (c, f, slope));
+            let bits = |l: &Linearization| {
+                let mut v: Vec<u64> = l.torque.iter().map(|x| x.to_bits()).collect();
+                v.extend(l.jacobian.iter().map(|x| x.to_bits()));
+                v
+            };
+            assert_eq!(bits(&a), bits(&b), "p {p:?} s {s:?}");
+        }
     }
 
     #[test]

@@ -232,13 +232,35 @@ impl TorqueModel for NearbyMagnets<'_> {
         }
         true
     }
-}
 
-/// A mask of the first `n` bits (all of them from [`SideMask::BITS`] on).
-fn first_bits(n: usize) -> SideMask {
-    match n {
-        0 => 0,
-        n if n >= SideMask::BITS as usize => SideMask::MAX,
-        n => SideMask::MAX >> (SideMask::BITS as usize - n),
+    fn cutoff_margins_of(
+        &self,
+        r: &Matrix3<f64>,
+        w: &Vector3<f64>,
+        active: &[Pair],
+        pairs: SideMask,
+        out: &mut [(f64, f64)],
+    ) -> bool {
+        if !self.covers(r, active) || !self.full.well.cutoff_jump {
+            return false;
+        }
+        // the set bits in ascending order, coil by coil, as in `body_torque_within`
+        let mut bits = pairs & self.listed & first_bits(out.len());
+        let mut s = Vector3::zeros();
+        let (mut next, mut end) = (0, 0);
+        while bits != 0 {
+            let i = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            if i >= end {
+                while self.starts[next + 1] <= i {
+                    next += 1;
+                }
+                s = r.tr_mul(&self.coils[next]);
+                end = self.starts[next + 1];
+                next += 1;
+            }
+            out[i] = self.full.well.cutoff_margin(&self.magnets[i], &s, w);
+        }
+        true
     }
 }
