@@ -110,6 +110,9 @@ pub(super) struct EndSearch {
     /// trusted ([`CUTOFF_SAFETY`]).
     pub(super) crossed: bool,
     pub(super) found: Option<EndPhase>,
+    /// Whether the search stopped the integration at a minimum within [`CUTOFF_SAFETY`] of a
+    /// cut-off that the approach may have crossed (the settle is unsure there).
+    pub(super) near_cutoff: bool,
 }
 
 /// Why [`EndPhase::find`] found no end phase.
@@ -134,6 +137,7 @@ impl EndSearch {
             evaluations: 0,
             crossed,
             found: None,
+            near_cutoff: false,
         }
     }
 
@@ -165,7 +169,10 @@ impl EndSearch {
                 self.found = Some(e);
                 true
             }
-            Err(Refusal::NearCutoff) => true,
+            Err(Refusal::NearCutoff) => {
+                self.near_cutoff = true;
+                true
+            }
             Err(Refusal::Wide) => false,
             Err(Refusal::NotNear) => {
                 // not yet (or never) near a strict minimum: look again later, less often

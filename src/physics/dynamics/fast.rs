@@ -40,16 +40,16 @@ type Tail<'t> = (Option<&'t mut Vec<(f64, State)>>, usize);
 
 /// What the fast path's integration `out` (ended without the Newton finish) says: the ball
 /// where the stepper left it and why it stopped; never settled without damping; a stop near
-/// rest but never near a strict minimum (`scale`: the model's stiffness scale, where it has a
-/// linear regime) is re-integrated tightly ([`unheld_tolerance`]), or reported unheld when the
-/// set need not be followed.
+/// rest but never near a strict minimum (`tight`: where the model has a linear regime, the
+/// tolerances to settle such a set again at) is re-integrated tightly, or reported unheld when
+/// the set need not be followed.
 fn conclude<M: TorqueModel>(
     sys: &RotorDynamics<'_, M>,
     y0: [f64; 7],
     params: SettleParams,
     out: &Outcome<7>,
     evaluations: u32,
-    scale: Option<f64>,
+    tight: Option<(f64, f64)>,
     tail: Tail<'_>,
 ) -> SettleResult {
     // where the stepper left the ball, and why it says it stopped
@@ -81,13 +81,12 @@ fn conclude<M: TorqueModel>(
         End::TimeLimit => near_rest(&out.y),
         _ => false,
     };
-    if let Some(k1) = scale.filter(|_| unsure) {
+    if let Some(tol) = tight.filter(|_| unsure) {
         // settled (or nearly at rest at t_max), but never near a strict minimum: not sure where
         // along the free direction the ball stops, nor when
         if !params.follow_unheld {
             return stopped_here(Stop::Unheld);
         }
-        let tol = unheld_tolerance(sys, k1);
         return settle_tight(sys, y0, params, evaluations, tail, tol);
     }
     stopped_here(out.end.into())
@@ -149,6 +148,16 @@ fn settle_fast_from<M: TorqueModel>(
     let out = integrate_until(&sides, y0, params.t_max, tol, first_step, |t, y, dy| {
         at.verdict(&sides, &params, t, y, dy)
     });
+    // a minimum near a cut-off the approach may have crossed is settled again as a graze is; a
+    // set no strict minimum holds, at its own tolerance
+    let near_cutoff = at.search.as_ref().is_some_and(|s| s.near_cutoff);
+    let tight = scale.map(|k1| {
+        if near_cutoff {
+            FALLBACK_TOL
+        } else {
+            unheld_tolerance(sys, k1)
+        }
+    });
     let (newton_evals, end) = at.search.map_or((0, None), |s| (s.evaluations, s.found));
     let evaluations = out.evaluations + newton_evals;
     if let Some(e) = end {
@@ -172,7 +181,7 @@ fn settle_fast_from<M: TorqueModel>(
         None => {}
     }
     let tail = (at.trace, traced);
-    conclude(sys, y0, params, &out, evaluations, scale, tail)
+    conclude(sys, y0, params, &out, evaluations, tight, tail)
 }
 
 /// What the fast path watches at each accepted step: the graze watch (or the cut-off events),
