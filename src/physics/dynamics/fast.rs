@@ -707,6 +707,39 @@ mod tests {
     }
 
     #[test]
+    fn an_unheld_set_is_followed_at_1e_7_unless_the_damping_is_light() {
+        let (torques, body) = super::super::prototype_physics();
+        let k1 = torques
+            .stiffness_scale()
+            .expect("gaussian wells have a stiffness scale");
+        let active = [Pair::new(0, 14)];
+        // the tolerances at a damping ratio zeta for one aligned pair
+        let at = |zeta: f64| {
+            let body = super::super::Body {
+                damping: zeta * 2.0 * (k1 * body.inertia.x).sqrt(),
+                ..body
+            };
+            unheld_tolerance(&RotorDynamics::new(&torques, &active, body), k1)
+        };
+        for zeta in [0.7, 2.0] {
+            let (rtol, atol) = at(zeta);
+            assert_eq!(rtol, UNHELD_RTOL, "zeta {zeta}");
+            assert!((atol - 1e-9).abs() < 1e-24, "zeta {zeta}: atol {atol}");
+        }
+        // light damping keeps the fallback's tolerances to the bit
+        assert_eq!(at(0.2), FALLBACK_TOL);
+        assert_eq!(at(0.05), FALLBACK_TOL);
+        // in between, scaled by the damping ratio squared
+        let (rtol, _) = at(0.4);
+        let expected = UNHELD_RTOL * (0.4f64 / UNHELD_ZETA).powi(2);
+        assert!(
+            (rtol - expected).abs() < 1e-12 * expected,
+            "{rtol} against {expected}"
+        );
+        assert!(rtol > FALLBACK_RTOL && rtol < UNHELD_RTOL);
+    }
+
+    #[test]
     fn the_fast_path_settles_where_the_reference_does() {
         let (torques, body) = super::super::prototype_physics();
         let q0 = Orientation::identity();
