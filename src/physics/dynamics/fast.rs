@@ -40,15 +40,16 @@ type Tail<'t> = (Option<&'t mut Vec<(f64, State)>>, usize);
 
 /// What the fast path's integration `out` (ended without the Newton finish) says: the ball
 /// where the stepper left it and why it stopped; never settled without damping; a stop near
-/// rest but never near a strict minimum (`linear`: the model has a linear regime) is
-/// re-integrated tightly, or reported unheld when the set need not be followed.
+/// rest but never near a strict minimum (`tight`: where the model has a linear regime, the
+/// tolerances to settle such a set again at) is re-integrated tightly, or reported unheld when
+/// the set need not be followed.
 fn conclude<M: TorqueModel>(
     sys: &RotorDynamics<'_, M>,
     y0: [f64; 7],
     params: SettleParams,
     out: &Outcome<7>,
     evaluations: u32,
-    linear: bool,
+    tight: Option<(f64, f64)>,
     tail: Tail<'_>,
 ) -> SettleResult {
     // where the stepper left the ball, and why it says it stopped
@@ -80,13 +81,13 @@ fn conclude<M: TorqueModel>(
         End::TimeLimit => near_rest(&out.y),
         _ => false,
     };
-    if linear && unsure {
+    if let Some(tol) = tight.filter(|_| unsure) {
         // settled (or nearly at rest at t_max), but never near a strict minimum: not sure where
         // along the free direction the ball stops, nor when
         if !params.follow_unheld {
             return stopped_here(Stop::Unheld);
         }
-        return settle_tight(sys, y0, params, evaluations, tail);
+        return settle_tight(sys, y0, params, evaluations, tail, tol);
     }
     stopped_here(out.end.into())
 }
@@ -147,13 +148,24 @@ fn settle_fast_from<M: TorqueModel>(
     let out = integrate_until(&sides, y0, params.t_max, tol, first_step, |t, y, dy| {
         at.verdict(&sides, &params, t, y, dy)
     });
+    // a minimum near a cut-off the approach may have crossed is settled again as a graze is; a
+    // set no strict minimum holds, at its own tolerance
+    let near_cutoff = at.search.as_ref().is_some_and(|s| s.near_cutoff);
+    let tight = scale.map(|k1| {
+        if near_cutoff {
+            FALLBACK_TOL
+        } else {
+            unheld_tolerance(sys, k1)
+        }
+    });
     let (newton_evals, end) = at.search.map_or((0, None), |s| (s.evaluations, s.found));
     let evaluations = out.evaluations + newton_evals;
     if let Some(e) = end {
         return end_phase_result(sys, &e, params, evaluations, out.steps, at.trace);
     }
     if at.left {
-        return settle_tight(sys, y0, params, evaluations, (at.trace, traced));
+        let tail = (at.trace, traced);
+        return settle_tight(sys, y0, params, evaluations, tail, FALLBACK_TOL);
     }
     match at.grazed {
         // where the ball goes from a graze hangs on errors this tolerance allows: with cut-off
@@ -162,11 +174,14 @@ fn settle_fast_from<M: TorqueModel>(
             let spent = (evaluations, out.steps, traced);
             return approach_tightly(sys, y0, params, t_past, spent, at.trace, approaches);
         }
-        Some(_) => return settle_tight(sys, y0, params, evaluations, (at.trace, traced)),
+        Some(_) => {
+            let tail = (at.trace, traced);
+            return settle_tight(sys, y0, params, evaluations, tail, FALLBACK_TOL);
+        }
         None => {}
     }
     let tail = (at.trace, traced);
-    conclude(sys, y0, params, &out, evaluations, scale.is_some(), tail)
+    conclude(sys, y0, params, &out, evaluations, tight, tail)
 }
 
 /// What the fast path watches at each accepted step: the graze watch (or the cut-off events),
@@ -582,7 +597,8 @@ impl GrazeWatch {
     }
 }
 
-/// The fast path's fallback: the settle from the start by Dopri5 at [`FALLBACK_RTOL`], its
+/// The fast path's fallback: the settle from the start by Dopri5 at the tolerances `(rtol,
+/// atol)` ([`FALLBACK_TOL`], or [`unheld_tolerance`] for a set that no strict minimum holds), its
 /// evaluations counted on top of the `spent` ones, its steps in the trace in place of the loose
 /// run's.
 fn settle_tight<M: TorqueModel>(
@@ -591,10 +607,11 @@ fn settle_tight<M: TorqueModel>(
     params: SettleParams,
     spent: u32,
     (mut trace, traced): Tail<'_>,
+    (rtol, atol): (f64, f64),
 ) -> SettleResult {
     let tight = SettleParams {
-        rtol: FALLBACK_RTOL,
-        atol: FALLBACK_ATOL,
+        rtol,
+        atol,
         ..params
     };
     if let Some(tr) = trace.as_deref_mut() {
@@ -722,6 +739,38 @@ const NEAR_REST: f64 = 30.0;
 /// against 666, most of them the reference's own late detection.)
 const FALLBACK_RTOL: f64 = 1e-8;
 const FALLBACK_ATOL: f64 = 1e-10;
+const FALLBACK_TOL: (f64, f64) = (FALLBACK_RTOL, FALLBACK_ATOL);
+
+/// The tight integration's tolerances (rtol, atol) for a set that ended (settled, or near rest
+/// at t_max) where no strict minimum holds it, followed again from the start (`conclude`): its
+/// path has no graze to resolve, only a free direction whose end the whole coast decides, and
+/// it is integrated at [`UNHELD_RTOL`], or at [`FALLBACK_TOL`] where the damping is light (the
+/// rtol scaled by the square of the damping ratio over [`UNHELD_ZETA`], for one aligned pair of
+/// stiffness `k1`, is tighter than the fallback's).
+fn unheld_tolerance<M: TorqueModel>(sys: &RotorDynamics<'_, M>, k1: f64) -> (f64, f64) {
+    let zeta = sys.body.damping / (2.0 * (k1 * sys.body.inertia.x).sqrt());
+    let rtol = UNHELD_RTOL * (zeta / UNHELD_ZETA).powi(2).min(1.0);
+    if rtol > FALLBACK_RTOL {
+        (rtol, rtol * (FALLBACK_ATOL / FALLBACK_RTOL))
+    } else {
+        FALLBACK_TOL
+    }
+}
+
+/// The relative tolerance of the tight run of a set no strict minimum holds. On the 4,000
+/// planner-like sets of research/settle_sets.rs (0.7 of critical damping; 81 such sets, 23% of
+/// the evaluations at [`FALLBACK_RTOL`]) 1e-7 takes 26% fewer evaluations for them (105,796
+/// instead of 142,990), the worst of them 2.8e-6 rad from the reference, none outside the
+/// bounds of research/basins.rs; 1e-6 put one outside (7.6e-6 rad), 1e-5 eight (2.6e-4 rad).
+/// On research/basins.rs (seed 17) 1e-7 at every damping put 8 more of the light-damping
+/// (0.2) gaussian sets outside the bounds (89 against 81): hence [`UNHELD_ZETA`]. Restarting
+/// the tight run from the loose run's state before the first cut-off event instead of from the
+/// start saved 14% of their evaluations but put 5 of the 81 outside the bounds (1.5e-4 rad);
+/// from before the last event, 33% and 9 outside: the loose run is not trusted that far.
+const UNHELD_RTOL: f64 = 1e-7;
+/// Below this damping ratio the unheld sets' rtol is scaled down by the ratio's square (to the
+/// fallback's at 0.2 and below).
+const UNHELD_ZETA: f64 = 0.65;
 
 #[cfg(test)]
 mod tests {
@@ -759,6 +808,39 @@ mod tests {
         assert!(!grazes(start, end, h));
         // nor is a crossing: the ball leaves reach (or comes into it) for good
         assert!(!grazes((0.01, -0.2), (-0.01, -0.2), h));
+    }
+
+    #[test]
+    fn an_unheld_set_is_followed_at_1e_7_unless_the_damping_is_light() {
+        let (torques, body) = super::super::prototype_physics();
+        let k1 = torques
+            .stiffness_scale()
+            .expect("gaussian wells have a stiffness scale");
+        let active = [Pair::new(0, 14)];
+        // the tolerances at a damping ratio zeta for one aligned pair
+        let at = |zeta: f64| {
+            let body = super::super::Body {
+                damping: zeta * 2.0 * (k1 * body.inertia.x).sqrt(),
+                ..body
+            };
+            unheld_tolerance(&RotorDynamics::new(&torques, &active, body), k1)
+        };
+        for zeta in [0.7, 2.0] {
+            let (rtol, atol) = at(zeta);
+            assert_eq!(rtol, UNHELD_RTOL, "zeta {zeta}");
+            assert!((atol - 1e-9).abs() < 1e-24, "zeta {zeta}: atol {atol}");
+        }
+        // light damping keeps the fallback's tolerances to the bit
+        assert_eq!(at(0.2), FALLBACK_TOL);
+        assert_eq!(at(0.05), FALLBACK_TOL);
+        // in between, scaled by the damping ratio squared
+        let (rtol, _) = at(0.4);
+        let expected = UNHELD_RTOL * (0.4f64 / UNHELD_ZETA).powi(2);
+        assert!(
+            (rtol - expected).abs() < 1e-12 * expected,
+            "{rtol} against {expected}"
+        );
+        assert!(rtol > FALLBACK_RTOL && rtol < UNHELD_RTOL);
     }
 
     #[test]
