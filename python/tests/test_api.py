@@ -112,10 +112,17 @@ def reachable_sets(sc, n, seed):
 def test_settle_many_releases_the_gil():
     sc = spherestep.Scenario.prototype()
     motor = sc.motor()
-    sets = reachable_sets(sc, 3000, 11)
-    start = time.perf_counter()
-    motor.settle_many(sets, threads=1)
-    alone = time.perf_counter() - start
+    # enough sets for the call to take a while on this machine (the settles get faster): the
+    # count doubles until one thread takes 0.2 s
+    n = 3000
+    while True:
+        sets = reachable_sets(sc, n, 11)
+        start = time.perf_counter()
+        motor.settle_many(sets, threads=1)
+        alone = time.perf_counter() - start
+        if alone > 0.2 or n >= 96000:
+            break
+        n *= 2
     ticks = []
     worker = threading.Thread(target=motor.settle_many, args=(sets,), kwargs={"threads": 1})
     worker.start()
