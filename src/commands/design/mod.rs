@@ -92,10 +92,7 @@ pub fn run_design(spec_file: &Path, opts: &DesignOptions) -> Result<DesignReport
         opts,
         report: DesignReport::default(),
     };
-    let own = Own {
-        stator: &sc.stator.points,
-        rotor: &sc.rotor.points,
-    };
+    let own = Own::of(&sc.stator, &sc.rotor);
     let mut evo = Evolution::new(opts.seed, gene_bounds(&spec));
     let mut genes = seeds(&spec, own);
     genes.extend(evo.random_genes(spec.population - genes.len()));

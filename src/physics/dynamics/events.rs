@@ -7,7 +7,7 @@
 
 use super::RotorDynamics;
 use crate::physics::integrator::OdeSystem;
-use crate::physics::torque::{first_bits, SideMask, TorqueModel};
+use crate::physics::torque::{first_bits, set_bits, SideMask, TorqueModel};
 use std::cell::Cell;
 
 /// How far (in cosine: 1e-9 is 1.3e-7 degrees at a 25 degree cut-off) a pair's margin may be on
@@ -121,15 +121,8 @@ pub(super) fn seen<M: TorqueModel>(
 /// there are more than a [`SideMask`] has bits.
 pub(super) fn each(pairs: SideMask, n: usize) -> impl Iterator<Item = usize> {
     let all = n > SideMask::BITS as usize;
-    let mut bits = if all { 0 } else { pairs & first_bits(n) };
-    let next = move || {
-        (bits != 0).then(|| {
-            let i = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            i
-        })
-    };
-    (0..if all { n } else { 0 }).chain(std::iter::from_fn(next))
+    let bits = if all { 0 } else { pairs & first_bits(n) };
+    (0..if all { n } else { 0 }).chain(set_bits(bits))
 }
 
 /// The first fraction s of a step at which a pair's margin, on its cubic Hermite interpolant

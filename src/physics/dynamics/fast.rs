@@ -23,7 +23,7 @@ fn fast_tolerance<M: TorqueModel>(
     let scale = sys.model.stiffness_scale().filter(|_| isotropic);
     let rtol = match scale {
         Some(k1) => {
-            let zeta = sys.body.damping / (2.0 * (k1 * i.x).sqrt());
+            let zeta = damping_ratio(sys, k1);
             params
                 .rtol
                 .min(NONLINEAR_RTOL)
@@ -32,6 +32,11 @@ fn fast_tolerance<M: TorqueModel>(
         None => params.rtol,
     };
     (scale, rtol)
+}
+
+/// The damping ratio of one aligned pair of stiffness `k1` on the (isotropic) body.
+fn damping_ratio<M: TorqueModel>(sys: &RotorDynamics<'_, M>, k1: f64) -> f64 {
+    sys.body.damping / (2.0 * (k1 * sys.body.inertia.x).sqrt())
 }
 
 /// A trace to append the accepted steps to, and its length before the run at hand (a run given
@@ -748,8 +753,7 @@ const FALLBACK_TOL: (f64, f64) = (FALLBACK_RTOL, FALLBACK_ATOL);
 /// rtol scaled by the square of the damping ratio over [`UNHELD_ZETA`], for one aligned pair of
 /// stiffness `k1`, is tighter than the fallback's).
 fn unheld_tolerance<M: TorqueModel>(sys: &RotorDynamics<'_, M>, k1: f64) -> (f64, f64) {
-    let zeta = sys.body.damping / (2.0 * (k1 * sys.body.inertia.x).sqrt());
-    let rtol = UNHELD_RTOL * (zeta / UNHELD_ZETA).powi(2).min(1.0);
+    let rtol = UNHELD_RTOL * (damping_ratio(sys, k1) / UNHELD_ZETA).powi(2).min(1.0);
     if rtol > FALLBACK_RTOL {
         (rtol, rtol * (FALLBACK_ATOL / FALLBACK_RTOL))
     } else {

@@ -166,6 +166,17 @@ pub(crate) fn first_bits(n: usize) -> SideMask {
     }
 }
 
+/// The set bits of `mask`, in ascending order.
+pub(crate) fn set_bits(mut mask: SideMask) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
+
 /// The body-to-world rotation matrix of the quaternion (x, y, z, w), which need not be
 /// normalised: it is the rotation of q / |q|, built without a square root or trigonometry.
 #[inline]
@@ -992,10 +1003,7 @@ impl TorqueModel for MagnetTorques {
         if self.interaction != Interaction::Pairs || !self.well.cutoff_jump {
             return false;
         }
-        let mut bits = pairs & first_bits(active.len().min(out.len()));
-        while bits != 0 {
-            let i = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
+        for i in set_bits(pairs & first_bits(active.len().min(out.len()))) {
             let pr = active[i];
             let s = r.tr_mul(&self.stator[pr.coil.0]);
             out[i] = self.well.cutoff_margin(&self.rotor[pr.magnet.0], &s, w);

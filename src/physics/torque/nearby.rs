@@ -140,6 +140,31 @@ impl<'a> NearbyMagnets<'a> {
             &self.magnets[self.starts[k]..self.starts[k + 1]],
         )
     }
+
+    /// `f(i, s)` for each listed pair whose bit is set in `pairs`, in ascending order (the
+    /// sums' order: coil by coil, each coil's magnets in the lists' order), with `s` its coil's
+    /// body-frame axis at `r`, turned when the coil's first such pair comes.
+    #[inline]
+    fn each_listed(
+        &self,
+        r: &Matrix3<f64>,
+        pairs: SideMask,
+        mut f: impl FnMut(usize, &Vector3<f64>),
+    ) {
+        let mut s = Vector3::zeros();
+        let (mut next, mut end) = (0, 0);
+        for i in set_bits(pairs & self.listed) {
+            if i >= end {
+                while self.starts[next + 1] <= i {
+                    next += 1;
+                }
+                s = r.tr_mul(&self.coils[next]);
+                end = self.starts[next + 1];
+                next += 1;
+            }
+            f(i, &s);
+        }
+    }
 }
 
 impl TorqueModel for NearbyMagnets<'_> {
@@ -188,25 +213,10 @@ impl TorqueModel for NearbyMagnets<'_> {
         if !self.covers(&r, active) {
             return self.body_torque(&r, active);
         }
-        // the set bits in ascending order are the (coil, magnet) pairs in the sum's order: coil
-        // by coil, each coil's magnets in the lists' order; a coil is turned into the body
-        // frame when its first pair held within reach comes
-        let mut bits = within & self.listed;
-        let (mut tau, mut s) = (Vector3::zeros(), Vector3::zeros());
-        let (mut next, mut end) = (0, 0);
-        while bits != 0 {
-            let i = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            if i >= end {
-                while self.starts[next + 1] <= i {
-                    next += 1;
-                }
-                s = r.tr_mul(&self.coils[next]);
-                end = self.starts[next + 1];
-                next += 1;
-            }
-            tau += self.full.well.pair_torque_continued(&self.magnets[i], &s);
-        }
+        let mut tau = Vector3::zeros();
+        self.each_listed(&r, within, |i, s| {
+            tau += self.full.well.pair_torque_continued(&self.magnets[i], s);
+        });
         tau
     }
 
@@ -244,23 +254,9 @@ impl TorqueModel for NearbyMagnets<'_> {
         if !self.covers(r, active) || !self.full.well.cutoff_jump {
             return false;
         }
-        // the set bits in ascending order, coil by coil, as in `body_torque_within`
-        let mut bits = pairs & self.listed & first_bits(out.len());
-        let mut s = Vector3::zeros();
-        let (mut next, mut end) = (0, 0);
-        while bits != 0 {
-            let i = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            if i >= end {
-                while self.starts[next + 1] <= i {
-                    next += 1;
-                }
-                s = r.tr_mul(&self.coils[next]);
-                end = self.starts[next + 1];
-                next += 1;
-            }
-            out[i] = self.full.well.cutoff_margin(&self.magnets[i], &s, w);
-        }
+        self.each_listed(r, pairs & first_bits(out.len()), |i, s| {
+            out[i] = self.full.well.cutoff_margin(&self.magnets[i], s, w);
+        });
         true
     }
 }

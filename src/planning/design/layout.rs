@@ -7,7 +7,7 @@
 use super::families::{perpendicular, seed_points, Region};
 use super::{DesignSpec, Family};
 use crate::model::geometry::{Radians, UnitVec};
-use crate::model::packing::min_separation;
+use crate::model::packing::{min_separation, Packing};
 use nalgebra::{Rotation3, Vector3};
 
 /// Genes before the per-point moves: family, coil count, magnet count, the stator's rotation
@@ -112,6 +112,16 @@ pub struct Own<'a> {
     pub stator: &'a [UnitVec],
     /// The scenario's magnets.
     pub rotor: &'a [UnitVec],
+}
+
+impl<'a> Own<'a> {
+    /// The points of a scenario's `stator` and `rotor`.
+    pub fn of(stator: &'a Packing, rotor: &'a Packing) -> Own<'a> {
+        Own {
+            stator: &stator.points,
+            rotor: &rotor.points,
+        }
+    }
 }
 
 /// The layout the genes denote.
@@ -227,10 +237,7 @@ mod tests {
     #[test]
     fn the_scenario_seed_decodes_to_the_scenario_itself() {
         let (s, r) = (prototype_stator(), prototype_rotor());
-        let own = Own {
-            stator: &s.points,
-            rotor: &r.points,
-        };
+        let own = Own::of(&s, &r);
         let sp = spec();
         let l = decode(&sp, &seed_genes(&sp, 0, 16, 80), own);
         assert_eq!(l.family, Family::Scenario);
@@ -251,10 +258,7 @@ mod tests {
     #[test]
     fn seeds_cover_every_coil_count_nearest_first_and_never_repeat_a_layout() {
         let (s, r) = (prototype_stator(), prototype_rotor());
-        let own = Own {
-            stator: &s.points,
-            rotor: &r.points,
-        };
+        let own = Own::of(&s, &r);
         let mut sp = spec();
         sp.families = vec![
             Family::Scenario,
@@ -304,10 +308,7 @@ mod tests {
     #[test]
     fn points_pushed_together_break_the_separation_by_what_they_lack() {
         let (s, r) = (prototype_stator(), prototype_rotor());
-        let own = Own {
-            stator: &s.points,
-            rotor: &r.points,
-        };
+        let own = Own::of(&s, &r);
         let mut sp = spec();
         sp.coil_separation = Radians(40f64.to_radians());
         let l = decode(&sp, &seed_genes(&sp, 0, 16, 80), own);
