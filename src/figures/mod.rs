@@ -26,7 +26,8 @@
 //! - [`WellPlot`] (`well_plot.rs`): `spherestep wells`, the torque on one magnet passing one coil
 //!   against the angle, with the well's cut-off;
 //! - [`DesignFront`] (`design_front.rs`): `spherestep design`, every fully planned layout's mean
-//!   of the worst quarter of its axis errors against its median steps, the front's layouts named, coloured by coil count;
+//!   of the worst quarter of its axis errors against its median steps, coloured by coil count,
+//!   the front's filled, its best at each median step count and the scenario's own named;
 //! - [`DesignLayouts`] (`design_layouts.rs`): `spherestep design`, the best layouts' coils and
 //!   magnets on the sphere, a panel each, under Figure 6's projection.
 //!

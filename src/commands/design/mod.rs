@@ -341,7 +341,7 @@ impl Run<'_> {
             files::front_csv(&rows).as_bytes(),
         )?;
         if !entries.is_empty() {
-            let picture = pictures::front_picture(&entries, &front);
+            let picture = pictures::front_picture(&entries, &front, own);
             crate::figures::write_figure(&picture, &self.opts.out.join("front"))?;
         }
         let best = pictures::best_picture(&entries, &front, own);

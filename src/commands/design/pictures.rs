@@ -11,7 +11,7 @@ use crate::planning::design::objectives::Objectives;
 pub(super) type Entry<'a> = (&'a String, &'a (Layout, Objectives));
 
 /// The picture of every fully planned layout, the front's marked (`DIR/front.svg`, `.png`).
-pub(super) fn front_picture(entries: &[Entry], front: &[usize]) -> DesignFront {
+pub(super) fn front_picture(entries: &[Entry], front: &[usize], own: Own) -> DesignFront {
     let points = entries
         .iter()
         .enumerate()
@@ -21,6 +21,7 @@ pub(super) fn front_picture(entries: &[Entry], front: &[usize]) -> DesignFront {
             median_steps: o.median_steps,
             coils: l.stator.len(),
             on_front: front.contains(&k),
+            own: same_points(&l.stator, own.stator) && same_points(&l.rotor, own.rotor),
         })
         .collect();
     DesignFront {
