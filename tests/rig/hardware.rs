@@ -72,6 +72,7 @@ fn check_args() -> Vec<String> {
     ignore = "needs a relay board (feature hardware-tests)"
 )]
 fn relay_board_every_coil_on_and_off_then_all_off() {
+    let _one = crate::one_at_a_time();
     let mut args = check_args();
     args.extend(["--on-ms".to_string(), "100".to_string()]);
     let mut out = Vec::new();
@@ -101,6 +102,7 @@ fn relay_board_every_coil_on_and_off_then_all_off() {
     ignore = "needs a relay board (feature hardware-tests)"
 )]
 fn relay_board_answers_an_all_off_and_reads_back_nothing_on() {
+    let _one = crate::one_at_a_time();
     let args = check_args();
     let prep = example::prepare(&example::parse(&args).unwrap()).unwrap();
     let spec = &prep.boards[0];
@@ -126,6 +128,7 @@ fn relay_board_answers_an_all_off_and_reads_back_nothing_on() {
     ignore = "needs a sensor (feature hardware-tests)"
 )]
 fn sensor_gives_unit_quaternions() {
+    let _one = crate::one_at_a_time();
     let device = required(
         "SPHERESTEP_TEST_SENSOR",
         "the orientation sensor's serial device, such as /dev/ttyACM0 (or run only \

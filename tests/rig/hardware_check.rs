@@ -43,6 +43,7 @@ const MODBUS_ALL_OFF: [u8; 11] = [
 
 #[test]
 fn every_coil_on_and_off_read_back_then_all_off() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), "board = \"modbus\"");
     let (board, computer) = pty();
@@ -78,6 +79,7 @@ fn every_coil_on_and_off_read_back_then_all_off() {
 
 #[test]
 fn a_board_without_read_back_checks_every_mapped_coil_unverified() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     // two channels: coils 0 and 1 are driven, the stator's other 14 are not
     let sc = scenario(dir.path(), "board = \"lcus\"\nchannels = 2");
@@ -109,6 +111,7 @@ fn a_board_without_read_back_checks_every_mapped_coil_unverified() {
 
 #[test]
 fn a_relay_that_reads_back_wrong_stops_the_check_with_all_off() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), "board = \"modbus\"");
     let (board, computer) = pty();
@@ -140,6 +143,7 @@ fn a_relay_that_reads_back_wrong_stops_the_check_with_all_off() {
 
 #[test]
 fn a_signal_while_a_coil_is_on_switches_everything_off() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), "board = \"lcus\"\nchannels = 2");
     let (mut board, computer) = pty();
@@ -166,6 +170,7 @@ fn a_signal_while_a_coil_is_on_switches_everything_off() {
 
 #[test]
 fn the_limits_of_a_replay_are_checked_before_any_byte() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), "board = \"lcus\"\nmax_on_time_s = 1");
     let (mut board, computer) = pty();

@@ -6,6 +6,18 @@
 
 #![cfg(unix)]
 
+use std::sync::{Mutex, MutexGuard};
+
+/// The tests of this binary run one at a time: each plays devices, a virtual motor or the
+/// binary in real time, and two at once on a two-core machine starve each other's processes
+/// (a board's reply late, a coil's on-time spent waiting, a sensor's line read a frame later).
+/// Every test takes this first and holds it to its end; a test that failed before lets the
+/// next one go on.
+fn one_at_a_time() -> MutexGuard<'static, ()> {
+    static ONE: Mutex<()> = Mutex::new(());
+    ONE.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
 #[path = "../common/mod.rs"]
 mod common;
 

@@ -16,6 +16,7 @@ fn all_off_lcus() -> Vec<u8> {
 
 #[test]
 fn lcus_exact_bytes_make_before_break() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let opts = options(
         &short_plan(dir.path()),
@@ -45,6 +46,7 @@ fn lcus_exact_bytes_make_before_break() {
 
 #[test]
 fn kmtronic_exact_bytes_break_before_make() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(
         dir.path(),
@@ -72,6 +74,7 @@ fn kmtronic_exact_bytes_break_before_make() {
 
 #[test]
 fn numato_exact_commands_with_verify_and_letters() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     // Coil 3 on channel 12: relay index 11, written `B`.
     let sc = scenario(
@@ -103,6 +106,7 @@ fn numato_exact_commands_with_verify_and_letters() {
 
 #[test]
 fn modbus_exact_frames_with_verify() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), "board = \"modbus\"\nslave_address = 1");
     let mut opts = options(&short_plan(dir.path()), &sc);
@@ -134,6 +138,7 @@ fn modbus_exact_frames_with_verify() {
 
 #[test]
 fn verify_mismatch_stops_with_all_off() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), "board = \"modbus\"");
     let mut opts = options(&short_plan(dir.path()), &sc);
@@ -167,6 +172,7 @@ fn verify_mismatch_stops_with_all_off() {
 
 #[test]
 fn verify_refused_where_the_board_cannot_read_back() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), "board = \"lcus\"");
     let mut opts = options(&short_plan(dir.path()), &sc);
@@ -225,6 +231,7 @@ fn two_lcus_rows() -> Vec<String> {
 
 #[test]
 fn two_lcus_boards_exact_frames_on_each() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("replay.csv");
     let mut opts = options(&short_plan(dir.path()), &scenario(dir.path(), TWO_LCUS));
@@ -294,6 +301,7 @@ fn two_lcus_boards_exact_frames_on_each() {
 
 #[test]
 fn two_boards_dry_run_lays_the_coils_onto_the_boards_in_order() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     // No map: coils 0, 1 on board 0 (2 channels), coils 2..=5 on board 1 (4 channels).
     let sc = scenario(
@@ -365,6 +373,7 @@ fn refusal(relay: &str, ports: &[&str]) -> String {
 
 #[test]
 fn multi_board_maps_and_arguments_are_refused_by_name() {
+    let _one = crate::one_at_a_time();
     let two = "[[relay.boards]]\nboard = \"lcus\"\n[[relay.boards]]\nboard = \"lcus\"\n";
     // A board that is not listed.
     let e = refusal(&format!("{two}[relay.map]\n3 = \"2:1\""), &[]);
@@ -437,6 +446,7 @@ fn multi_board_maps_and_arguments_are_refused_by_name() {
 
 #[test]
 fn board_and_baud_options_are_refused_with_several_boards() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), TWO_LCUS);
     let mut opts = options(&short_plan(dir.path()), &sc);
@@ -496,6 +506,7 @@ channels = 4
 
 #[test]
 fn verify_reads_back_the_boards_that_can() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), MODBUS_AND_LCUS);
     let mut opts = options(&short_plan(dir.path()), &sc);
@@ -546,6 +557,7 @@ fn verify_reads_back_the_boards_that_can() {
 
 #[test]
 fn verify_mismatch_on_one_board_names_it_and_switches_both_off() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), MODBUS_AND_LCUS);
     let mut opts = options(&short_plan(dir.path()), &sc);

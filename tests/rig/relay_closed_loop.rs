@@ -302,6 +302,7 @@ fn coils_of(inputs: &ClosedInputs) -> BTreeSet<usize> {
 
 #[test]
 fn closed_loop_as_predicted_switches_the_plan_and_replans_nothing() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let inputs = prepared(dir.path(), SensorFormat::QuatCsv);
     let (script, replans) = offline(&inputs, None);
@@ -345,6 +346,7 @@ fn closed_loop_as_predicted_switches_the_plan_and_replans_nothing() {
 
 #[test]
 fn closed_loop_replans_when_the_measurement_strays() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let inputs = prepared(dir.path(), SensorFormat::QuatCsv);
     let (script, replans) = offline(&inputs, Some(2));
@@ -375,6 +377,7 @@ fn closed_loop_replans_when_the_measurement_strays() {
 
 #[test]
 fn closed_loop_refuses_a_replan_that_uses_an_unmapped_coil_before_switching_it() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let all = prepared(dir.path(), SensorFormat::QuatCsv);
     let (script, _) = offline(&all, Some(2));
@@ -416,6 +419,7 @@ fn closed_loop_refuses_a_replan_that_uses_an_unmapped_coil_before_switching_it()
 
 #[test]
 fn closed_loop_refuses_dry_run_and_bad_sensor_options() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plan = plan_file(dir.path());
     let mut opts = options(dir.path(), &plan);
@@ -475,6 +479,7 @@ fn closed_loop_refuses_dry_run_and_bad_sensor_options() {
 
 #[test]
 fn closed_loop_refuses_a_log_of_another_kind_before_opening_anything() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plan = plan_file(dir.path());
     let mut opts = options(dir.path(), &plan);
@@ -508,6 +513,7 @@ fn closed_loop_refuses_a_log_of_another_kind_before_opening_anything() {
 
 #[test]
 fn closed_loop_on_a_bno055_reads_after_every_step() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let inputs = prepared(dir.path(), SensorFormat::Bno055);
     let (script, _) = offline(&inputs, None);
@@ -576,6 +582,7 @@ fn faulty(fault: Fault) -> (Ran, String) {
 
 #[test]
 fn closed_loop_sensor_closed_mid_run_switches_everything_off() {
+    let _one = crate::one_at_a_time();
     let (ran, e) = faulty(Fault::Close(2));
     let p = &ran.sensor_path;
     assert!(
@@ -588,6 +595,7 @@ fn closed_loop_sensor_closed_mid_run_switches_everything_off() {
 
 #[test]
 fn closed_loop_sensor_garbage_switches_everything_off() {
+    let _one = crate::one_at_a_time();
     let (ran, e) = faulty(Fault::Garbage(2, "hello there"));
     let p = &ran.sensor_path;
     assert!(
@@ -659,6 +667,7 @@ fn switched_off_before_the_limit(ran: &Ran, limit: Duration, phase: &str) {
 
 #[test]
 fn closed_loop_switches_off_before_the_on_time_limit_while_the_sensor_is_silent() {
+    let _one = crate::one_at_a_time();
     // 1 s of on-time; step 0's dwell (0.1 s) and a sensor timeout of 0.95 s would end 1.05 s
     // after step 0's coils went on
     let dir = tempfile::tempdir().unwrap();
@@ -677,6 +686,7 @@ fn closed_loop_switches_off_before_the_on_time_limit_while_the_sensor_is_silent(
 
 #[test]
 fn closed_loop_switches_off_before_the_on_time_limit_while_it_replans() {
+    let _one = crate::one_at_a_time();
     // a sensor that reads 180 degrees about Z whatever the ball does, and replans from there
     // searched 1024 states wide (256 times the default: tens of seconds in the broad wells,
     // where the default takes a few hundred milliseconds; 64 wide, a replan on an idle machine
@@ -708,6 +718,7 @@ fn closed_loop_switches_off_before_the_on_time_limit_while_it_replans() {
 
 #[test]
 fn the_hardware_loop_takes_the_decisions_of_the_simulated_one() {
+    let _one = crate::one_at_a_time();
     // one loop function drives both plants: the simulated run of the broad-well plan on the
     // worn plant (1 deg of seeded sensor noise), then the same measurements reported by the
     // pseudo-terminal sensor as each set goes on: the same sets switched, replans at the same
@@ -770,6 +781,7 @@ fn the_hardware_loop_takes_the_decisions_of_the_simulated_one() {
 
 #[test]
 fn closed_loop_refuses_a_bno055_whose_gyroscope_is_uncalibrated_before_any_switching() {
+    let _one = crate::one_at_a_time();
     // CALIB_STAT 0xCF: system 3, gyroscope 0, accelerometer 3, magnetometer 3
     let dir = tempfile::tempdir().unwrap();
     let inputs = prepared(dir.path(), SensorFormat::Bno055);

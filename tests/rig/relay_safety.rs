@@ -11,6 +11,7 @@ use spherestep::relay::RelayError;
 
 #[test]
 fn too_many_coils_refused_before_any_byte() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plan = plan(dir.path(), "p.csv", &["0:1;1:2", "0:1;1:2;2:3"], 0.1);
     let sc = scenario(dir.path(), "board = \"lcus\"\nmax_coils_on = 2");
@@ -35,6 +36,7 @@ fn too_many_coils_refused_before_any_byte() {
 
 #[test]
 fn make_before_break_counts_the_overlap() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plan = short_plan(dir.path());
     // Two coils per step, but three during a make-before-break transition.
@@ -60,6 +62,7 @@ fn make_before_break_counts_the_overlap() {
 
 #[test]
 fn on_time_refused_before_any_byte() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     // Coil 0 stays on through all three steps: 3 x (max(0.1 s x 1.5, 2 s floor) + 20 ms of
     // frames) = 6.06 s > 5 s less the guard's 100 ms.
@@ -92,6 +95,7 @@ fn on_time_refused_before_any_byte() {
 
 #[test]
 fn unmapped_or_missing_channel_refused_before_any_byte() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plan = plan(dir.path(), "p.csv", &["0:1;9:2"], 0.1);
     // Coil 9 is channel 10 by default, past an LCUS board's 8.
@@ -124,6 +128,7 @@ const ALL_OFF_16: [u8; 11] = [
 
 #[test]
 fn board_closing_mid_replay_is_a_clear_error_and_the_log_resumes() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plan = short_plan(dir.path());
     let sc = scenario(dir.path(), "board = \"modbus\"");
@@ -196,6 +201,7 @@ fn board_closing_mid_replay_is_a_clear_error_and_the_log_resumes() {
 
 #[test]
 fn step_mode_waits_for_enter_and_quits_on_q() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let sc = scenario(dir.path(), "board = \"lcus\"\nchannels = 4");
     let mut opts = options(&short_plan(dir.path()), &sc);
@@ -228,6 +234,7 @@ fn step_mode_waits_for_enter_and_quits_on_q() {
 
 #[test]
 fn one_board_closing_mid_replay_names_its_port_and_the_other_board_goes_off() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     // Two LCUS boards, no map: coils 0 and 1 on board 0 channels 1 and 2, coil 8 on board 1
     // channel 1.
@@ -310,6 +317,7 @@ fn replay_cli(args: &[&str]) -> (Option<i32>, String) {
 
 #[test]
 fn a_log_that_is_not_a_replay_log_is_refused_before_any_port_is_opened() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plan = short_plan(dir.path());
     let sc = scenario(dir.path(), "board = \"lcus\"\nchannels = 4");

@@ -79,11 +79,13 @@ fn interrupted(child: std::process::Child) -> std::process::Output {
 
 #[test]
 fn sigint_mid_replay_sends_all_off_and_fails() {
+    let _one = crate::one_at_a_time();
     signal_mid_replay("-INT");
 }
 
 #[test]
 fn sigterm_mid_replay_sends_all_off_and_fails() {
+    let _one = crate::one_at_a_time();
     signal_mid_replay("-TERM");
 }
 
@@ -91,6 +93,7 @@ fn sigterm_mid_replay_sends_all_off_and_fails() {
 /// exit status 0 (quitting is what was asked, not a failure).
 #[test]
 fn q_in_step_mode_quits_with_all_off_and_status_zero() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plan = short_plan(dir.path());
     let sc = scenario(dir.path(), "board = \"lcus\"\nchannels = 4");
@@ -132,6 +135,7 @@ fn q_in_step_mode_quits_with_all_off_and_status_zero() {
 
 #[test]
 fn dry_run_prints_frames_without_a_port() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plan = short_plan(dir.path());
     let out = Command::new(env!("CARGO_BIN_EXE_spherestep"))
@@ -165,6 +169,7 @@ fn dry_run_prints_frames_without_a_port() {
 
 #[test]
 fn sigterm_mid_replay_on_two_boards_sends_all_off_to_both() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     // Coil 0 on board 0 channel 1, coil 8 on board 1 channel 1 (laid in order); the ports in
     // the scenario are replaced by --port, once per board.
@@ -348,10 +353,12 @@ fn signal_mid_closed_loop(signal: &str, sensor: Sensor) {
 
 #[test]
 fn sigint_while_the_closed_loop_waits_for_a_silent_sensor_switches_off_at_once() {
+    let _one = crate::one_at_a_time();
     signal_mid_closed_loop("-INT", Sensor::Silent);
 }
 
 #[test]
 fn sigterm_while_the_closed_loop_replans_switches_off_at_once() {
+    let _one = crate::one_at_a_time();
     signal_mid_closed_loop("-TERM", Sensor::Far);
 }

@@ -253,6 +253,7 @@ fn same_decisions(format: SensorFormat, stray: Option<usize>, tol: f64) -> (Ran,
 
 #[test]
 fn mounted_quat_csv_sensor_in_a_rotated_frame_decides_as_an_unrotated_one() {
+    let _one = crate::one_at_a_time();
     // a 4 degree stray after step 2: the loop replans from a measurement the rotated frame
     // maps back a rounding (~3e-16 rad) away from the unrotated one's, and plans the same steps
     let (b, replans) = same_decisions(SensorFormat::QuatCsv, Some(2), 1e-9);
@@ -265,6 +266,7 @@ fn mounted_quat_csv_sensor_in_a_rotated_frame_decides_as_an_unrotated_one() {
 
 #[test]
 fn mounted_bno055_in_a_rotated_frame_decides_as_an_unrotated_one() {
+    let _one = crate::one_at_a_time();
     // the registers hold 2^-14 per component: the ball within about 1e-4 rad
     let (b, replans) = same_decisions(SensorFormat::Bno055, None, 5e-4);
     assert_eq!(replans, 0);
@@ -275,6 +277,7 @@ fn mounted_bno055_in_a_rotated_frame_decides_as_an_unrotated_one() {
 
 #[test]
 fn a_tare_without_a_reading_stops_before_any_byte_reaches_a_board() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let inputs = prepared(dir.path(), None, SensorFormat::QuatCsv);
     let (script, _) = offline(&inputs, None);
@@ -295,6 +298,7 @@ fn a_tare_without_a_reading_stops_before_any_byte_reaches_a_board() {
 
 #[test]
 fn a_bad_mounting_is_refused_naming_the_file_and_the_field() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     for (section, field, says) in [
         (

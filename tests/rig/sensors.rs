@@ -108,6 +108,7 @@ type Printed = (Vec<Vec<u8>>, &'static str, [f64; 4]);
 
 #[test]
 fn quat_csv_readings_are_the_printed_quaternions_normalised() {
+    let _one = crate::one_at_a_time();
     let (master, slave) = pty();
     let path = path_of(&slave);
     // Through `open`, by path, as the binary will.
@@ -165,6 +166,7 @@ fn quat_csv_readings_are_the_printed_quaternions_normalised() {
 
 #[test]
 fn quat_csv_skips_stale_lines_and_a_half_line_from_before_the_read() {
+    let _one = crate::one_at_a_time();
     let (mut master, slave) = pty();
     let mut s = quat_csv_on(slave, Duration::from_secs(2));
     // Buffered before the read: two readings, garbage, and the start of a line.
@@ -185,6 +187,7 @@ fn quat_csv_skips_stale_lines_and_a_half_line_from_before_the_read() {
 
 #[test]
 fn quat_csv_garbage_lines_and_bad_norms_are_errors_with_the_line() {
+    let _one = crate::one_at_a_time();
     let (master, slave) = pty();
     let mut s = quat_csv_on(slave, Duration::from_secs(2));
     let (tx, h) = printer(master);
@@ -243,6 +246,7 @@ fn quat_csv_garbage_lines_and_bad_norms_are_errors_with_the_line() {
 /// (NUL bytes, terminal escapes), never raw.
 #[test]
 fn quat_csv_control_bytes_are_escaped_in_messages() {
+    let _one = crate::one_at_a_time();
     let (master, slave) = pty();
     let mut s = quat_csv_on(slave, Duration::from_secs(2));
     let (tx, h) = printer(master);
@@ -261,6 +265,7 @@ fn quat_csv_control_bytes_are_escaped_in_messages() {
 
 #[test]
 fn quat_csv_silence_is_a_timeout() {
+    let _one = crate::one_at_a_time();
     let (mut master, slave) = pty();
     let mut s = quat_csv_on(slave, TIMEOUT);
     times_out(
@@ -279,6 +284,7 @@ fn quat_csv_silence_is_a_timeout() {
 
 #[test]
 fn quat_csv_far_end_closed_is_an_error_not_a_hang() {
+    let _one = crate::one_at_a_time();
     let (master, slave) = pty();
     let mut s = quat_csv_on(slave, Duration::from_secs(5));
     // Closed while a read waits: the read ends at once, not after its timeout.
@@ -307,6 +313,7 @@ fn quat_csv_far_end_closed_is_an_error_not_a_hang() {
 
 #[test]
 fn sensor_open_reports_a_missing_port_by_name() {
+    let _one = crate::one_at_a_time();
     let e = sensor::open(
         SensorFormat::Bno055,
         FusionMode::Ndof,
@@ -428,6 +435,7 @@ fn requests(seen: &[Seen]) -> Vec<Vec<u8>> {
 
 #[test]
 fn bno055_start_sets_configmode_then_imu_with_the_switching_times() {
+    let _one = crate::one_at_a_time();
     let data = [8192, -8192, 8192, -8192];
     let (mut s, end) = started(vec![Act::Reply(quat_reply(data))], TIMEOUT);
     assert_eq!(s.describe(), "BNO055 (UART, IMU mode) on pty");
@@ -453,6 +461,7 @@ fn bno055_start_sets_configmode_then_imu_with_the_switching_times() {
 
 #[test]
 fn bno055_readings_are_signed_little_endian_over_2_pow_14() {
+    let _one = crate::one_at_a_time();
     // w=8192 (0x2000), x=-8192 (0xE000), y=8192, z=-8192, LSB first, written out by hand.
     let by_hand = vec![0xBB, 0x08, 0x00, 0x20, 0x00, 0xE0, 0x00, 0x20, 0x00, 0xE0];
     let cases: Vec<([i16; 4], [f64; 4])> = vec![
@@ -492,6 +501,7 @@ fn bno055_readings_are_signed_little_endian_over_2_pow_14() {
 
 #[test]
 fn bno055_error_statuses_are_named_and_over_runs_retried() {
+    let _one = crate::one_at_a_time();
     let over_run = || Act::Reply(vec![0xEE, 0x07]);
     let mut acts = vec![Act::Reply(vec![0xEE, 0x02])];
     acts.extend((0..bno055::ATTEMPTS).map(|_| over_run()));
@@ -542,6 +552,7 @@ fn bno055_error_statuses_are_named_and_over_runs_retried() {
 
 #[test]
 fn bno055_refused_mode_write_fails_the_start_by_name() {
+    let _one = crate::one_at_a_time();
     let (master, slave) = pty();
     let end = bno(master, vec![Act::Reply(vec![0xEE, 0x03])]);
     let e = sensor::from_port(SensorFormat::Bno055, Box::new(slave), "pty", TIMEOUT)
@@ -556,6 +567,7 @@ fn bno055_refused_mode_write_fails_the_start_by_name() {
 
 #[test]
 fn bno055_zero_quaternion_and_bad_replies_are_errors() {
+    let _one = crate::one_at_a_time();
     let (mut s, end) = started(
         vec![
             Act::Reply(quat_reply([0, 0, 0, 0])),
@@ -590,6 +602,7 @@ fn bno055_zero_quaternion_and_bad_replies_are_errors() {
 
 #[test]
 fn bno055_silence_and_half_replies_are_timeouts_and_a_late_rest_is_drained() {
+    let _one = crate::one_at_a_time();
     let rest = vec![0x40, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00];
     let (mut s, end) = started(
         vec![
@@ -619,6 +632,7 @@ fn bno055_silence_and_half_replies_are_timeouts_and_a_late_rest_is_drained() {
 
 #[test]
 fn bno055_far_end_closed_is_an_error_not_a_hang() {
+    let _one = crate::one_at_a_time();
     let (mut s, end) = started(vec![Act::Close], Duration::from_secs(5));
     let t = Instant::now();
     let e = s.read().unwrap_err();

@@ -280,12 +280,14 @@ fn rehearse_and_compare(identify: bool, dwell_ms: u64) {
 
 #[test]
 fn replay_through_the_virtual_motor_decides_as_the_simulated_loop() {
+    let _one = crate::one_at_a_time();
     // the settles of this run are at most 1.6 s: 2.2 s on the virtual clock
     rehearse_and_compare(false, 2200);
 }
 
 #[test]
 fn replay_through_the_virtual_motor_decides_as_the_simulated_loop_with_the_fit_of_the_wells() {
+    let _one = crate::one_at_a_time();
     // the fitted wells steer the ball into slower settles (up to 4.5 s): 5.1 s on the virtual
     // clock
     rehearse_and_compare(true, 5100);

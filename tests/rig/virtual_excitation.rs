@@ -26,6 +26,7 @@ fn write(dir: &Path, name: &str, text: &str) -> String {
 
 #[test]
 fn an_excitation_run_replayed_with_a_sensor_and_not_replanned_fits_the_hidden_wells() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let plant = write(d, "plant.toml", HIDDEN);

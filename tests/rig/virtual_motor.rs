@@ -334,21 +334,25 @@ fn main_job_on(board: &str) {
 
 #[test]
 fn numato_replay_ends_where_simulate_says() {
+    let _one = crate::one_at_a_time();
     main_job_on("numato");
 }
 
 #[test]
 fn modbus_replay_ends_where_simulate_says() {
+    let _one = crate::one_at_a_time();
     main_job_on("modbus");
 }
 
 #[test]
 fn lcus_replay_on_two_boards_ends_where_simulate_says() {
+    let _one = crate::one_at_a_time();
     main_job_on("lcus");
 }
 
 #[test]
 fn kmtronic_replay_on_two_boards_ends_where_simulate_says() {
+    let _one = crate::one_at_a_time();
     main_job_on("kmtronic");
 }
 
@@ -386,6 +390,7 @@ fn fault(extra: &[&str], sensor: Option<&str>) -> (Rehearsal, String) {
 
 #[test]
 fn a_port_that_vanishes_stops_the_replay_with_the_step_to_resume_from() {
+    let _one = crate::one_at_a_time();
     // the board is unplugged: its relays lose power (the virtual motor's log shows them
     // released), the replay's all-off cannot reach it and says so, and where to resume
     let (r, said) = fault(&["--drop-after-frames", "9"], None);
@@ -400,6 +405,7 @@ fn a_port_that_vanishes_stops_the_replay_with_the_step_to_resume_from() {
 
 #[test]
 fn a_stuck_relay_is_found_by_the_read_back() {
+    let _one = crate::one_at_a_time();
     // coil 12 (channel 13) goes on in step 0 of the plan about Y
     let (_, said) = fault(&["--stuck-relay", "13"], None);
     assert!(
@@ -416,6 +422,7 @@ fn a_stuck_relay_is_found_by_the_read_back() {
 
 #[test]
 fn a_sensor_that_stalls_stops_the_closed_loop() {
+    let _one = crate::one_at_a_time();
     // the closed loop's message (written against its current behaviour) names the sensor and
     // the steps done; --from-step is refused with --sensor, so it names none
     let (r, said) = fault(&["--sensor-stall-after", "40"], Some("quat-csv"));
@@ -441,6 +448,7 @@ fn a_sensor_that_stalls_stops_the_closed_loop() {
 
 #[test]
 fn a_garbling_sensor_stops_the_closed_loop() {
+    let _one = crate::one_at_a_time();
     // every reading garbled: the first is the tare's, taken before any coil is switched
     let (r, said) = fault(&["--sensor-garble", "1"], Some("bno055"));
     assert!(said.contains("(bno055): unexpected reply 5A"), "{said}");
@@ -461,6 +469,7 @@ fn a_garbling_sensor_stops_the_closed_loop() {
 
 #[test]
 fn bad_arguments_are_refused_before_any_port_is_made() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plant = write(dir.path(), "plant.toml", "[relay]\nboard = \"numato\"\n");
     let p = plant.to_str().unwrap();
@@ -544,6 +553,7 @@ fn bad_arguments_are_refused_before_any_port_is_made() {
 
 #[test]
 fn a_coil_on_too_long_and_too_many_coils_on_are_reported() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let mut plan = String::from(
         "step,pivot_coil,pivot_magnet,new_coil,new_magnet,active,qx,qy,qz,qw,step_angle_deg,step_axis_error_deg,cum_angle_deg,cum_axis_error_deg,settle_time_s\n",
@@ -681,6 +691,7 @@ fn silent_board_1(
 
 #[test]
 fn a_silent_board_holds_no_coil_of_another_board_past_its_limit() {
+    let _one = crate::one_at_a_time();
     // board 1 waits 5 s for an answer; coil 0 may stay on 1 s
     let r = silent_board_1(1.0, 5000, |_| {});
     let said = format!("{}\n{}", r.replay.1, r.replay.2);
@@ -731,16 +742,19 @@ fn signal_while_a_board_is_silent(signal: &str) {
 
 #[test]
 fn sigint_while_a_board_is_silent_switches_every_coil_off_at_once() {
+    let _one = crate::one_at_a_time();
     signal_while_a_board_is_silent("-INT");
 }
 
 #[test]
 fn sighup_while_a_board_is_silent_switches_every_coil_off_at_once() {
+    let _one = crate::one_at_a_time();
     signal_while_a_board_is_silent("-HUP");
 }
 
 #[test]
 fn the_on_time_check_keeps_a_margin_for_frames_and_the_guard() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     // coil 0 on for four steps: 4 x 300 ms is the limit itself, refused before any byte goes
     let plan = plan_of(dir.path(), &["0:10", "0:10", "0:10", "0:10", "1:11"]);
@@ -786,6 +800,7 @@ fn the_on_time_check_keeps_a_margin_for_frames_and_the_guard() {
 
 #[test]
 fn a_silent_board_fault_names_a_board_of_the_plant() {
+    let _one = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let plant = write(dir.path(), "plant.toml", &two_numato(1.0, 1000));
     let p = plant.to_str().unwrap();
