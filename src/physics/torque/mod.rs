@@ -109,6 +109,23 @@ pub trait TorqueModel: Sync {
         false
     }
 
+    /// Where a settle with cut-off events goes on beyond the skin of a [`NearbyMagnets`] (which
+    /// offers no margins there) from the orientation `r` within it: the model on lists built at
+    /// `r`, and the sides `within` of this model's pairs (a bit for each held within reach)
+    /// carried over to that one's by (coil, magnet). `None` by default, and where the settle
+    /// cannot go on so (see `NearbyMagnets::continued`).
+    fn continued_at(
+        &self,
+        _r: &Matrix3<f64>,
+        _active: &[Pair],
+        _within: SideMask,
+    ) -> Option<(Self, SideMask)>
+    where
+        Self: Sized,
+    {
+        None
+    }
+
     /// Body-frame torque at the orientation of an unnormalised quaternion `q` with only the
     /// pairs of `active` whose bit is set in `within` pulling, each by its well's formula
     /// continued beyond the cut-off: the smooth torque of one side of each cut-off, which the

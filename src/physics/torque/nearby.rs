@@ -25,6 +25,8 @@ pub struct NearbyMagnets<'a> {
     /// ... and their nearby magnets (body frame): those of coil k at `starts[k]..starts[k + 1]`.
     pub(super) magnets: Vec<Vector3<f64>>,
     pub(super) starts: Vec<usize>,
+    /// Each listed magnet's index in the rotor (ascending within a coil's lists).
+    ids: Vec<usize>,
     /// A bit for each (coil, magnet) pair of the lists (all of a [`SideMask`] beyond its 128).
     listed: SideMask,
     /// The lists built where the ball first went beyond this one's skin (at most
@@ -46,10 +48,19 @@ impl<'a> NearbyMagnets<'a> {
     fn at_depth(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &[Pair], depth: usize) -> Self {
         let cos_list = cos_within(full.well.max_attraction.0 + NEAR_SKIN + MARGIN_CAP);
         let (mut coils, mut magnets, mut starts) = (Vec::new(), Vec::new(), vec![0]);
+        let mut ids = Vec::new();
         for c in MagnetTorques::coils(active) {
             let s = r0.tr_mul(&full.stator[c]);
             coils.push(full.stator[c]);
-            magnets.extend(full.rotor.iter().filter(|m| m.dot(&s) >= cos_list));
+            let near = full
+                .rotor
+                .iter()
+                .enumerate()
+                .filter(|(_, m)| m.dot(&s) >= cos_list);
+            for (j, m) in near {
+                magnets.push(*m);
+                ids.push(j);
+            }
             starts.push(magnets.len());
         }
         NearbyMagnets {
@@ -61,6 +72,7 @@ impl<'a> NearbyMagnets<'a> {
             listed: first_bits(magnets.len()),
             magnets,
             starts,
+            ids,
             beyond: std::sync::OnceLock::new(),
             depth,
         }
@@ -84,6 +96,58 @@ impl<'a> NearbyMagnets<'a> {
                 .get_or_init(|| Box::new(Self::at_depth(self.full, r, active, depth)));
         }
         Some(lists)
+    }
+
+    /// Lists built at `r` (one deeper in the chain) for a settle with cut-off events that goes
+    /// on beyond this one's skin, and the sides `within` of this one's pairs (a bit for each
+    /// held within reach) carried over to theirs by (coil, magnet); a pair new to them is
+    /// beyond its cut-off (at `r`, within this skin, no magnet outside these lists is within
+    /// reach). `None` for another active set, past [`MAX_REBUILDS`], more pairs than
+    /// [`MAX_EVENT_PAIRS`] on either lists, or where the skin's promise fails: a new pair within
+    /// its cut-off at `r`, or a pair held within reach that the new lists leave out.
+    fn continued(
+        &self,
+        r: &Matrix3<f64>,
+        active: &[Pair],
+        within: SideMask,
+    ) -> Option<(Self, SideMask)> {
+        if active != self.active.as_slice()
+            || self.depth >= MAX_REBUILDS
+            || self.magnets.len() > MAX_EVENT_PAIRS
+        {
+            return None;
+        }
+        let next = Self::at_depth(self.full, r, active, self.depth + 1);
+        if next.magnets.len() > MAX_EVENT_PAIRS {
+            return None;
+        }
+        let held = |i: usize| within >> i & 1 == 1;
+        let mut carried: SideMask = 0;
+        for k in 0..self.coils.len() {
+            let (mut i, end) = (self.starts[k], self.starts[k + 1]);
+            let s = r.tr_mul(&self.coils[k]);
+            for j in next.starts[k]..next.starts[k + 1] {
+                // both lists in the rotor's order: the old pairs before this one are left out
+                while i < end && self.ids[i] < next.ids[j] {
+                    if held(i) {
+                        return None;
+                    }
+                    i += 1;
+                }
+                if i < end && self.ids[i] == next.ids[j] {
+                    if held(i) {
+                        carried |= 1 << j;
+                    }
+                    i += 1;
+                } else if next.magnets[j].dot(&s) >= self.full.well.cos_cutoff {
+                    return None;
+                }
+            }
+            if (i..end).any(held) {
+                return None;
+            }
+        }
+        Some((next, carried))
     }
 
     /// How many lists were built beyond the skin (the chain's length).
@@ -241,6 +305,18 @@ impl TorqueModel for NearbyMagnets<'_> {
             );
         }
         true
+    }
+
+    fn continued_at(
+        &self,
+        r: &Matrix3<f64>,
+        active: &[Pair],
+        within: SideMask,
+    ) -> Option<(Self, SideMask)> {
+        if !self.full.well.cutoff_jump {
+            return None;
+        }
+        self.continued(r, active, within)
     }
 
     fn cutoff_margins_of(
