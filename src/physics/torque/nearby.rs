@@ -26,7 +26,7 @@ pub struct NearbyMagnets<'a> {
     pub(super) magnets: Vec<Vector3<f64>>,
     pub(super) starts: Vec<usize>,
     /// Each listed magnet's index in the rotor (ascending within a coil's lists).
-    ids: Vec<usize>,
+    pub(super) ids: Vec<usize>,
     /// A bit for each (coil, magnet) pair of the lists (all of a [`SideMask`] beyond its 128).
     listed: SideMask,
     /// The lists built where the ball first went beyond this one's skin (at most
