@@ -55,7 +55,7 @@ pub trait TorqueModel: Sync {
     /// `r0` (beyond it, lists built again where the ball went): the same torques to the bit,
     /// at a fraction of the cost where every coil pulls every magnet. `None` where there is
     /// nothing to gain.
-    fn nearby(&self, _r0: &Matrix3<f64>, _active: &[Pair]) -> Option<NearbyMagnets<'_>> {
+    fn nearby<'s>(&'s self, _r0: &Matrix3<f64>, _active: &'s [Pair]) -> Option<NearbyMagnets<'s>> {
         None
     }
 
@@ -961,7 +961,7 @@ impl TorqueModel for MagnetTorques {
         }
     }
 
-    fn nearby(&self, r0: &Matrix3<f64>, active: &[Pair]) -> Option<NearbyMagnets<'_>> {
+    fn nearby<'s>(&'s self, r0: &Matrix3<f64>, active: &'s [Pair]) -> Option<NearbyMagnets<'s>> {
         (self.interaction == Interaction::Coils).then(|| NearbyMagnets::new(self, r0, active))
     }
 

@@ -16,7 +16,8 @@ use super::*;
 #[derive(Debug, Clone)]
 pub struct NearbyMagnets<'a> {
     full: &'a MagnetTorques,
-    active: Vec<Pair>,
+    /// The active set the lists are for (the settle's own slice: see [`NearbyMagnets::is_for`]).
+    active: &'a [Pair],
     r0: Matrix3<f64>,
     /// tr(R0^T R) = 1 + 2 cos(angle) at least this: R is within the skin.
     trace_min: f64,
@@ -41,11 +42,16 @@ pub struct NearbyMagnets<'a> {
 const MAX_REBUILDS: usize = 4;
 
 impl<'a> NearbyMagnets<'a> {
-    pub(super) fn new(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &[Pair]) -> Self {
+    pub(super) fn new(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &'a [Pair]) -> Self {
         Self::at_depth(full, r0, active, 0)
     }
 
-    fn at_depth(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &[Pair], depth: usize) -> Self {
+    fn at_depth(
+        full: &'a MagnetTorques,
+        r0: &Matrix3<f64>,
+        active: &'a [Pair],
+        depth: usize,
+    ) -> Self {
         let cos_list = cos_within(full.well.max_attraction.0 + NEAR_SKIN + MARGIN_CAP);
         let (mut coils, mut magnets, mut starts) = (Vec::new(), Vec::new(), vec![0]);
         let mut ids = Vec::new();
@@ -65,7 +71,7 @@ impl<'a> NearbyMagnets<'a> {
         }
         NearbyMagnets {
             full,
-            active: active.to_vec(),
+            active,
             r0: *r0,
             trace_min: 1.0 + 2.0 * NEAR_SKIN.cos(),
             coils,
@@ -82,7 +88,7 @@ impl<'a> NearbyMagnets<'a> {
     /// else those of the chain built beyond it (built here where missing); `None` for another
     /// active set or past the chain's end (then the whole model's sums are the same bits).
     fn lists_at(&self, r: &Matrix3<f64>, active: &[Pair]) -> Option<&Self> {
-        if active != self.active.as_slice() {
+        if !self.is_for(active) {
             return None;
         }
         let mut lists = self;
@@ -93,7 +99,7 @@ impl<'a> NearbyMagnets<'a> {
             let depth = lists.depth + 1;
             lists = lists
                 .beyond
-                .get_or_init(|| Box::new(Self::at_depth(self.full, r, active, depth)));
+                .get_or_init(|| Box::new(Self::at_depth(self.full, r, self.active, depth)));
         }
         Some(lists)
     }
@@ -111,13 +117,13 @@ impl<'a> NearbyMagnets<'a> {
         active: &[Pair],
         within: SideMask,
     ) -> Option<(Self, SideMask)> {
-        if active != self.active.as_slice()
+        if !self.is_for(active)
             || self.depth >= MAX_REBUILDS
             || self.magnets.len() > MAX_EVENT_PAIRS
         {
             return None;
         }
-        let next = Self::at_depth(self.full, r, active, self.depth + 1);
+        let next = Self::at_depth(self.full, r, self.active, self.depth + 1);
         if next.magnets.len() > MAX_EVENT_PAIRS {
             return None;
         }
@@ -154,6 +160,14 @@ impl<'a> NearbyMagnets<'a> {
     #[cfg(test)]
     pub(super) fn rebuilds(&self) -> usize {
         self.beyond.get().map_or(0, |next| 1 + next.rebuilds())
+    }
+
+    /// Whether the lists are for `active`: the settle asks with the slice they were built for
+    /// (held for their lifetime, so the same address and length are the same pairs), which is
+    /// told by its address, without comparing the pairs; any other slice, pair by pair.
+    #[inline]
+    fn is_for(&self, active: &[Pair]) -> bool {
+        std::ptr::eq(active, self.active) || active == self.active
     }
 
     /// Whether `r` is within the skin of the orientation the lists were built at.
@@ -193,7 +207,7 @@ impl<'a> NearbyMagnets<'a> {
     /// within the margin's cap beyond it).
     #[inline]
     fn covers(&self, r: &Matrix3<f64>, active: &[Pair]) -> bool {
-        self.within_skin(r) && active == self.active.as_slice()
+        self.within_skin(r) && self.is_for(active)
     }
 
     /// Coil k's body-frame axis at `r` and its nearby magnets.
@@ -263,9 +277,7 @@ impl TorqueModel for NearbyMagnets<'_> {
     /// [`MAX_EVENT_PAIRS`] (coil, magnet) pairs (the bits of [`TorqueModel::body_torque_within`]'s mask), for
     /// the active set the lists were built for.
     fn cutoff_events(&self, active: &[Pair]) -> bool {
-        self.full.well.cutoff_jump
-            && self.magnets.len() <= MAX_EVENT_PAIRS
-            && active == self.active.as_slice()
+        self.full.well.cutoff_jump && self.magnets.len() <= MAX_EVENT_PAIRS && self.is_for(active)
     }
 
     /// Each energised coil pulling only the nearby magnets whose bit (their index in the lists)
