@@ -31,15 +31,22 @@ pub(super) struct Sides<'s, 'a, M: TorqueModel> {
 }
 
 impl<'s, 'a, M: TorqueModel> Sides<'s, 'a, M> {
-    /// The sides of the start `y0` (at rest, with the `margins` there): every pair within reach
-    /// is within; events only where the model offers them and margins there.
-    pub(super) fn new(sys: &'s RotorDynamics<'a, M>, margins: Option<&[(f64, f64)]>) -> Self {
+    /// The sides of the start `y0` (with the `margins` there): every pair within reach is
+    /// within, or those of `carried` (the sides a settle went on with beyond a skin); events
+    /// only where the model offers them and margins there.
+    pub(super) fn new(
+        sys: &'s RotorDynamics<'a, M>,
+        margins: Option<&[(f64, f64)]>,
+        carried: Option<SideMask>,
+    ) -> Self {
         let events = margins.is_some() && sys.model.cutoff_events(sys.active);
         let within = margins.filter(|_| events).map_or(0, |m| {
-            m.iter()
-                .enumerate()
-                .filter(|(_, &(x, _))| x >= 0.0)
-                .fold(0, |acc: SideMask, (i, _)| acc | 1 << i)
+            carried.unwrap_or_else(|| {
+                m.iter()
+                    .enumerate()
+                    .filter(|(_, &(x, _))| x >= 0.0)
+                    .fold(0, |acc: SideMask, (i, _)| acc | 1 << i)
+            })
         });
         Sides {
             sys,

@@ -55,7 +55,7 @@ pub trait TorqueModel: Sync {
     /// `r0` (beyond it, lists built again where the ball went): the same torques to the bit,
     /// at a fraction of the cost where every coil pulls every magnet. `None` where there is
     /// nothing to gain.
-    fn nearby(&self, _r0: &Matrix3<f64>, _active: &[Pair]) -> Option<NearbyMagnets<'_>> {
+    fn nearby<'s>(&'s self, _r0: &Matrix3<f64>, _active: &'s [Pair]) -> Option<NearbyMagnets<'s>> {
         None
     }
 
@@ -107,6 +107,23 @@ pub trait TorqueModel: Sync {
     /// reach). `false` by default.
     fn cutoff_events(&self, _active: &[Pair]) -> bool {
         false
+    }
+
+    /// Where a settle with cut-off events goes on beyond the skin of a [`NearbyMagnets`] (which
+    /// offers no margins there) from the orientation `r` within it: the model on lists built at
+    /// `r`, and the sides `within` of this model's pairs (a bit for each held within reach)
+    /// carried over to that one's by (coil, magnet). `None` by default, and where the settle
+    /// cannot go on so (see `NearbyMagnets::continued`).
+    fn continued_at(
+        &self,
+        _r: &Matrix3<f64>,
+        _active: &[Pair],
+        _within: SideMask,
+    ) -> Option<(Self, SideMask)>
+    where
+        Self: Sized,
+    {
+        None
     }
 
     /// Body-frame torque at the orientation of an unnormalised quaternion `q` with only the
@@ -944,7 +961,7 @@ impl TorqueModel for MagnetTorques {
         }
     }
 
-    fn nearby(&self, r0: &Matrix3<f64>, active: &[Pair]) -> Option<NearbyMagnets<'_>> {
+    fn nearby<'s>(&'s self, r0: &Matrix3<f64>, active: &'s [Pair]) -> Option<NearbyMagnets<'s>> {
         (self.interaction == Interaction::Coils).then(|| NearbyMagnets::new(self, r0, active))
     }
 
@@ -1362,6 +1379,66 @@ mod tests {
             bits(near.body_torque_within(&q, &active, SideMask::MAX)),
             bits(m.body_torque(&r, &active))
         );
+    }
+
+    #[test]
+    fn nearby_magnets_carry_their_sides_to_lists_built_beyond_the_skin() {
+        let m = three_coils(wells().remove(1), 80);
+        let active = [Pair::new(0, 3), Pair::new(2, 7)];
+        let r0 = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -0.2, 0.5));
+        let near = m.nearby(r0.matrix(), &active).unwrap();
+        let sides = |lists: &NearbyMagnets<'_>, r: &Matrix3<f64>| {
+            let mut margins = Vec::new();
+            assert!(lists.cutoff_margins(r, &Vector3::zeros(), &active, &mut margins));
+            let within = margins
+                .iter()
+                .enumerate()
+                .filter(|(_, &(x, _))| x >= 0.0)
+                .fold(0, |acc: SideMask, (i, _)| acc | 1 << i);
+            (within, margins)
+        };
+        // 19 degrees from r0, at the skin's edge: the lists built there hold other magnets
+        let turn = Vector3::new(0.6, -0.3, 0.74).normalize() * 19f64.to_radians();
+        let r = (r0 * nalgebra::Rotation3::from_scaled_axis(turn)).into_inner();
+        let (within, _) = sides(&near, &r);
+        assert!(within.count_ones() >= 2, "{within:b}");
+        let (next, carried) = near.continued_at(&r, &active, within).unwrap();
+        assert_ne!(next.ids, near.ids, "the same lists");
+        // the pairs within reach are those within reach, pair by pair
+        let (within_next, margins) = sides(&next, &r);
+        assert_eq!(carried, within_next);
+        assert_eq!(carried.count_ones(), within.count_ones());
+        // the sides are carried over by (coil, magnet), not taken from the margins: a pair
+        // held within reach beyond its cut-off stays held on the new lists
+        let (i, j) = (0..near.starts[1])
+            .find_map(|i| {
+                let j = (0..next.starts[1]).find(|&j| next.ids[j] == near.ids[i])?;
+                (within >> i & 1 == 0).then_some((i, j))
+            })
+            .unwrap();
+        assert!(margins[j].0 < 0.0);
+        let (_, held) = near.continued_at(&r, &active, within | 1 << i).unwrap();
+        assert_eq!(held, carried | 1 << j);
+        // the chain ends after MAX_REBUILDS lists, another active set has none
+        let mut lists = next;
+        for depth in 2..=5 {
+            let (within, _) = sides(&lists, &r);
+            match lists.continued_at(&r, &active, within) {
+                Some((deeper, _)) => lists = deeper,
+                None => {
+                    assert_eq!(depth, 5);
+                    break;
+                }
+            }
+            assert!(depth < 5, "a fifth rebuild");
+        }
+        assert!(near.continued_at(&r, &active[..1], 0).is_none());
+        // beyond the skin (90 degrees) magnets the lists left out are within reach: the skin's
+        // promise fails, and the settle may not go on on such lists
+        let far = (r0 * nalgebra::Rotation3::from_scaled_axis(turn * 90.0 / 19.0)).into_inner();
+        assert!(near.continued_at(&far, &active, 0).is_none());
+        let (fresh, _) = sides(&m.nearby(&far, &active).unwrap(), &far);
+        assert!(fresh != 0, "no magnet within reach at 90 degrees");
     }
 
     #[test]

@@ -16,7 +16,8 @@ use super::*;
 #[derive(Debug, Clone)]
 pub struct NearbyMagnets<'a> {
     full: &'a MagnetTorques,
-    active: Vec<Pair>,
+    /// The active set the lists are for (the settle's own slice: see [`NearbyMagnets::is_for`]).
+    active: &'a [Pair],
     r0: Matrix3<f64>,
     /// tr(R0^T R) = 1 + 2 cos(angle) at least this: R is within the skin.
     trace_min: f64,
@@ -25,6 +26,8 @@ pub struct NearbyMagnets<'a> {
     /// ... and their nearby magnets (body frame): those of coil k at `starts[k]..starts[k + 1]`.
     pub(super) magnets: Vec<Vector3<f64>>,
     pub(super) starts: Vec<usize>,
+    /// Each listed magnet's index in the rotor (ascending within a coil's lists).
+    pub(super) ids: Vec<usize>,
     /// A bit for each (coil, magnet) pair of the lists (all of a [`SideMask`] beyond its 128).
     listed: SideMask,
     /// The lists built where the ball first went beyond this one's skin (at most
@@ -39,28 +42,43 @@ pub struct NearbyMagnets<'a> {
 const MAX_REBUILDS: usize = 4;
 
 impl<'a> NearbyMagnets<'a> {
-    pub(super) fn new(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &[Pair]) -> Self {
+    pub(super) fn new(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &'a [Pair]) -> Self {
         Self::at_depth(full, r0, active, 0)
     }
 
-    fn at_depth(full: &'a MagnetTorques, r0: &Matrix3<f64>, active: &[Pair], depth: usize) -> Self {
+    fn at_depth(
+        full: &'a MagnetTorques,
+        r0: &Matrix3<f64>,
+        active: &'a [Pair],
+        depth: usize,
+    ) -> Self {
         let cos_list = cos_within(full.well.max_attraction.0 + NEAR_SKIN + MARGIN_CAP);
         let (mut coils, mut magnets, mut starts) = (Vec::new(), Vec::new(), vec![0]);
+        let mut ids = Vec::new();
         for c in MagnetTorques::coils(active) {
             let s = r0.tr_mul(&full.stator[c]);
             coils.push(full.stator[c]);
-            magnets.extend(full.rotor.iter().filter(|m| m.dot(&s) >= cos_list));
+            let near = full
+                .rotor
+                .iter()
+                .enumerate()
+                .filter(|(_, m)| m.dot(&s) >= cos_list);
+            for (j, m) in near {
+                magnets.push(*m);
+                ids.push(j);
+            }
             starts.push(magnets.len());
         }
         NearbyMagnets {
             full,
-            active: active.to_vec(),
+            active,
             r0: *r0,
             trace_min: 1.0 + 2.0 * NEAR_SKIN.cos(),
             coils,
             listed: first_bits(magnets.len()),
             magnets,
             starts,
+            ids,
             beyond: std::sync::OnceLock::new(),
             depth,
         }
@@ -70,7 +88,7 @@ impl<'a> NearbyMagnets<'a> {
     /// else those of the chain built beyond it (built here where missing); `None` for another
     /// active set or past the chain's end (then the whole model's sums are the same bits).
     fn lists_at(&self, r: &Matrix3<f64>, active: &[Pair]) -> Option<&Self> {
-        if active != self.active.as_slice() {
+        if !self.is_for(active) {
             return None;
         }
         let mut lists = self;
@@ -81,15 +99,75 @@ impl<'a> NearbyMagnets<'a> {
             let depth = lists.depth + 1;
             lists = lists
                 .beyond
-                .get_or_init(|| Box::new(Self::at_depth(self.full, r, active, depth)));
+                .get_or_init(|| Box::new(Self::at_depth(self.full, r, self.active, depth)));
         }
         Some(lists)
+    }
+
+    /// Lists built at `r` (one deeper in the chain) for a settle with cut-off events that goes
+    /// on beyond this one's skin, and the sides `within` of this one's pairs (a bit for each
+    /// held within reach) carried over to theirs by (coil, magnet); a pair new to them is
+    /// beyond its cut-off (at `r`, within this skin, no magnet outside these lists is within
+    /// reach). `None` for another active set, past [`MAX_REBUILDS`], more pairs than
+    /// [`MAX_EVENT_PAIRS`] on either lists, or where the skin's promise fails: a new pair within
+    /// its cut-off at `r`, or a pair held within reach that the new lists leave out.
+    fn continued(
+        &self,
+        r: &Matrix3<f64>,
+        active: &[Pair],
+        within: SideMask,
+    ) -> Option<(Self, SideMask)> {
+        if !self.is_for(active)
+            || self.depth >= MAX_REBUILDS
+            || self.magnets.len() > MAX_EVENT_PAIRS
+        {
+            return None;
+        }
+        let next = Self::at_depth(self.full, r, self.active, self.depth + 1);
+        if next.magnets.len() > MAX_EVENT_PAIRS {
+            return None;
+        }
+        let held = |i: usize| within >> i & 1 == 1;
+        let mut carried: SideMask = 0;
+        for k in 0..self.coils.len() {
+            let (mut i, end) = (self.starts[k], self.starts[k + 1]);
+            let s = r.tr_mul(&self.coils[k]);
+            for j in next.starts[k]..next.starts[k + 1] {
+                // both lists in the rotor's order: the old pairs before this one are left out
+                while i < end && self.ids[i] < next.ids[j] {
+                    if held(i) {
+                        return None;
+                    }
+                    i += 1;
+                }
+                if i < end && self.ids[i] == next.ids[j] {
+                    if held(i) {
+                        carried |= 1 << j;
+                    }
+                    i += 1;
+                } else if next.magnets[j].dot(&s) >= self.full.well.cos_cutoff {
+                    return None;
+                }
+            }
+            if (i..end).any(held) {
+                return None;
+            }
+        }
+        Some((next, carried))
     }
 
     /// How many lists were built beyond the skin (the chain's length).
     #[cfg(test)]
     pub(super) fn rebuilds(&self) -> usize {
         self.beyond.get().map_or(0, |next| 1 + next.rebuilds())
+    }
+
+    /// Whether the lists are for `active`: the settle asks with the slice they were built for
+    /// (held for their lifetime, so the same address and length are the same pairs), which is
+    /// told by its address, without comparing the pairs; any other slice, pair by pair.
+    #[inline]
+    fn is_for(&self, active: &[Pair]) -> bool {
+        std::ptr::eq(active, self.active) || active == self.active
     }
 
     /// Whether `r` is within the skin of the orientation the lists were built at.
@@ -129,7 +207,7 @@ impl<'a> NearbyMagnets<'a> {
     /// within the margin's cap beyond it).
     #[inline]
     fn covers(&self, r: &Matrix3<f64>, active: &[Pair]) -> bool {
-        self.within_skin(r) && active == self.active.as_slice()
+        self.within_skin(r) && self.is_for(active)
     }
 
     /// Coil k's body-frame axis at `r` and its nearby magnets.
@@ -199,9 +277,7 @@ impl TorqueModel for NearbyMagnets<'_> {
     /// [`MAX_EVENT_PAIRS`] (coil, magnet) pairs (the bits of [`TorqueModel::body_torque_within`]'s mask), for
     /// the active set the lists were built for.
     fn cutoff_events(&self, active: &[Pair]) -> bool {
-        self.full.well.cutoff_jump
-            && self.magnets.len() <= MAX_EVENT_PAIRS
-            && active == self.active.as_slice()
+        self.full.well.cutoff_jump && self.magnets.len() <= MAX_EVENT_PAIRS && self.is_for(active)
     }
 
     /// Each energised coil pulling only the nearby magnets whose bit (their index in the lists)
@@ -241,6 +317,18 @@ impl TorqueModel for NearbyMagnets<'_> {
             );
         }
         true
+    }
+
+    fn continued_at(
+        &self,
+        r: &Matrix3<f64>,
+        active: &[Pair],
+        within: SideMask,
+    ) -> Option<(Self, SideMask)> {
+        if !self.full.well.cutoff_jump {
+            return None;
+        }
+        self.continued(r, active, within)
     }
 
     fn cutoff_margins_of(
