@@ -324,6 +324,8 @@ fn approach_tightly<M: TorqueModel>(
         tr[from..].iter_mut().for_each(|(t, _)| *t += t_h);
     }
     after.settle_time_s += t_h;
+    // the arrival too counts from the settle's start, not from the handover
+    after.arrival_time_s += t_h;
     after.evaluations = after.evaluations.saturating_add(r.evaluations);
     after.steps = after.steps.saturating_add(r.steps);
     after
