@@ -317,17 +317,30 @@ fn approach_tightly<M: TorqueModel>(
         t_max: params.t_max - t_h,
         ..params
     };
+    let spent = (r.evaluations, r.steps);
+    handed_over(t_h, spent, trace, |tr| {
+        settle_fast_from(sys, y_h, rest, tr, (approaches - 1, None))
+    })
+}
+
+/// The settle that goes on from a handover at t_h (`spent`: the evaluations and steps before
+/// it) by `go_on`, run on the rest of the time with its trace appended: its times, the
+/// trace's included, counted from the settle's start, its work added to what was spent.
+fn handed_over(
+    t_h: f64,
+    spent: (u32, u32),
+    mut trace: Option<&mut Vec<(f64, State)>>,
+    go_on: impl FnOnce(Option<&mut Vec<(f64, State)>>) -> SettleResult,
+) -> SettleResult {
     let from = trace.as_deref().map_or(0, |tr| tr.len());
-    let handover = (approaches - 1, None);
-    let mut after = settle_fast_from(sys, y_h, rest, trace.as_deref_mut(), handover);
+    let mut after = go_on(trace.as_deref_mut());
     if let Some(tr) = trace {
         tr[from..].iter_mut().for_each(|(t, _)| *t += t_h);
     }
     after.settle_time_s += t_h;
-    // the arrival too counts from the settle's start, not from the handover
     after.arrival_time_s += t_h;
-    after.evaluations = after.evaluations.saturating_add(r.evaluations);
-    after.steps = after.steps.saturating_add(r.steps);
+    after.evaluations = after.evaluations.saturating_add(spent.0);
+    after.steps = after.steps.saturating_add(spent.1);
     after
 }
 
@@ -344,7 +357,7 @@ fn go_on_beyond<M: TorqueModel>(
     params: SettleParams,
     spent: (u32, u32, usize),
     ((t_h, y_h), within): ((f64, [f64; 7]), SideMask),
-    mut trace: Option<&mut Vec<(f64, State)>>,
+    trace: Option<&mut Vec<(f64, State)>>,
     approaches: u32,
 ) -> SettleResult {
     let r = rotation_matrix(y_h[0], y_h[1], y_h[2], y_h[3]);
@@ -363,17 +376,9 @@ fn go_on_beyond<M: TorqueModel>(
         t_max: params.t_max - t_h,
         ..params
     };
-    let from = trace.as_deref().map_or(0, |tr| tr.len());
-    let handover = (approaches, Some(carried));
-    let mut after = settle_fast_from(&beyond, y_h, rest, trace.as_deref_mut(), handover);
-    if let Some(tr) = trace {
-        tr[from..].iter_mut().for_each(|(t, _)| *t += t_h);
-    }
-    after.settle_time_s += t_h;
-    after.arrival_time_s += t_h;
-    after.evaluations = after.evaluations.saturating_add(spent.0);
-    after.steps = after.steps.saturating_add(spent.1);
-    after
+    handed_over(t_h, (spent.0, spent.1), trace, |tr| {
+        settle_fast_from(&beyond, y_h, rest, tr, (approaches, Some(carried)))
+    })
 }
 
 /// The settle that ends in the end phase `e`, found after `evaluations` and `steps`: its
