@@ -7,7 +7,7 @@
 
 use super::RotorDynamics;
 use crate::physics::integrator::OdeSystem;
-use crate::physics::torque::{first_bits, set_bits, SideMask, TorqueModel};
+use crate::physics::torque::{first_bits, set_bits, within_reach, SideMask, TorqueModel};
 use std::cell::Cell;
 
 /// How far (in cosine: 1e-9 is 1.3e-7 degrees at a 25 degree cut-off) a pair's margin may be on
@@ -40,14 +40,9 @@ impl<'s, 'a, M: TorqueModel> Sides<'s, 'a, M> {
         carried: Option<SideMask>,
     ) -> Self {
         let events = margins.is_some() && sys.model.cutoff_events(sys.active);
-        let within = margins.filter(|_| events).map_or(0, |m| {
-            carried.unwrap_or_else(|| {
-                m.iter()
-                    .enumerate()
-                    .filter(|(_, &(x, _))| x >= 0.0)
-                    .fold(0, |acc: SideMask, (i, _)| acc | 1 << i)
-            })
-        });
+        let within = margins
+            .filter(|_| events)
+            .map_or(0, |m| carried.unwrap_or_else(|| within_reach(m)));
         Sides {
             sys,
             events,

@@ -8,7 +8,7 @@ use super::events::{self, Seen, Sides, MAX_REDOS};
 use super::reference::{dopri5_run, settle_dopri5};
 use super::{finish, hermite_weights, RotorDynamics, SettleParams, SettleResult, State, Stop};
 use crate::physics::integrator::{integrate_until, End, Outcome, Tolerances, Verdict};
-use crate::physics::torque::{first_bits, rotation_matrix, SideMask, TorqueModel};
+use crate::physics::torque::{bits_of, first_bits, rotation_matrix, SideMask, TorqueModel};
 use nalgebra::Vector3;
 
 /// The fast path's stiffness scale (isotropic bodies of models that have one: the linear
@@ -658,9 +658,9 @@ impl GrazeWatch {
     /// After [`MAX_REDOS`] landings on one event: the pairs (of those computed, `due`) on the
     /// wrong side of their cut-off where the step ends are switched there.
     fn switch_beyond<M: TorqueModel>(&self, sides: &Sides<'_, '_, M>, due: SideMask) -> Look {
-        let flips = events::each(due, self.now.len())
-            .filter(|&i| sides.side(i) * self.now[i].0 < 0.0)
-            .fold(0, |acc: SideMask, i| acc | 1 << i);
+        let flips = bits_of(
+            events::each(due, self.now.len()).filter(|&i| sides.side(i) * self.now[i].0 < 0.0),
+        );
         if flips == 0 {
             return Look::Quiet;
         }

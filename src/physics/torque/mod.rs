@@ -194,6 +194,17 @@ pub(crate) fn set_bits(mut mask: SideMask) -> impl Iterator<Item = usize> {
     })
 }
 
+/// The mask with the bits `indices` set (each below [`SideMask::BITS`]): [`set_bits`]'s inverse.
+pub(crate) fn bits_of(indices: impl Iterator<Item = usize>) -> SideMask {
+    indices.fold(0, |acc: SideMask, i| acc | 1 << i)
+}
+
+/// The pairs held within reach by their cut-off `margins` (m, dm/dt): a bit for each margin
+/// not below zero (at most [`SideMask::BITS`] margins).
+pub(crate) fn within_reach(margins: &[(f64, f64)]) -> SideMask {
+    bits_of((margins.iter().enumerate()).filter_map(|(i, &(m, _))| (m >= 0.0).then_some(i)))
+}
+
 /// The body-to-world rotation matrix of the quaternion (x, y, z, w), which need not be
 /// normalised: it is the rotation of q / |q|, built without a square root or trigonometry.
 #[inline]
@@ -1349,11 +1360,7 @@ mod tests {
         let mut margins = Vec::new();
         assert!(near.cutoff_margins(&r, &Vector3::zeros(), &active, &mut margins));
         assert_eq!(margins.len(), n);
-        let within = margins
-            .iter()
-            .enumerate()
-            .filter(|(_, &(x, _))| x >= 0.0)
-            .fold(0, |acc: SideMask, (i, _)| acc | 1 << i);
+        let within = within_reach(&margins);
         let whole = m.body_torque(&r, &active);
         let bits = |v: Vector3<f64>| v.map(f64::to_bits);
         assert_eq!(
@@ -1390,11 +1397,7 @@ mod tests {
         let sides = |lists: &NearbyMagnets<'_>, r: &Matrix3<f64>| {
             let mut margins = Vec::new();
             assert!(lists.cutoff_margins(r, &Vector3::zeros(), &active, &mut margins));
-            let within = margins
-                .iter()
-                .enumerate()
-                .filter(|(_, &(x, _))| x >= 0.0)
-                .fold(0, |acc: SideMask, (i, _)| acc | 1 << i);
+            let within = within_reach(&margins);
             (within, margins)
         };
         // 19 degrees from r0, at the skin's edge: the lists built there hold other magnets
