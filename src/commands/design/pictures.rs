@@ -21,7 +21,7 @@ pub(super) fn front_picture(entries: &[Entry], front: &[usize], own: Own) -> Des
             median_steps: o.median_steps,
             coils: l.stator.len(),
             on_front: front.contains(&k),
-            own: same_points(&l.stator, own.stator) && same_points(&l.rotor, own.rotor),
+            own: is_own(l, own),
         })
         .collect();
     DesignFront {
@@ -32,6 +32,11 @@ pub(super) fn front_picture(entries: &[Entry], front: &[usize], own: Own) -> Des
 
 fn v3(p: &UnitVec) -> [f64; 3] {
     [p.x, p.y, p.z]
+}
+
+/// Whether the layout `l` is the scenario's own (its coils and magnets, to rounding).
+fn is_own(l: &Layout, own: Own) -> bool {
+    same_points(&l.stator, own.stator) && same_points(&l.rotor, own.rotor)
 }
 
 /// Whether `a` and `b` hold the same points (to rounding).
@@ -59,9 +64,7 @@ fn heading(what: &str, l_coils: usize, l_magnets: usize) -> String {
 /// then the front's best by the mean of the worst quarter of their axis errors
 /// (`DIR/best-layouts.svg`, `.png`).
 pub(super) fn best_picture(entries: &[Entry], front: &[usize], own: Own) -> DesignLayouts {
-    let is_own =
-        |l: &Layout| same_points(&l.stator, own.stator) && same_points(&l.rotor, own.rotor);
-    let mine = entries.iter().find(|(_, (l, _))| is_own(l));
+    let mine = entries.iter().find(|(_, (l, _))| is_own(l, own));
     let first = LayoutPanel {
         name: match mine {
             Some((id, _)) => heading(
@@ -81,7 +84,7 @@ pub(super) fn best_picture(entries: &[Entry], front: &[usize], own: Own) -> Desi
     let mut best: Vec<&Entry> = front
         .iter()
         .map(|&k| &entries[k])
-        .filter(|(_, (l, _))| !is_own(l))
+        .filter(|(_, (l, _))| !is_own(l, own))
         .collect();
     best.sort_by(|(a, (_, oa)), (b, (_, ob))| {
         oa.tail_axis_error_deg
