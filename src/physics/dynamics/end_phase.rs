@@ -40,6 +40,9 @@ const SAMPLE_STEP: f64 = 0.1;
 /// Bisections of the end phase's arrival time (to 1/4096 of the end phase's span: a
 /// millisecond on a span of seconds).
 const ARRIVAL_BISECTIONS: u32 = 12;
+/// The share of the time [`EndPhase::narrow_after`] predicts for a minimum too wide for its
+/// cut-off margin that the search waits before it looks again.
+const WIDE_WAIT: f64 = 0.75;
 /// The most samples the end phase takes (a bounded cost whatever t_max and the damping are).
 const MAX_SAMPLES: u64 = 1_000_000;
 
@@ -98,11 +101,17 @@ fn normalized(q: [f64; 4]) -> [f64; 4] {
 /// saddle must not put off the search near the minimum the ball goes on to (on one set of
 /// research/basins.rs the search came 5 s late so, the stepper meanwhile hovering at its
 /// tolerance's noise floor near the minimum). A strict minimum refused only because the motion
-/// about it would reach a magnet's cut-off is looked at again at the next step.
+/// about it would reach a magnet's cut-off is looked at again once the linear motion about it
+/// has nearly shrunk clear of the cut-off ([`Refusal::Wide`]).
 pub(super) struct EndSearch {
     k1: f64,
     skip: u32,
     backoff: u32,
+    /// The settle's horizon (its t_max).
+    horizon: f64,
+    /// No search before this time: a minimum was refused as too wide for its cut-off margin, and
+    /// the linear motion about it stays so wide until about then.
+    wait_until: f64,
     /// Linearizations spent.
     pub(super) evaluations: u32,
     /// Whether the approach may have crossed a well's cut-off (the graze watch saw a margin
@@ -121,19 +130,22 @@ enum Refusal {
     /// positive definite, the motion from here is beyond the linear radius).
     NotNear,
     /// A strict minimum, but the motion about it would reach a magnet's cut-off: it shrinks as
-    /// the ball settles.
-    Wide,
+    /// the ball settles, by the linear motion about the minimum not before `after` (s) from the
+    /// switch point ([`EndPhase::narrow_after`]).
+    Wide { after: f64 },
     /// A strict minimum within [`CUTOFF_SAFETY`] of a cut-off that the approach may have
     /// crossed: the settle is unsure.
     NearCutoff,
 }
 
 impl EndSearch {
-    pub(super) fn new(k1: f64, crossed: bool) -> EndSearch {
+    pub(super) fn new(k1: f64, crossed: bool, horizon: f64) -> EndSearch {
         EndSearch {
             k1,
             skip: 0,
             backoff: 1,
+            horizon,
+            wait_until: f64::NEG_INFINITY,
             evaluations: 0,
             crossed,
             found: None,
@@ -157,14 +169,17 @@ impl EndSearch {
         let r2 = LINEAR_RADIUS * LINEAR_RADIUS;
         if nb.norm_squared() > r2 * k1 * k1 || w.norm_squared() > r2 * k1 / sys.body.inertia.x {
             // moving: the next slow stretch is searched from its start
-            (self.skip, self.backoff) = (0, 1);
+            (self.skip, self.backoff, self.wait_until) = (0, 1, f64::NEG_INFINITY);
+            return false;
+        }
+        if t < self.wait_until {
             return false;
         }
         if self.skip > 0 {
             self.skip -= 1;
             return false;
         }
-        match EndPhase::find(sys, y, t, &mut self.evaluations, self.crossed) {
+        match EndPhase::find(sys, y, t, self.horizon, &mut self.evaluations, self.crossed) {
             Ok(e) => {
                 self.found = Some(e);
                 true
@@ -173,7 +188,10 @@ impl EndSearch {
                 self.near_cutoff = true;
                 true
             }
-            Err(Refusal::Wide) => false,
+            Err(Refusal::Wide { after }) => {
+                self.wait_until = t + WIDE_WAIT * after;
+                false
+            }
             Err(Refusal::NotNear) => {
                 // not yet (or never) near a strict minimum: look again later, less often
                 self.skip = self.backoff;
@@ -206,6 +224,7 @@ impl EndPhase {
         sys: &RotorDynamics<'_, M>,
         y: &[f64; 7],
         t: f64,
+        horizon: f64,
         evaluations: &mut u32,
         crossed: bool,
     ) -> Result<EndPhase, Refusal> {
@@ -232,21 +251,49 @@ impl EndPhase {
         if amplitude > LINEAR_RADIUS {
             return Err(Refusal::NotNear);
         }
-        if margin < 2.0 * amplitude + 1e-9 {
-            return Err(Refusal::Wide);
-        }
-        if crossed && margin < CUTOFF_SAFETY {
-            return Err(Refusal::NearCutoff);
-        }
         let modes = eig.eigenvectors;
-        Ok(EndPhase {
+        let end = EndPhase {
             t0: t,
             q_star: q,
             k: eig.eigenvalues,
             modes,
             x0: modes.tr_mul(&delta0),
             v0: modes.tr_mul(&w),
-        })
+        };
+        if margin < 2.0 * amplitude + 1e-9 {
+            let after = end.narrow_after(sys.body, 0.5 * (margin - 1e-9), horizon - t);
+            return Err(Refusal::Wide { after });
+        }
+        if crossed && margin < CUTOFF_SAFETY {
+            return Err(Refusal::NearCutoff);
+        }
+        Ok(end)
+    }
+
+    /// The first of the times 2^j / omega_0,max (j = 0, 1, ...) from t0 at which the linear
+    /// motion's amplitude (the test of [`EndPhase::find`], sqrt(|x|^2 + I |v|^2 / k_min)) is
+    /// within `limit`, less one doubling: the search cannot pass the amplitude test much
+    /// sooner (it may between two samples of an oscillating mode; the wait is
+    /// [`WIDE_WAIT`] of it). `span` where the motion is still that wide then.
+    fn narrow_after(&self, body: Body, limit: f64, span: f64) -> f64 {
+        let inertia = body.inertia.x;
+        let a = 0.5 * body.damping / inertia;
+        let w02 = self.k / inertia;
+        let kmin = self.k.min();
+        let wide = |x: &Vector3<f64>, v: &Vector3<f64>| {
+            x.norm_squared() + inertia * v.norm_squared() / kmin > limit * limit
+        };
+        let mut t = 1.0 / w02.max().sqrt();
+        let mut before = 0.0;
+        while t < span {
+            let (x, v) = propagate(a, &w02, t, &self.x0, &self.v0);
+            if !wide(&x, &v) {
+                return before;
+            }
+            before = t;
+            t *= 2.0;
+        }
+        span.max(0.0)
     }
 
     /// The first instant from t0 on a grid of step [`SAMPLE_STEP`] / omega_0,max at which the
@@ -645,6 +692,65 @@ mod tests {
     }
 
     #[test]
+    fn a_minimum_too_wide_for_its_margin_is_searched_again_once_its_motion_has_nearly_shrunk() {
+        // a light and a heavy damping: an oscillating and a creeping slow mode
+        for damping in [0.3, 3.0] {
+            let body = Body {
+                inertia: Vector3::repeat(0.023),
+                damping,
+            };
+            let e = linear([2.0, 6.0, 12.0], [6e-3, -4e-3, 3e-3], [0.02, 0.0, -0.01]);
+            let (i, kmin) = (body.inertia.x, e.k.min());
+            let amplitude = |x: &Vector3<f64>, v: &Vector3<f64>| {
+                (x.norm_squared() + i * v.norm_squared() / kmin).sqrt()
+            };
+            let limit = 0.2 * amplitude(&e.x0, &e.v0);
+            let after = e.narrow_after(body, limit, 30.0);
+            // the motion integrated by classical Runge-Kutta, its amplitude at each step
+            let f = |x: &Vector3<f64>, v: &Vector3<f64>| {
+                (*v, -(e.k.component_mul(x) + v * damping) / i)
+            };
+            let h = 1e-4;
+            let (mut x, mut v) = (e.x0, e.v0);
+            let mut first_narrow = None;
+            let mut t = 0.0;
+            while t < 2.0 * after + h {
+                if first_narrow.is_none() && amplitude(&x, &v) <= limit {
+                    first_narrow = Some(t);
+                }
+                if (t - after).abs() < 0.5 * h {
+                    assert!(
+                        amplitude(&x, &v) > limit,
+                        "c = {damping}: narrow at {after}"
+                    );
+                }
+                let (k1x, k1v) = f(&x, &v);
+                let (k2x, k2v) = f(&(x + k1x * (h / 2.0)), &(v + k1v * (h / 2.0)));
+                let (k3x, k3v) = f(&(x + k2x * (h / 2.0)), &(v + k2v * (h / 2.0)));
+                let (k4x, k4v) = f(&(x + k3x * h), &(v + k3v * h));
+                x += (k1x + k2x * 2.0 + k3x * 2.0 + k4x) * (h / 6.0);
+                v += (k1v + k2v * 2.0 + k3v * 2.0 + k4v) * (h / 6.0);
+                t += h;
+            }
+            // narrow by the next doubling, and not before the search looks again
+            let Some(first) = first_narrow else {
+                panic!("c = {damping}: still wide at {}", 2.0 * after);
+            };
+            assert!(
+                after > 0.0 && first >= WIDE_WAIT * after && first <= 2.0 * after + h,
+                "c = {damping}: first narrow at {first}, the wait {after}"
+            );
+        }
+        // a motion that stays wide past the horizon waits for all of it
+        let body = Body {
+            inertia: Vector3::repeat(0.023),
+            damping: 0.0,
+        };
+        let e = linear([2.0, 6.0, 12.0], [6e-3, -4e-3, 3e-3], [0.0; 3]);
+        assert_eq!(e.narrow_after(body, 1e-4, 7.0), 7.0);
+    }
+
+    #[test]
     fn no_mode_can_settle_before_its_first_possible_instant() {
         let params = SettleParams::default();
         let body = Body {
@@ -679,7 +785,7 @@ mod tests {
         let q_sw = normalized(quat_mul(q_min, quat_exp(&Vector3::new(3e-3, -3e-3, 2e-3))));
         let y = [q_sw[0], q_sw[1], q_sw[2], q_sw[3], 0.0, 0.0, 0.0];
         let mut evaluations = 0;
-        let Ok(e) = EndPhase::find(&sys, &y, 0.0, &mut evaluations, false) else {
+        let Ok(e) = EndPhase::find(&sys, &y, 0.0, 5.0, &mut evaluations, false) else {
             panic!("no end phase 0.3 degrees from a strict minimum");
         };
         assert!((1..=NEWTON_ITERATIONS).contains(&evaluations));

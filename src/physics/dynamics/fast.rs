@@ -146,7 +146,7 @@ fn settle_fast_from<M: TorqueModel>(
     let traced = trace.as_deref().map_or(0, |tr| tr.len());
     let mut at = Watchers {
         watch,
-        search: scale.map(|k1| EndSearch::new(k1, !trusted)),
+        search: scale.map(|k1| EndSearch::new(k1, !trusted, params.t_max)),
         grazed: None,
         left: false,
         last: (0.0, y0),
