@@ -123,6 +123,31 @@ pub fn angular_distance(a: &UnitVec, b: &UnitVec) -> Radians {
     Radians(a.cross(b).norm().atan2(a.dot(b)))
 }
 
+/// A cheap first test of "is the angle between two directions more than `limit`", before
+/// [`angular_distance`]'s atan2: a pair whose dot product is below cos(limit + 1e-9) times
+/// their lengths is further apart than `limit` by more than either computation's rounding, so
+/// it is one that [`angular_distance`] puts beyond `limit` too; the others are decided by the
+/// angle itself.
+#[derive(Debug, Clone, Copy)]
+pub struct SurelyBeyond {
+    cos: f64,
+}
+
+impl SurelyBeyond {
+    /// The test for angles of `limit`.
+    pub fn new(limit: Radians) -> Self {
+        SurelyBeyond {
+            cos: (limit.0 + 1e-9).min(std::f64::consts::PI).cos(),
+        }
+    }
+
+    /// Whether `a` and `b` (any lengths) are surely more than the limit apart.
+    #[inline]
+    pub fn apart(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> bool {
+        a.dot(b) < self.cos * (a.norm() * b.norm())
+    }
+}
+
 /// The paper's ROT[n, theta] = exp(theta N) as a rotation matrix.
 pub fn rot(n: &UnitVec, theta: Radians) -> Rotation3<f64> {
     Rotation3::from_axis_angle(n, theta.0)
@@ -286,6 +311,37 @@ mod tests {
 
     fn v(x: f64, y: f64, z: f64) -> UnitVec {
         unit(Vector3::new(x, y, z)).unwrap()
+    }
+
+    #[test]
+    fn a_pair_surely_beyond_a_limit_is_beyond_it_by_its_angle_and_only_near_ones_are_not() {
+        let mut rng = crate::model::random::SplitMix::new(11);
+        let (mut apart, mut near_limit) = (0, 0);
+        for k in 0..20_000 {
+            let limit = Radians(0.05 + 1.5 * rng.uniform());
+            let test = SurelyBeyond::new(limit);
+            // lengths other than 1, and half the pairs within a milliradian of the limit
+            let a = rng.direction().into_inner() * (0.5 + rng.uniform());
+            let b = if k % 2 == 0 {
+                rng.direction().into_inner() * 2.0
+            } else {
+                let axis = unit(a.cross(&rng.direction())).unwrap();
+                let turn = limit.0 + 2e-3 * (rng.uniform() - 0.5);
+                rot(&axis, Radians(turn)) * a * 3.0
+            };
+            let d = angular_distance(&UnitVec::new_normalize(a), &UnitVec::new_normalize(b));
+            if test.apart(&a, &b) {
+                apart += 1;
+                assert!(d.0 > limit.0, "{} against {}", d.0, limit.0);
+            } else {
+                // not surely apart: within the limit, or beyond it by less than the slack's
+                // order of rounding
+                assert!(d.0 <= limit.0 + 1e-8, "{} against {}", d.0, limit.0);
+                near_limit += usize::from(d.0 > limit.0);
+            }
+        }
+        assert!(apart > 5_000, "{apart}");
+        assert!(near_limit < 10, "{near_limit}");
     }
 
     #[test]

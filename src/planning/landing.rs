@@ -12,7 +12,7 @@
 //! turn's steps keep the stricter capture distance (robust steps along the way), the landing
 //! only needs the ball to stay where the physics settles it.
 
-use crate::model::geometry::{CoilId, MagnetId, Orientation, Pair, Radians};
+use crate::model::geometry::{CoilId, MagnetId, Orientation, Pair, Radians, SurelyBeyond};
 use crate::physics::torque::MagnetTorques;
 use crate::planning::commutation::{
     fits_supply, holds, pair_gap, predicted_in_wells, predicted_orientation, settled_states,
@@ -20,7 +20,9 @@ use crate::planning::commutation::{
 };
 use crate::planning::plan::PlanSettings;
 use crate::planning::search::sorted;
+use nalgebra::Vector3;
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::{Mutex, PoisonError};
 
 /// A landing weighs the pairs whose magnets lie within the capture distance and this (3
@@ -81,13 +83,17 @@ impl Finals {
 /// `avoid`, in coil then magnet order.
 fn pairs_near(t: &MagnetTorques, q: &Orientation, capture: Radians, avoid: &[CoilId]) -> Vec<Pair> {
     let r = q.to_rotation_matrix();
+    let world: Vec<Vector3<f64>> = t.rotor.iter().map(|m| r * m).collect();
+    let far = SurelyBeyond::new(capture);
     (0..t.stator.len())
+        .filter(|&c| !avoid.contains(&CoilId(c)))
         .flat_map(|c| (0..t.rotor.len()).map(move |m| (c, m)))
+        .filter(|&(c, m)| !far.apart(&world[m], &t.stator[c]))
         .map(|(c, m)| Pair {
             coil: CoilId(c),
             magnet: MagnetId(m),
         })
-        .filter(|p| !avoid.contains(&p.coil) && pair_gap(t, &r, *p).0 <= capture.0)
+        .filter(|p| pair_gap(t, &r, *p).0 <= capture.0)
         .collect()
 }
 
@@ -299,14 +305,62 @@ pub(crate) fn landing_proposals(
     let t = &motor.torques;
     let near_goal = pairs_near(t, goal, landing_reach(s), avoid);
     let aimed = aimed_at(t, s, (on, q), goal, finals, avoid);
-    let mut ranked: Vec<(f64, LandingSet)> = Vec::new();
-    let (mut set, mut new): (Vec<Pair>, Vec<Pair>) = (Vec::new(), Vec::new());
-    let mut weigh = |kept: &[Pair], new: &[Pair], ranked: &mut Vec<(f64, LandingSet)>| {
-        set.clear();
-        set.extend(kept.iter().chain(new).copied());
-        let qp = predicted_orientation(t, q, &set);
-        ranked.push((qp.angle_to(goal), (kept.to_vec(), new.to_vec())));
+    let (flat, sets) = switches(on, &near_goal, s, avoid);
+    // predicted in parallel, in order: the same on any number of threads
+    let kept_of = |mask: usize| (on.iter().enumerate()).filter(move |(i, _)| mask >> i & 1 == 1);
+    let mut ranked: Vec<(f64, (usize, Range<usize>))> = sets
+        .into_par_iter()
+        .map_init(Vec::new, |set: &mut Vec<Pair>, (mask, span)| {
+            set.clear();
+            set.extend(kept_of(mask).map(|(_, p)| *p));
+            set.extend_from_slice(&flat[span.clone()]);
+            let qp = predicted_orientation(t, q, set);
+            (qp.angle_to(goal), (mask, span))
+        })
+        .collect();
+    // nearest first, ties in the order of (kept, new) as lists of pairs; of those the aimed
+    // ones are not weighed again
+    let order = |a: &(f64, (usize, Range<usize>)), b: &(f64, (usize, Range<usize>))| {
+        a.0.total_cmp(&b.0).then_with(|| {
+            let ((ma, sa), (mb, sb)) = (&a.1, &b.1);
+            (kept_of(*ma).map(|(_, p)| p))
+                .cmp(kept_of(*mb).map(|(_, p)| p))
+                .then_with(|| flat[sa.clone()].cmp(&flat[sb.clone()]))
+        })
     };
+    let keep = s.settles_per_state + aimed.len();
+    if keep == 0 {
+        ranked.clear();
+    } else if ranked.len() > keep {
+        ranked.select_nth_unstable_by(keep - 1, order);
+        ranked.truncate(keep);
+    }
+    ranked.sort_by(order);
+    let taken: Vec<_> = aimed.iter().map(landing_key).collect();
+    let rest: Vec<LandingSet> = ranked
+        .into_iter()
+        .map(|(_, (mask, span))| (subset(on, mask), flat[span].to_vec()))
+        .filter(|p| !taken.contains(&landing_key(p)))
+        .take(s.settles_per_state)
+        .collect();
+    aimed.into_iter().chain(rest).collect()
+}
+
+/// The switches [`landing_proposals`] weighs besides the aimed ones, in the enumeration's order:
+/// each as the mask of the pairs of `on` it keeps and the span of the returned buffer its new
+/// pairs (of `near_goal`) fill, so that no set is allocated before it is one of the best.
+fn switches(
+    on: &[Pair],
+    near_goal: &[Pair],
+    s: &PlanSettings,
+    avoid: &[CoilId],
+) -> (Vec<Pair>, Vec<(usize, Range<usize>)>) {
+    let (mut flat, mut sets): (Vec<Pair>, Vec<(usize, Range<usize>)>) = (Vec::new(), Vec::new());
+    // the supply test of `fits_supply(on, new, ..)` counted as the sets grow: the coils on, and
+    // one more for each new pair on a coil not on (a set's new pairs are on distinct coils)
+    let coils_on = (0..on.len())
+        .filter(|&i| on[..i].iter().all(|p| p.coil != on[i].coil))
+        .count();
     // every subset of the pairs on, as a bit mask, in a fixed order
     for mask in 0..(1usize << on.len()) {
         let kept = subset(on, mask);
@@ -314,7 +368,7 @@ pub(crate) fn landing_proposals(
             continue;
         }
         if kept.len() >= s.pairs.min && kept.len() < on.len() {
-            weigh(&kept, &[], &mut ranked);
+            sets.push((mask, flat.len()..flat.len()));
         }
         if kept.len() == s.pairs.max {
             continue;
@@ -323,6 +377,9 @@ pub(crate) fn landing_proposals(
             .iter()
             .copied()
             .filter(|p| kept.iter().all(|k| k.coil != p.coil))
+            .collect();
+        let adds: Vec<bool> = (others.iter())
+            .map(|o| on.iter().all(|p| p.coil != o.coil))
             .collect();
         let least = s.pairs.min.saturating_sub(kept.len()).max(1);
         // more pairs switch on at least as many coils: a set the supply cannot take has no
@@ -334,27 +391,19 @@ pub(crate) fn landing_proposals(
             &mut Vec::new(),
             0,
             &mut |idx| {
-                new.clear();
-                new.extend(idx.iter().map(|&i| others[i]));
-                if !fits_supply(on, &new, s.limits.max_coils_on) {
+                let coils = coils_on + idx.iter().filter(|&&i| adds[i]).count();
+                if coils > s.limits.max_coils_on {
                     return false;
                 }
                 if idx.len() >= least {
-                    weigh(&kept, &new, &mut ranked);
+                    sets.push((mask, flat.len()..flat.len() + idx.len()));
+                    flat.extend(idx.iter().map(|&i| others[i]));
                 }
                 true
             },
         );
     }
-    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
-    let taken: Vec<_> = aimed.iter().map(landing_key).collect();
-    let rest: Vec<LandingSet> = ranked
-        .into_iter()
-        .map(|(_, p)| p)
-        .filter(|p| !taken.contains(&landing_key(p)))
-        .take(s.settles_per_state)
-        .collect();
-    aimed.into_iter().chain(rest).collect()
+    (flat, sets)
 }
 
 /// Visits each set of up to `most` of `pairs` with distinct coils, as the indices of its pairs
@@ -399,6 +448,61 @@ mod tests {
         s.pairs = PairsPerStep { min: 2, max: 4 };
         s.limits.max_coils_on = 4;
         s
+    }
+
+    #[test]
+    fn the_switches_counted_as_they_grow_are_every_switch_the_supply_takes_in_order() {
+        let sc = Scenario::prototype();
+        let t = &sc.torques;
+        let goal = crate::model::geometry::rot_q(
+            &crate::model::geometry::unit(nalgebra::Vector3::new(0.3, -0.5, 0.8)).unwrap(),
+            Radians(0.7),
+        );
+        let near_goal = pairs_near(t, &goal, Radians(0.45), &[]);
+        assert!(near_goal.len() > 8, "{}", near_goal.len());
+        // two pairs on one coil, a pair on a coil near the goal; supplies of 3 to 5 coils
+        let on = [pair(0, 1), pair(0, 2), near_goal[3], pair(15, 70)];
+        for most in 3..=5 {
+            let mut s = settings();
+            s.limits.max_coils_on = most;
+            let (flat, sets) = switches(&on, &near_goal, &s, &[CoilId(15)]);
+            // the whole enumeration, each set tested by fits_supply
+            let mut all: Vec<LandingSet> = Vec::new();
+            for mask in 0..(1usize << on.len()) {
+                let kept = subset(&on, mask);
+                if kept.len() > s.pairs.max || kept.iter().any(|p| p.coil == CoilId(15)) {
+                    continue;
+                }
+                if kept.len() >= s.pairs.min && kept.len() < on.len() {
+                    all.push((kept.clone(), Vec::new()));
+                }
+                if kept.len() == s.pairs.max {
+                    continue;
+                }
+                let others: Vec<Pair> = (near_goal.iter().copied())
+                    .filter(|p| kept.iter().all(|k| k.coil != p.coil))
+                    .collect();
+                let least = s.pairs.min.saturating_sub(kept.len()).max(1);
+                each_combination(
+                    &others,
+                    s.pairs.max - kept.len(),
+                    &mut Vec::new(),
+                    0,
+                    &mut |idx| {
+                        let new: Vec<Pair> = idx.iter().map(|&i| others[i]).collect();
+                        if idx.len() >= least && fits_supply(&on, &new, most) {
+                            all.push((kept.clone(), new));
+                        }
+                        true
+                    },
+                );
+            }
+            let counted: Vec<LandingSet> = (sets.iter())
+                .map(|(mask, span)| (subset(&on, *mask), flat[span.clone()].to_vec()))
+                .collect();
+            assert!(!counted.is_empty());
+            assert_eq!(counted, all, "{most} coils");
+        }
     }
 
     #[test]

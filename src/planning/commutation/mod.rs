@@ -6,13 +6,14 @@
 
 use crate::model::geometry::{
     angular_distance, axis_error, rot_q, signed_angle_about, CoilId, MagnetId, Orientation, Pair,
-    Radians, UnitVec,
+    Radians, SurelyBeyond, UnitVec,
 };
 use crate::physics::dynamics::{settle_many, Body, SettleParams};
 use crate::physics::torque::{MagnetTorques, Well};
 use crate::planning::cancel::Cancel;
 use crate::planning::on_time::OnTimeLimit;
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 mod predict;
@@ -244,10 +245,11 @@ pub fn distance_array(torques: &MagnetTorques, q: &Orientation) -> Vec<(Pair, Ra
     let dmax = torques.well.max_attraction().0;
     let mut out = Vec::new();
     let world: Vec<Vector3<f64>> = torques.rotor.iter().map(|m| r * m).collect();
+    let far = SurelyBeyond::new(Radians(dmax));
     for (i, s) in torques.stator.iter().enumerate() {
         let s = UnitVec::new_unchecked(*s);
         for (j, p) in world.iter().enumerate() {
-            if p.z >= 0.0 {
+            if p.z >= 0.0 || far.apart(p, &s) {
                 continue;
             }
             let d = angular_distance(&UnitVec::new_unchecked(*p), &s);
@@ -579,38 +581,42 @@ fn proposals_between(
         });
         held.len() + fresh.count() <= limits.max_coils_on
     };
-    let mut proposals = Vec::new();
-    let mut set: Vec<Pair> = Vec::new();
-    for (pivot, all) in scored {
-        let cands: Vec<&Candidate> = all.iter().filter(|c| c.deviation.0 <= bound).collect();
-        for extra in pairs.min.saturating_sub(1).max(1)..=pairs.max.saturating_sub(1).max(1) {
-            if extra == 1 {
-                for c in cands.iter().filter(|c| c.deviation.0 > low) {
-                    if fits(&[c.pair]) {
-                        proposals.push((*pivot, vec![c.pair]));
+    // each pivot's proposals in parallel, collected in order: the same on any number of threads
+    scored
+        .par_iter()
+        .flat_map_iter(|(pivot, all)| {
+            let mut proposals = Vec::new();
+            let mut set: Vec<Pair> = Vec::new();
+            let cands: Vec<&Candidate> = all.iter().filter(|c| c.deviation.0 <= bound).collect();
+            for extra in pairs.min.saturating_sub(1).max(1)..=pairs.max.saturating_sub(1).max(1) {
+                if extra == 1 {
+                    for c in cands.iter().filter(|c| c.deviation.0 > low) {
+                        if fits(&[c.pair]) {
+                            proposals.push((*pivot, vec![c.pair]));
+                        }
                     }
+                    continue;
                 }
-                continue;
-            }
-            let cands = &cands[..cands.len().min(limits.max_candidates)];
-            each_subset(cands.len(), extra, |combo| {
-                if combo.iter().all(|&k| cands[k].deviation.0 <= low) {
-                    return;
-                }
-                set.clear();
-                set.extend(combo.iter().map(|&k| cands[k].pair));
-                let distinct = set.iter().enumerate().all(|(k, p)| {
-                    set[..k]
-                        .iter()
-                        .all(|o| o.coil != p.coil && o.magnet != p.magnet)
+                let cands = &cands[..cands.len().min(limits.max_candidates)];
+                each_subset(cands.len(), extra, |combo| {
+                    if combo.iter().all(|&k| cands[k].deviation.0 <= low) {
+                        return;
+                    }
+                    set.clear();
+                    set.extend(combo.iter().map(|&k| cands[k].pair));
+                    let distinct = set.iter().enumerate().all(|(k, p)| {
+                        set[..k]
+                            .iter()
+                            .all(|o| o.coil != p.coil && o.magnet != p.magnet)
+                    });
+                    if distinct && fits(&set) {
+                        proposals.push((*pivot, set.clone()));
+                    }
                 });
-                if distinct && fits(&set) {
-                    proposals.push((*pivot, set.clone()));
-                }
-            });
-        }
-    }
-    proposals
+            }
+            proposals
+        })
+        .collect()
 }
 
 /// Step 3's evaluation: where each proposal leaves the ball, keeping the admissible steps
