@@ -250,8 +250,9 @@ fn aimed_at(
         let Some(best) = towards.iter().map(|(g, _)| *g).max() else {
             continue;
         };
+        // predicted in parallel, in order: the same on any number of threads
         let mut top: Vec<(f64, LandingSet)> = towards
-            .into_iter()
+            .into_par_iter()
             .filter(|(g, _)| *g == best)
             .map(|(_, l)| {
                 let set: Vec<Pair> = l.0.iter().chain(&l.1).copied().collect();
