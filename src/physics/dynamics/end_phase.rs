@@ -631,11 +631,29 @@ mod tests {
         );
     }
 
+    /// One classical Runge-Kutta step `h` of the linear motion I x'' + c x' + K x = 0 of `e`'s
+    /// modes from (x, v).
+    fn linear_rk4(
+        e: &EndPhase,
+        body: Body,
+        (x, v): (Vector3<f64>, Vector3<f64>),
+        h: f64,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let (i, c) = (body.inertia.x, body.damping);
+        let f = |x: &Vector3<f64>, v: &Vector3<f64>| (*v, -(e.k.component_mul(x) + v * c) / i);
+        let (k1x, k1v) = f(&x, &v);
+        let (k2x, k2v) = f(&(x + k1x * (h / 2.0)), &(v + k1v * (h / 2.0)));
+        let (k3x, k3v) = f(&(x + k2x * (h / 2.0)), &(v + k2v * (h / 2.0)));
+        let (k4x, k4v) = f(&(x + k3x * h), &(v + k3v * h));
+        (
+            x + (k1x + k2x * 2.0 + k3x * 2.0 + k4x) * (h / 6.0),
+            v + (k1v + k2v * 2.0 + k3v * 2.0 + k4v) * (h / 6.0),
+        )
+    }
+
     /// The first instant of the settle test on the linear motion, integrated by classical
     /// Runge-Kutta with step `h` (the test looked at after every step).
     fn integrated_settle_time(e: &EndPhase, body: Body, params: &SettleParams, h: f64) -> f64 {
-        let (i, c) = (body.inertia.x, body.damping);
-        let f = |x: &Vector3<f64>, v: &Vector3<f64>| (*v, -(e.k.component_mul(x) + v * c) / i);
         let (mut x, mut v, mut t) = (e.x0, e.v0, 0.0);
         while t < params.t_max {
             let settled =
@@ -643,12 +661,7 @@ mod tests {
             if settled {
                 return t;
             }
-            let (k1x, k1v) = f(&x, &v);
-            let (k2x, k2v) = f(&(x + k1x * (h / 2.0)), &(v + k1v * (h / 2.0)));
-            let (k3x, k3v) = f(&(x + k2x * (h / 2.0)), &(v + k2v * (h / 2.0)));
-            let (k4x, k4v) = f(&(x + k3x * h), &(v + k3v * h));
-            x += (k1x + k2x * 2.0 + k3x * 2.0 + k4x) * (h / 6.0);
-            v += (k1v + k2v * 2.0 + k3v * 2.0 + k4v) * (h / 6.0);
+            (x, v) = linear_rk4(e, body, (x, v), h);
             t += h;
         }
         f64::INFINITY
@@ -707,9 +720,6 @@ mod tests {
             let limit = 0.2 * amplitude(&e.x0, &e.v0);
             let after = e.narrow_after(body, limit, 30.0);
             // the motion integrated by classical Runge-Kutta, its amplitude at each step
-            let f = |x: &Vector3<f64>, v: &Vector3<f64>| {
-                (*v, -(e.k.component_mul(x) + v * damping) / i)
-            };
             let h = 1e-4;
             let (mut x, mut v) = (e.x0, e.v0);
             let mut first_narrow = None;
@@ -724,12 +734,7 @@ mod tests {
                         "c = {damping}: narrow at {after}"
                     );
                 }
-                let (k1x, k1v) = f(&x, &v);
-                let (k2x, k2v) = f(&(x + k1x * (h / 2.0)), &(v + k1v * (h / 2.0)));
-                let (k3x, k3v) = f(&(x + k2x * (h / 2.0)), &(v + k2v * (h / 2.0)));
-                let (k4x, k4v) = f(&(x + k3x * h), &(v + k3v * h));
-                x += (k1x + k2x * 2.0 + k3x * 2.0 + k4x) * (h / 6.0);
-                v += (k1v + k2v * 2.0 + k3v * 2.0 + k4v) * (h / 6.0);
+                (x, v) = linear_rk4(&e, body, (x, v), h);
                 t += h;
             }
             // narrow by the next doubling, and not before the search looks again
