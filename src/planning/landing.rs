@@ -278,11 +278,15 @@ fn landing_key(l: &LandingSet) -> (Vec<Pair>, Vec<Pair>) {
 }
 
 /// The pairs of `pairs` whose bits are set in `mask`, in order.
-fn subset(pairs: &[Pair], mask: usize) -> Vec<Pair> {
+fn masked(pairs: &[Pair], mask: usize) -> impl Iterator<Item = &Pair> {
     (pairs.iter().enumerate())
-        .filter(|(i, _)| mask >> i & 1 == 1)
-        .map(|(_, p)| *p)
-        .collect()
+        .filter(move |(i, _)| mask >> i & 1 == 1)
+        .map(|(_, p)| p)
+}
+
+/// [`masked`], collected.
+fn subset(pairs: &[Pair], mask: usize) -> Vec<Pair> {
+    masked(pairs, mask).copied().collect()
 }
 
 /// The sets a landing weighs from `on` (the pairs on, the ball at `q`) towards `goal`, as (the
@@ -308,12 +312,11 @@ pub(crate) fn landing_proposals(
     let aimed = aimed_at(t, s, (on, q), goal, finals, avoid);
     let (flat, sets) = switches(on, &near_goal, s, avoid);
     // predicted in parallel, in order: the same on any number of threads
-    let kept_of = |mask: usize| (on.iter().enumerate()).filter(move |(i, _)| mask >> i & 1 == 1);
     let mut ranked: Vec<(f64, (usize, Range<usize>))> = sets
         .into_par_iter()
         .map_init(Vec::new, |set: &mut Vec<Pair>, (mask, span)| {
             set.clear();
-            set.extend(kept_of(mask).map(|(_, p)| *p));
+            set.extend(masked(on, mask).copied());
             set.extend_from_slice(&flat[span.clone()]);
             let qp = predicted_orientation(t, q, set);
             (qp.angle_to(goal), (mask, span))
@@ -324,8 +327,7 @@ pub(crate) fn landing_proposals(
     let order = |a: &(f64, (usize, Range<usize>)), b: &(f64, (usize, Range<usize>))| {
         a.0.total_cmp(&b.0).then_with(|| {
             let ((ma, sa), (mb, sb)) = (&a.1, &b.1);
-            (kept_of(*ma).map(|(_, p)| p))
-                .cmp(kept_of(*mb).map(|(_, p)| p))
+            (masked(on, *ma).cmp(masked(on, *mb)))
                 .then_with(|| flat[sa.clone()].cmp(&flat[sb.clone()]))
         })
     };

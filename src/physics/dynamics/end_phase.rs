@@ -237,7 +237,7 @@ impl EndPhase {
         // eigen-decomposition (on the 4,000 planner-like sets, 1,343 of the 5,600 searches that
         // converged)
         let k_diag = k[(0, 0)].min(k[(1, 1)]).min(k[(2, 2)]);
-        let at_least = delta0.norm_squared() + sys.body.inertia.x * w.norm_squared() / k_diag;
+        let at_least = amplitude2(&delta0, &w, sys.body.inertia.x, k_diag);
         if at_least > LINEAR_RADIUS * LINEAR_RADIUS {
             return Err(Refusal::NotNear);
         }
@@ -246,8 +246,7 @@ impl EndPhase {
         if kmin <= 1e-6 * kmax {
             return Err(Refusal::NotNear);
         }
-        let amplitude =
-            (delta0.norm_squared() + sys.body.inertia.x * w.norm_squared() / kmin).sqrt();
+        let amplitude = amplitude2(&delta0, &w, sys.body.inertia.x, kmin).sqrt();
         if amplitude > LINEAR_RADIUS {
             return Err(Refusal::NotNear);
         }
@@ -280,9 +279,8 @@ impl EndPhase {
         let a = 0.5 * body.damping / inertia;
         let w02 = self.k / inertia;
         let kmin = self.k.min();
-        let wide = |x: &Vector3<f64>, v: &Vector3<f64>| {
-            x.norm_squared() + inertia * v.norm_squared() / kmin > limit * limit
-        };
+        let wide =
+            |x: &Vector3<f64>, v: &Vector3<f64>| amplitude2(x, v, inertia, kmin) > limit * limit;
         let mut t = 1.0 / w02.max().sqrt();
         let mut before = 0.0;
         while t < span {
@@ -471,8 +469,7 @@ fn newton<M: TorqueModel>(
             // the amplitude test of `find`, estimated: the least diagonal element of K bounds
             // its least eigenvalue from above
             let k_diag = k[(0, 0)].min(k[(1, 1)]).min(k[(2, 2)]);
-            let estimate =
-                (moved.norm_squared() + sys.body.inertia.x * w.norm_squared() / k_diag).sqrt();
+            let estimate = amplitude2(&moved, w, sys.body.inertia.x, k_diag).sqrt();
             if estimate > factor * LINEAR_RADIUS {
                 return Err(Refusal::NotNear);
             }
@@ -501,6 +498,14 @@ fn rotation_from(q_star: [f64; 4], q: [f64; 4]) -> Vector3<f64> {
     } else {
         v * (2.0 * sv.atan2(rel[3]) / sv)
     }
+}
+
+/// The square of the energy-equivalent amplitude of the motion (rotation `delta` from a
+/// minimum, rate `w`) about a minimum of least stiffness `k`, |delta|^2 + I |w|^2 / k: the
+/// end phase's test of the linear radius and of a cut-off's margin (in any orthonormal frame,
+/// the modes' too).
+fn amplitude2(delta: &Vector3<f64>, w: &Vector3<f64>, inertia: f64, k: f64) -> f64 {
+    delta.norm_squared() + inertia * w.norm_squared() / k
 }
 
 /// ln(value / bound) where the value exceeds the bound, else 0: the time, in units of its decay
@@ -714,9 +719,7 @@ mod tests {
             };
             let e = linear([2.0, 6.0, 12.0], [6e-3, -4e-3, 3e-3], [0.02, 0.0, -0.01]);
             let (i, kmin) = (body.inertia.x, e.k.min());
-            let amplitude = |x: &Vector3<f64>, v: &Vector3<f64>| {
-                (x.norm_squared() + i * v.norm_squared() / kmin).sqrt()
-            };
+            let amplitude = |x: &Vector3<f64>, v: &Vector3<f64>| amplitude2(x, v, i, kmin).sqrt();
             let limit = 0.2 * amplitude(&e.x0, &e.v0);
             let after = e.narrow_after(body, limit, 30.0);
             // the motion integrated by classical Runge-Kutta, its amplitude at each step

@@ -313,27 +313,28 @@ fn approach_tightly<M: TorqueModel>(
     if r.stop != Stop::TimeLimit || t_h >= params.t_max {
         return r;
     }
-    let rest = SettleParams {
-        t_max: params.t_max - t_h,
-        ..params
-    };
     let spent = (r.evaluations, r.steps);
-    handed_over(t_h, spent, trace, |tr| {
+    handed_over((t_h, params), spent, trace, |rest, tr| {
         settle_fast_from(sys, y_h, rest, tr, (approaches - 1, None))
     })
 }
 
-/// The settle that goes on from a handover at t_h (`spent`: the evaluations and steps before
-/// it) by `go_on`, run on the rest of the time with its trace appended: its times, the
-/// trace's included, counted from the settle's start, its work added to what was spent.
+/// The settle (with `params`) that goes on from a handover at t_h (`spent`: the evaluations
+/// and steps before it) by `go_on`, run on the rest of the time (`params` with t_max less t_h)
+/// with its trace appended: its times, the trace's included, counted from the settle's start,
+/// its work added to what was spent.
 fn handed_over(
-    t_h: f64,
+    (t_h, params): (f64, SettleParams),
     spent: (u32, u32),
     mut trace: Option<&mut Vec<(f64, State)>>,
-    go_on: impl FnOnce(Option<&mut Vec<(f64, State)>>) -> SettleResult,
+    go_on: impl FnOnce(SettleParams, Option<&mut Vec<(f64, State)>>) -> SettleResult,
 ) -> SettleResult {
+    let rest = SettleParams {
+        t_max: params.t_max - t_h,
+        ..params
+    };
     let from = trace.as_deref().map_or(0, |tr| tr.len());
-    let mut after = go_on(trace.as_deref_mut());
+    let mut after = go_on(rest, trace.as_deref_mut());
     if let Some(tr) = trace {
         tr[from..].iter_mut().for_each(|(t, _)| *t += t_h);
     }
@@ -372,11 +373,7 @@ fn go_on_beyond<M: TorqueModel>(
         return settle_tight(sys, y0, params, spent.0, (trace, spent.2), FALLBACK_TOL);
     };
     let beyond = RotorDynamics::new(&lists, sys.active, sys.body);
-    let rest = SettleParams {
-        t_max: params.t_max - t_h,
-        ..params
-    };
-    handed_over(t_h, (spent.0, spent.1), trace, |tr| {
+    handed_over((t_h, params), (spent.0, spent.1), trace, |rest, tr| {
         settle_fast_from(&beyond, y_h, rest, tr, (approaches, Some(carried)))
     })
 }

@@ -113,7 +113,7 @@ pub trait TorqueModel: Sync {
     /// offers no margins there) from the orientation `r` within it: the model on lists built at
     /// `r`, and the sides `within` of this model's pairs (a bit for each held within reach)
     /// carried over to that one's by (coil, magnet). `None` by default, and where the settle
-    /// cannot go on so (see `NearbyMagnets::continued`).
+    /// cannot go on so (see `NearbyMagnets`'s).
     fn continued_at(
         &self,
         _r: &Matrix3<f64>,

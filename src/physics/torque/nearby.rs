@@ -104,58 +104,6 @@ impl<'a> NearbyMagnets<'a> {
         Some(lists)
     }
 
-    /// Lists built at `r` (one deeper in the chain) for a settle with cut-off events that goes
-    /// on beyond this one's skin, and the sides `within` of this one's pairs (a bit for each
-    /// held within reach) carried over to theirs by (coil, magnet); a pair new to them is
-    /// beyond its cut-off (at `r`, within this skin, no magnet outside these lists is within
-    /// reach). `None` for another active set, past [`MAX_REBUILDS`], more pairs than
-    /// [`MAX_EVENT_PAIRS`] on either lists, or where the skin's promise fails: a new pair within
-    /// its cut-off at `r`, or a pair held within reach that the new lists leave out.
-    fn continued(
-        &self,
-        r: &Matrix3<f64>,
-        active: &[Pair],
-        within: SideMask,
-    ) -> Option<(Self, SideMask)> {
-        if !self.is_for(active)
-            || self.depth >= MAX_REBUILDS
-            || self.magnets.len() > MAX_EVENT_PAIRS
-        {
-            return None;
-        }
-        let next = Self::at_depth(self.full, r, self.active, self.depth + 1);
-        if next.magnets.len() > MAX_EVENT_PAIRS {
-            return None;
-        }
-        let held = |i: usize| within >> i & 1 == 1;
-        let mut carried: SideMask = 0;
-        for k in 0..self.coils.len() {
-            let (mut i, end) = (self.starts[k], self.starts[k + 1]);
-            let s = r.tr_mul(&self.coils[k]);
-            for j in next.starts[k]..next.starts[k + 1] {
-                // both lists in the rotor's order: the old pairs before this one are left out
-                while i < end && self.ids[i] < next.ids[j] {
-                    if held(i) {
-                        return None;
-                    }
-                    i += 1;
-                }
-                if i < end && self.ids[i] == next.ids[j] {
-                    if held(i) {
-                        carried |= 1 << j;
-                    }
-                    i += 1;
-                } else if next.magnets[j].dot(&s) >= self.full.well.cos_cutoff {
-                    return None;
-                }
-            }
-            if (i..end).any(held) {
-                return None;
-            }
-        }
-        Some((next, carried))
-    }
-
     /// How many lists were built beyond the skin (the chain's length).
     #[cfg(test)]
     pub(super) fn rebuilds(&self) -> usize {
@@ -319,16 +267,58 @@ impl TorqueModel for NearbyMagnets<'_> {
         true
     }
 
+    /// Lists built at `r` (one deeper in the chain) for a settle with cut-off events that goes
+    /// on beyond this one's skin, and the sides `within` of this one's pairs (a bit for each
+    /// held within reach) carried over to theirs by (coil, magnet); a pair new to them is
+    /// beyond its cut-off (at `r`, within this skin, no magnet outside these lists is within
+    /// reach). `None` for wells without a cut-off jump, another active set, past
+    /// `MAX_REBUILDS` lists, more pairs than [`MAX_EVENT_PAIRS`] on either lists, or where the
+    /// skin's promise fails: a new pair within its cut-off at `r`, or a pair held within reach
+    /// that the new lists leave out.
     fn continued_at(
         &self,
         r: &Matrix3<f64>,
         active: &[Pair],
         within: SideMask,
     ) -> Option<(Self, SideMask)> {
-        if !self.full.well.cutoff_jump {
+        if !self.full.well.cutoff_jump
+            || !self.is_for(active)
+            || self.depth >= MAX_REBUILDS
+            || self.magnets.len() > MAX_EVENT_PAIRS
+        {
             return None;
         }
-        self.continued(r, active, within)
+        let next = Self::at_depth(self.full, r, self.active, self.depth + 1);
+        if next.magnets.len() > MAX_EVENT_PAIRS {
+            return None;
+        }
+        let held = |i: usize| within >> i & 1 == 1;
+        let mut carried: SideMask = 0;
+        for k in 0..self.coils.len() {
+            let (mut i, end) = (self.starts[k], self.starts[k + 1]);
+            let s = r.tr_mul(&self.coils[k]);
+            for j in next.starts[k]..next.starts[k + 1] {
+                // both lists in the rotor's order: the old pairs before this one are left out
+                while i < end && self.ids[i] < next.ids[j] {
+                    if held(i) {
+                        return None;
+                    }
+                    i += 1;
+                }
+                if i < end && self.ids[i] == next.ids[j] {
+                    if held(i) {
+                        carried |= 1 << j;
+                    }
+                    i += 1;
+                } else if next.magnets[j].dot(&s) >= self.full.well.cos_cutoff {
+                    return None;
+                }
+            }
+            if (i..end).any(held) {
+                return None;
+            }
+        }
+        Some((next, carried))
     }
 
     fn cutoff_margins_of(
